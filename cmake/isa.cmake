@@ -1,0 +1,17 @@
+# Instruction-set levels the kernels are compiled for (kernels/simd/native.h explains the scheme).
+# Each level: a name, the LPSTEREO_ISA_TU number, and its compiler flags.
+set(LPSTEREO_ISA_LEVELS "")
+if(CMAKE_SYSTEM_PROCESSOR MATCHES "^(x86_64|AMD64|amd64)$")
+  list(APPEND LPSTEREO_ISA_LEVELS sse42 avx2 avx512)
+  set(LPSTEREO_ISA_TU_sse42 1)
+  set(LPSTEREO_ISA_FLAGS_sse42 -msse4.2 -mpopcnt)
+  set(LPSTEREO_ISA_TU_avx2 2)
+  set(LPSTEREO_ISA_FLAGS_avx2 -mavx2 -mbmi2 -mpopcnt)
+  set(LPSTEREO_ISA_TU_avx512 3)
+  set(LPSTEREO_ISA_FLAGS_avx512 -mavx512f -mavx512bw -mavx512vl -mavx512dq -mbmi2 -mpopcnt)
+elseif(CMAKE_SYSTEM_PROCESSOR MATCHES "^(aarch64|arm64)$")
+  list(APPEND LPSTEREO_ISA_LEVELS neon)
+  set(LPSTEREO_ISA_TU_neon 4)
+  set(LPSTEREO_ISA_FLAGS_neon "")
+endif()
+message(STATUS "lpstereo: native ISA levels compiled: scalar ${LPSTEREO_ISA_LEVELS}")

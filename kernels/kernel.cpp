@@ -1,0 +1,103 @@
+#include "kernels/kernel.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace lpstereo {
+
+std::string_view border_mode_name(BorderMode mode) {
+  switch (mode) {
+    case BorderMode::replicate: return "replicate";
+    case BorderMode::constant: return "constant";
+  }
+  return "unknown";
+}
+
+int KernelDescriptor::input_count() const {
+  return static_cast<int>(std::count_if(ports.begin(), ports.end(),
+                                        [](const PortSpec& port) { return port.direction == PortDirection::input; }));
+}
+
+int KernelDescriptor::output_count() const { return static_cast<int>(ports.size()) - input_count(); }
+
+TileFunction KernelDescriptor::native_for(simd::Isa isa) const {
+  for (int level = static_cast<int>(isa); level >= 0; --level) {
+    if (native[level] != nullptr) return native[level];
+  }
+  return nullptr;
+}
+
+KernelRegistry& KernelRegistry::instance() {
+  static KernelRegistry registry;
+  return registry;
+}
+
+void KernelRegistry::add(KernelDescriptor descriptor) {
+  if (find(descriptor.name) != nullptr) {
+    throw std::logic_error("kernel '" + descriptor.name + "' registered twice");
+  }
+  if (descriptor.native[0] == nullptr || descriptor.counting == nullptr || !descriptor.reference ||
+      !descriptor.prepare) {
+    throw std::logic_error("kernel '" + descriptor.name +
+                           "' lacks a scalar native, counting, reference or prepare function");
+  }
+  kernels_.push_back(std::make_unique<KernelDescriptor>(std::move(descriptor)));
+}
+
+const KernelDescriptor* KernelRegistry::find(const std::string& name) const {
+  for (const auto& kernel : kernels_) {
+    if (kernel->name == name) return kernel.get();
+  }
+  return nullptr;
+}
+
+std::vector<std::string> KernelRegistry::names() const {
+  std::vector<std::string> result;
+  for (const auto& kernel : kernels_) result.push_back(kernel->name);
+  std::sort(result.begin(), result.end());
+  return result;
+}
+
+int param_int(const nlohmann::json& params, const char* name, int default_value, int min_value, int max_value) {
+  if (!params.is_object() || !params.contains(name)) return default_value;
+  const nlohmann::json& value = params.at(name);
+  if (!value.is_number_integer()) {
+    throw KernelError(std::string("parameter '") + name + "': expected an integer in [" + std::to_string(min_value) +
+                      ", " + std::to_string(max_value) + "], got " + value.dump());
+  }
+  const int64_t number = value.get<int64_t>();
+  if (number < min_value || number > max_value) {
+    throw KernelError(std::string("parameter '") + name + "': expected an integer in [" + std::to_string(min_value) +
+                      ", " + std::to_string(max_value) + "], got " + std::to_string(number));
+  }
+  return static_cast<int>(number);
+}
+
+double param_double(const nlohmann::json& params, const char* name, double default_value, double min_value,
+                    double max_value) {
+  if (!params.is_object() || !params.contains(name)) return default_value;
+  const nlohmann::json& value = params.at(name);
+  if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < min_value ||
+      value.get<double>() > max_value) {
+    std::ostringstream message;
+    message << "parameter '" << name << "': expected a number in [" << min_value << ", " << max_value << "], got "
+            << value.dump();
+    throw KernelError(message.str());
+  }
+  return value.get<double>();
+}
+
+void check_param_names(const nlohmann::json& params, const std::vector<std::string>& known) {
+  if (params.is_null()) return;
+  if (!params.is_object()) throw KernelError("parameters: expected a JSON object, got " + params.dump());
+  for (const auto& item : params.items()) {
+    if (std::find(known.begin(), known.end(), item.key()) == known.end()) {
+      std::string list;
+      for (const std::string& name : known) list += (list.empty() ? "" : ", ") + name;
+      throw KernelError("unknown parameter '" + item.key() + "' (known: " + (list.empty() ? "none" : list) + ")");
+    }
+  }
+}
+
+}  // namespace lpstereo
