@@ -65,7 +65,6 @@ void stage_with_border(const PlaneView& source, int element_size, int x0, int y0
 
 void TileRunner::run(const VectorNodeBinding& binding, const TileRect& tile, TileFunction function) {
   const KernelDescriptor& kernel = *binding.kernel;
-  const Halo& halo = kernel.halo;
   TileArgs args;
   args.params = binding.params;
   args.tile_x = tile.x;
@@ -92,6 +91,7 @@ void TileRunner::run(const VectorNodeBinding& binding, const TileRect& tile, Til
       args.inputs[input_index++] = plane;
       continue;
     }
+    const Halo& halo = input_halo(kernel, binding.input_halos, input_index);
     const int x0 = tile.x - halo.left;
     const int y0 = tile.y - halo.top;
     const int staged_width = tile.width + halo.left + halo.right;

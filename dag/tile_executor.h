@@ -28,7 +28,13 @@ struct VectorNodeBinding {
   uint32_t border_value = 0;
   std::vector<PlaneView> inputs;   // full planes, in port order
   std::vector<PlaneView> outputs;  // full planes, in port order
+  std::vector<Halo> input_halos;   // per input (PreparedKernel::input_halos); empty = kernel->halo
 };
+
+// The halo of window input `input`: the prepared per-input halo if given, else the kernel's.
+inline const Halo& input_halo(const KernelDescriptor& kernel, const std::vector<Halo>& input_halos, int input) {
+  return input_halos.empty() ? kernel.halo : input_halos.at(static_cast<size_t>(input));
+}
 
 // Per-worker state: halo staging buffers and scratch, reused from tile to tile.
 class TileRunner {

@@ -109,6 +109,10 @@ class KernelError : public std::runtime_error {
 struct PreparedKernel {
   std::shared_ptr<const void> params;
   std::vector<PlaneShape> output_shapes;  // one per output port, in port order
+  // Per input port (in input order), when the neighbourhood depends on the parameters (the right
+  // view of a disparity search needs max_disparity - 1 columns to its left). Empty = every window
+  // input uses the descriptor's halo.
+  std::vector<Halo> input_halos;
 };
 
 // Rectangle in the full plane, [x0, x1) x [y0, y1).

@@ -119,7 +119,8 @@ inline std::vector<Plane> expect_all_back_ends_match_reference(const KernelCase&
     for (const auto& [tile_width, tile_height] : tile_shapes) {
       auto check = [&](KernelBackend backend, simd::Isa isa, const std::string& label) {
         std::vector<Plane> actual = make_outputs(0x5A);
-        VectorNodeBinding binding{&kernel, prepared.params.get(), mode, border_value, input_views, views(actual)};
+        VectorNodeBinding binding{&kernel, prepared.params.get(), mode, border_value, input_views, views(actual),
+                                  prepared.input_halos};
         run_vector_node(binding, tile_width, tile_height, backend, isa);
         for (size_t i = 0; i < actual.size(); ++i) {
           EXPECT_TRUE(planes_equal(expected[i], actual[i]))

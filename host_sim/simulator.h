@@ -1,0 +1,90 @@
+// The chip on the host: runs a verified graph's frame plan (arm/scheduler.h) over a timeline of the
+// target's vector engine, DMA engine and ARM cores, and reports what a frame costs.
+//
+// The model (also in docs/simulator.md) is op-level and cycle-approximate, not a netlist:
+//   - vector node: tile by tile, DMA in (tile + halo, or the source rectangle of a whole input),
+//     compute, DMA out, double-buffered: tile i+1 streams in while tile i computes, and a tile's
+//     input slot is free again when the tile two before it has finished computing;
+//   - compute cycles of a tile = sum over op classes of counted ops x ceil(512 / vector_bits) x
+//     op_cycles[class], plus tile_overhead_cycles; the ops are counted by running the kernel's
+//     counting back end on the real tile data (once per distinct tile shape: the kernels are
+//     data-oblivious, which a test checks; --count-every-tile counts them all);
+//   - DMA time of a transfer = setup_ns + bytes / bandwidth; one DMA engine, requests in order;
+//   - ARM task: counted ArmWork x the target's cycles per unit, on the earliest free ARM core;
+//   - frames run back to back (the camera is never the bottleneck), in plan order on each engine;
+//     frame_ms is the steady-state period between frame completions, fps = 1000 / frame_ms.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "dag/arm_task.h"
+#include "dag/graph.h"
+#include "host_sim/target.h"
+#include "kernels/simd/op_class.h"
+
+namespace lpstereo::host_sim {
+
+struct NodeProfile {
+  std::string name;
+  std::string kind;         // "vector" or "arm"
+  std::string implementation;  // kernel or task name
+  int tile_width = 0, tile_height = 0;
+  size_t tiles = 0;
+  double cycles = 0;        // vector-engine compute cycles, or ARM cycles, per frame
+  double dma_ms = 0;        // vector nodes: DMA engine time per frame
+  double ms = 0;            // engine time per frame: cycles / clock
+  double share = 0;         // ms / frame_ms
+  uint64_t dram_bytes = 0;  // DRAM traffic per frame
+  size_t sram_peak_bytes = 0;
+  simd::OpCounts ops;       // counted vector ops per frame (vector nodes)
+  ArmWork arm_work;         // counted ARM work per frame (ARM tasks)
+};
+
+struct TraceEvent {
+  std::string name;
+  int track = 0;            // index into ProfileReport::tracks
+  double start_us = 0;
+  double duration_us = 0;
+  int frame = 0;
+  std::string node;
+};
+
+struct ProfileReport {
+  std::string graph;
+  std::string target;
+  std::string isa;          // native ISA used for the frame the counts were taken from
+  int width = 0, height = 0;
+  double fps_target = 30;
+  double frame_ms = 0;
+  double latency_ms = 0;
+  double fps = 0;
+  bool fits_budget = false;
+  bool enforce_budget = true;  // from the graph file
+  std::string budget_note;
+  std::vector<std::string> over_budget;  // one line per budget exceeded
+  size_t sram_budget_bytes = 0, sram_peak_bytes = 0;
+  size_t dram_budget_bytes = 0, dram_peak_bytes = 0;
+  uint64_t dram_bytes_per_frame = 0;
+  double dram_bandwidth_gbps = 0;        // demanded at fps_target
+  double dram_bandwidth_limit_gbps = 0;
+  double vector_cycles_per_frame = 0;
+  std::vector<NodeProfile> nodes;
+  std::vector<std::string> tracks;
+  std::vector<TraceEvent> trace;
+  int frames_simulated = 0;
+};
+
+struct ProfileOptions {
+  double fps_target = 30;
+  int frames = 4;                 // simulated back-to-back frames (>= 3)
+  bool count_every_tile = false;  // count ops on every tile instead of once per tile shape
+  int worker_threads = 0;         // for the native frame the counts come from
+};
+
+// Profiles a graph verified against `target`'s memory budget, using `inputs` as the frame.
+ProfileReport profile_graph(const Graph& graph, const Target& target, const std::map<std::string, const Plane*>& inputs,
+                            const ProfileOptions& options);
+
+}  // namespace lpstereo::host_sim

@@ -1,0 +1,77 @@
+#include "io/image_io.h"
+
+#include <cstring>
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "dag/atomic_file.h"
+
+namespace lpstereo::io {
+
+Plane read_luma_u8(const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) throw ImageError(path + ": no such file");
+  if (!std::filesystem::is_regular_file(path, error)) throw ImageError(path + ": not a regular file");
+  cv::Mat image;
+  try {
+    image = cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  } catch (const cv::Exception& exception) {
+    throw ImageError(path + ": cannot decode: " + exception.what());
+  }
+  if (image.empty()) throw ImageError(path + ": cannot decode (unreadable, corrupt or not an image)");
+  if (image.channels() == 3) {
+    cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);  // BT.601 luma weights
+  } else if (image.channels() == 4) {
+    cv::cvtColor(image, image, cv::COLOR_BGRA2GRAY);
+  } else if (image.channels() != 1) {
+    throw ImageError(path + ": expected 1, 3 or 4 channels, got " + std::to_string(image.channels()));
+  }
+  if (image.depth() == CV_16U) {
+    image.convertTo(image, CV_8U, 1.0 / 256.0);
+  } else if (image.depth() != CV_8U) {
+    throw ImageError(path + ": expected 8- or 16-bit samples, got OpenCV depth " + std::to_string(image.depth()));
+  }
+  return mat_to_plane(image, {ElementType::u8, 0});
+}
+
+cv::Mat plane_to_mat(const Plane& plane) {
+  int type = CV_8UC1;
+  switch (plane.element_size()) {
+    case 1: type = CV_8UC1; break;
+    case 2: type = plane.format().type == ElementType::s16 ? CV_16SC1 : CV_16UC1; break;
+    case 4: type = plane.format().type == ElementType::s32 ? CV_32SC1 : CV_32SC1; break;
+    case 8: type = CV_8UC(8); break;
+    default: throw ImageError("plane_to_mat: unsupported element size " + std::to_string(plane.element_size()));
+  }
+  cv::Mat wrapped(plane.height(), plane.width(), type, plane.view().origin, static_cast<size_t>(plane.stride_bytes()));
+  return wrapped.clone();
+}
+
+Plane mat_to_plane(const cv::Mat& mat, BufferFormat format) {
+  if (mat.empty()) throw ImageError("mat_to_plane: empty image");
+  if (static_cast<int>(mat.elemSize()) != element_bytes(format.type)) {
+    throw ImageError("mat_to_plane: element size " + std::to_string(mat.elemSize()) + " does not match format " +
+                     format_name(format));
+  }
+  Plane plane(mat.cols, mat.rows, format);
+  for (int y = 0; y < mat.rows; ++y) {
+    std::memcpy(plane.row<uint8_t>(y), mat.ptr(y), static_cast<size_t>(mat.cols) * mat.elemSize());
+  }
+  return plane;
+}
+
+void write_image(const std::string& path, const cv::Mat& image) {
+  const std::string extension = std::filesystem::path(path).extension().string();
+  if (extension.empty()) throw ImageError(path + ": no file extension to choose the image format");
+  write_file_atomically_with(path, extension, [&](const std::string& temporary) {
+    try {
+      return cv::imwrite(temporary, image);
+    } catch (const cv::Exception& exception) {
+      throw ImageError(path + ": cannot encode: " + exception.what());
+    }
+  });
+}
+
+}  // namespace lpstereo::io

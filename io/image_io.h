@@ -1,0 +1,30 @@
+// Reading frames and writing images. Codecs are OpenCV's (PNG, PGM/PPM, JPEG, TIFF, ...). Colour
+// inputs become 8-bit luma with BT.601 weights (DESIGN.md §4).
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "dag/plane.h"
+
+namespace lpstereo::io {
+
+// A missing, unreadable, corrupt or unsuitable image; what() names the file and the problem.
+class ImageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Reads an image file as 8-bit luma. 16-bit images are scaled to 8 bits (value >> 8).
+Plane read_luma_u8(const std::string& path);
+
+// Copies between planes and OpenCV matrices (same element size; the plane keeps its own stride).
+cv::Mat plane_to_mat(const Plane& plane);
+Plane mat_to_plane(const cv::Mat& mat, BufferFormat format);
+
+// Writes an image atomically (temporary name, then rename): nothing half-written on failure.
+void write_image(const std::string& path, const cv::Mat& image);
+
+}  // namespace lpstereo::io

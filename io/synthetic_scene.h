@@ -1,0 +1,32 @@
+// A stereo scene the tool makes itself, so the main job and the tests run without data files:
+// a road-like ground plane whose disparity grows towards the bottom, a far background wall, and
+// boxes and posts of different sizes at different distances, all with a deterministic multi-octave
+// value-noise texture. The right view is rendered from the same scene points, so the exact
+// ground-truth disparity of the left view comes with it.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "dag/plane.h"
+
+namespace lpstereo::io {
+
+struct SyntheticStereoScene {
+  Plane left;                         // u8
+  Plane right;                        // u8
+  Plane disparity_q4;                 // s16q4: true left-view disparity x 16 (never invalid)
+  int max_disparity_px = 0;           // the largest disparity in the scene, rounded up
+};
+
+struct SyntheticSceneOptions {
+  int width = 640;
+  int height = 480;
+  uint32_t seed = 1;
+  double max_disparity_fraction = 0.1;  // nearest object's disparity as a share of the width
+  double noise_grey_levels = 1.0;       // sensor noise amplitude (uniform), 0 for none
+};
+
+SyntheticStereoScene make_synthetic_stereo_scene(const SyntheticSceneOptions& options);
+
+}  // namespace lpstereo::io
