@@ -145,7 +145,9 @@ const Plane& FrameRunner::slot(int buffer, int64_t frame) const {
   if (info.is_graph_input) return *input_planes_[buffer];
   if (info.is_constant) return graph_.constant_data(buffer);
   const std::vector<Plane>& slots = slots_[buffer];
-  return slots[static_cast<size_t>(frame % static_cast<int64_t>(slots.size()))];
+  // Frame -1 (the delayed read of the first frame) is slot 1 of 2: zeros, as allocated.
+  const int64_t count = static_cast<int64_t>(slots.size());
+  return slots[static_cast<size_t>(((frame % count) + count) % count)];
 }
 
 void FrameRunner::run_dispatch_item(int dispatch_index, size_t first_tile, size_t tile_count, TileRunner& runner) {

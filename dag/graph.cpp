@@ -1,5 +1,6 @@
 #include "dag/graph.h"
 
+#include "dag/constant_generators.h"
 #include "dag/tile_executor.h"
 
 #include <algorithm>
@@ -144,7 +145,13 @@ struct ConstantGeneratorEntry {
 };
 
 std::map<std::string, ConstantGeneratorEntry>& constant_generators() {
-  static std::map<std::string, ConstantGeneratorEntry> generators;
+  static std::map<std::string, ConstantGeneratorEntry> generators = [] {
+    std::map<std::string, ConstantGeneratorEntry> builtin;
+    for (const BuiltinConstantGenerator& generator : builtin_constant_generators()) {
+      builtin[generator.name] = {generator.format, generator.generate};
+    }
+    return builtin;
+  }();
   return generators;
 }
 
@@ -460,6 +467,8 @@ void Graph::phase_topological_order() {
   if (current >= 0) {
     std::vector<int> loop(walk.begin() + seen[current], walk.end());
     std::reverse(loop.begin(), loop.end());
+    // Start the cycle at its first-declared node, so the message is the same however it was found.
+    std::rotate(loop.begin(), std::min_element(loop.begin(), loop.end()), loop.end());
     for (int n : loop) cycle += "'" + nodes_[n].spec.name + "' -> ";
     cycle += "'" + nodes_[loop.front()].spec.name + "'";
   }
@@ -490,6 +499,7 @@ void Graph::phase_ports_and_formats() {
       const std::vector<PortSpec>& ports = node.kernel ? node.kernel->ports : node.task->ports;
       std::vector<PlaneShape> input_shapes;
       bool all_known = true;
+      bool provisional = false;  // a delayed input's shape guessed as the frame size in pass 1
       int input = 0;
       for (const PortSpec& port : ports) {
         if (port.direction != PortDirection::input) continue;
@@ -501,13 +511,34 @@ void Graph::phase_ports_and_formats() {
                                              format_name(port.format) + ", got " + format_name(buffer.format) +
                                              " (buffer '" + buffer.name + "' from " + source + ")");
         }
-        all_known = all_known && shape_known[node.input_buffers[input]];
-        input_shapes.push_back(buffer.shape);
+        if (shape_known[node.input_buffers[input]]) {
+          input_shapes.push_back(buffer.shape);
+        } else if (node.input_delayed[input] && pass == 0) {
+          // A loop closed by a delayed edge: its shape comes from its producer, prepared later in
+          // this pass; guess the frame size now, pass 2 recomputes with the real shape.
+          input_shapes.push_back({options_.frame_width, options_.frame_height});
+          provisional = true;
+        } else {
+          all_known = false;
+        }
         ++input;
       }
       if (!all_known) {
         if (pass == 1) {
           throw VerifyError(kPhasePorts, "node '" + node.spec.name + "': input shape unknown (a delayed loop with no source)");
+        }
+        continue;
+      }
+      if (provisional) {
+        try {
+          PreparedKernel guess = node.kernel ? node.kernel->prepare(node.spec.params, input_shapes)
+                                             : node.task->prepare(node.spec.params, input_shapes);
+          for (size_t o = 0; o < node.output_buffers.size() && o < guess.output_shapes.size(); ++o) {
+            buffers_[node.output_buffers[o]].shape = guess.output_shapes[o];
+            shape_known[node.output_buffers[o]] = true;
+          }
+        } catch (const std::exception&) {
+          // The guess did not suit the node; pass 2 reports what is wrong with the real shapes.
         }
         continue;
       }

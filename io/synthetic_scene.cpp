@@ -36,9 +36,9 @@ double value_noise(double x, double y, double cell, uint32_t seed) {
 
 // Texture of a surface at surface coordinates (s, t): three octaves, mean grey `base`.
 double texture(double s, double t, uint32_t surface_seed, double base) {
-  const double n = 0.5 * value_noise(s, t, 3.0, surface_seed) + 0.3 * value_noise(s, t, 9.0, surface_seed + 1) +
-                   0.2 * value_noise(s, t, 27.0, surface_seed + 2);
-  return base + 150.0 * (n - 0.5);
+  const double n = 0.45 * value_noise(s, t, 2.5, surface_seed) + 0.35 * value_noise(s, t, 8.0, surface_seed + 1) +
+                   0.2 * value_noise(s, t, 24.0, surface_seed + 2);
+  return base + 220.0 * (n - 0.5);
 }
 
 struct Box {

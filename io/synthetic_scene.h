@@ -23,7 +23,7 @@ struct SyntheticSceneOptions {
   int width = 640;
   int height = 480;
   uint32_t seed = 1;
-  double max_disparity_fraction = 0.1;  // nearest object's disparity as a share of the width
+  double max_disparity_fraction = 0.08;  // nearest object's disparity as a share of the width
   double noise_grey_levels = 1.0;       // sensor noise amplitude (uniform), 0 for none
 };
 

@@ -1,0 +1,190 @@
+// The host simulator: report keys, scaling, data-obliviousness of the per-shape op counts, the
+// trace, determinism, budgets, and target-file validation.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "host_sim/report.h"
+#include "host_sim/simulator.h"
+#include "host_sim/target.h"
+#include "tests/kernels/kernel_check.h"
+
+namespace lpstereo {
+namespace {
+
+using testing::random_plane;
+
+const char* kPipeline = R"({
+  "name": "pipeline",
+  "inputs": [{"name": "left", "format": "u8"}, {"name": "right", "format": "u8"}],
+  "nodes": [
+    {"name": "census_left", "kernel": "census5x5", "inputs": {"input": "left"}, "outputs": {"output": "left_census"}},
+    {"name": "census_right", "kernel": "census5x5", "inputs": {"input": "right"}, "outputs": {"output": "right_census"}},
+    {"name": "match", "kernel": "census_wta_disparity", "inputs": {"left": "left_census", "right": "right_census"},
+     "outputs": {"disparity": "disparity"}, "params": {"max_disparity": 32}},
+    {"name": "exposure", "task": "exposure_statistics", "inputs": {"image": "left"}, "outputs": {"statistics": "stats"}}
+  ],
+  "outputs": ["disparity", "stats"]
+})";
+
+host_sim::Target cv1_class() { return host_sim::load_target_file(std::string(LPSTEREO_SOURCE_DIR) + "/targets/cv1-class.json"); }
+
+struct Profiled {
+  Graph graph;
+  host_sim::ProfileReport report;
+};
+
+host_sim::ProfileReport profile(int width, int height, const host_sim::Target& target, host_sim::ProfileOptions options = {}) {
+  Graph graph(parse_graph_spec(kPipeline, "pipeline.json"));
+  VerifyOptions verify_options;
+  verify_options.frame_width = width;
+  verify_options.frame_height = height;
+  verify_options.memory = target.memory_budget();
+  graph.verify(verify_options);
+  const Plane left = random_plane(width, height, {ElementType::u8, 0}, 0, 7);
+  const Plane right = random_plane(width, height, {ElementType::u8, 0}, 0, 8);
+  return host_sim::profile_graph(graph, target, {{"left", &left}, {"right", &right}}, options);
+}
+
+TEST(Simulator, ReportHasEveryDocumentedKey) {
+  const nlohmann::json json = host_sim::report_json(profile(640, 360, cv1_class()));
+  for (const char* key : {"target", "width", "height", "fps_target", "frame_ms", "fps", "fits_budget", "sram_budget_bytes",
+                          "sram_peak_bytes", "dram_budget_bytes", "dram_peak_bytes", "dram_bytes_per_frame",
+                          "dram_bandwidth_gbps", "dram_bandwidth_limit_gbps", "nodes", "model"}) {
+    EXPECT_TRUE(json.contains(key)) << key;
+  }
+  EXPECT_EQ(json["model"], "op-level, cycle-approximate");
+  ASSERT_EQ(json["nodes"].size(), 4u);
+  for (const nlohmann::json& node : json["nodes"]) {
+    for (const char* key : {"name", "kind", "cycles", "ms", "share", "dram_bytes", "sram_peak_bytes", "ops"}) {
+      EXPECT_TRUE(node.contains(key)) << node["name"] << " " << key;
+    }
+    EXPECT_TRUE(node["kind"] == "vector" || node["kind"] == "arm");
+    EXPECT_GT(node["cycles"].get<double>(), 0) << node["name"];
+  }
+  EXPECT_EQ(json["nodes"][0]["ops"]["load"].get<uint64_t>() > 0, true);
+}
+
+TEST(Simulator, DoublingTheWidthDoublesVectorCycles) {
+  const host_sim::Target target = cv1_class();
+  const host_sim::ProfileReport narrow = profile(960, 432, target);
+  const host_sim::ProfileReport wide = profile(1920, 432, target);
+  const double ratio = wide.vector_cycles_per_frame / narrow.vector_cycles_per_frame;
+  EXPECT_NEAR(ratio, 2.0, 0.1) << narrow.vector_cycles_per_frame << " -> " << wide.vector_cycles_per_frame;
+}
+
+TEST(Simulator, CountingOncePerTileShapeEqualsCountingEveryTile) {
+  // The kernels are data-oblivious: every tile of a shape has the same counted ops.
+  host_sim::Target target = cv1_class();
+  target.memory.sram_bytes = 128 * 1024;  // many tiles
+  host_sim::ProfileOptions every;
+  every.count_every_tile = true;
+  const host_sim::ProfileReport once = profile(500, 203, target);
+  const host_sim::ProfileReport all = profile(500, 203, target, every);
+  ASSERT_EQ(once.nodes.size(), all.nodes.size());
+  for (size_t i = 0; i < once.nodes.size(); ++i) {
+    EXPECT_EQ(once.nodes[i].ops, all.nodes[i].ops) << once.nodes[i].name;
+    EXPECT_GT(once.nodes[i].kind == "vector" ? once.nodes[i].tiles : 2u, 1u) << once.nodes[i].name;
+  }
+  EXPECT_DOUBLE_EQ(once.frame_ms, all.frame_ms);
+}
+
+TEST(Simulator, IsDeterministic) {
+  const host_sim::ProfileReport first = profile(640, 200, cv1_class());
+  const host_sim::ProfileReport second = profile(640, 200, cv1_class());
+  EXPECT_EQ(host_sim::report_json(first).dump(), host_sim::report_json(second).dump());
+}
+
+TEST(Simulator, TraceIsChromeTraceJsonWithOneTrackPerEngine) {
+  const host_sim::ProfileReport report = profile(640, 200, cv1_class());
+  const nlohmann::json trace = nlohmann::json::parse(host_sim::chrome_trace_json(report));
+  ASSERT_TRUE(trace.contains("traceEvents"));
+  std::set<std::string> tracks;
+  int complete_events = 0;
+  double vector_end_us = 0, arm_start_us = 1e30;
+  for (const nlohmann::json& event : trace["traceEvents"]) {
+    ASSERT_TRUE(event.contains("ph") && event.contains("pid") && event.contains("tid"));
+    if (event["ph"] == "M" && event["name"] == "thread_name") tracks.insert(event["args"]["name"].get<std::string>());
+    if (event["ph"] == "X") {
+      ++complete_events;
+      ASSERT_TRUE(event["ts"].is_number() && event["dur"].is_number());
+      EXPECT_GT(event["dur"].get<double>(), 0);
+      if (event["tid"] == 0) vector_end_us = std::max(vector_end_us, event["ts"].get<double>() + event["dur"].get<double>());
+      if (event["tid"].get<int>() >= 2) arm_start_us = std::min(arm_start_us, event["ts"].get<double>());
+    }
+  }
+  EXPECT_TRUE(tracks.count("vector engine") && tracks.count("DMA") && tracks.count("ARM core 0") && tracks.count("ARM core 3"));
+  EXPECT_GT(complete_events, 4 * 4);
+  // The ARM task runs while the vector engine is still busy (overlap across engines).
+  EXPECT_LT(arm_start_us, vector_end_us);
+}
+
+TEST(Simulator, ReportsTimeAndBandwidthOverBudget) {
+  host_sim::ProfileOptions options;
+  options.fps_target = 100000;
+  const host_sim::ProfileReport report = profile(640, 360, cv1_class(), options);
+  EXPECT_FALSE(report.fits_budget);
+  ASSERT_FALSE(report.over_budget.empty());
+  EXPECT_NE(report.over_budget[0].find("frame time "), std::string::npos) << report.over_budget[0];
+  EXPECT_NE(report.over_budget[0].find("over by "), std::string::npos);
+  bool bandwidth = false;
+  for (const std::string& line : report.over_budget) bandwidth = bandwidth || line.find("DRAM bandwidth") != std::string::npos;
+  EXPECT_TRUE(bandwidth);
+  const host_sim::ProfileReport relaxed = profile(640, 360, cv1_class());
+  EXPECT_TRUE(relaxed.fits_budget) << (relaxed.over_budget.empty() ? "" : relaxed.over_budget[0]);
+}
+
+TEST(Simulator, FrameTimeFollowsTheTargetClock) {
+  host_sim::Target slow = cv1_class();
+  host_sim::Target fast = cv1_class();
+  fast.vector.clock_mhz *= 2;
+  fast.dma.bandwidth_gbps *= 2;
+  fast.dma.setup_ns /= 2;
+  fast.arm.clock_mhz *= 2;
+  const double slow_ms = profile(640, 360, slow).frame_ms;
+  const double fast_ms = profile(640, 360, fast).frame_ms;
+  EXPECT_NEAR(slow_ms / fast_ms, 2.0, 0.02);
+}
+
+TEST(TargetMustFail, NumbersNeedTheirReasonAndRange) {
+  const std::string base = R"({"name": "t", "vector": {"clock_mhz": CLOCK}})";
+  auto message = [&](const std::string& clock) {
+    std::string json = base;
+    json.replace(json.find("CLOCK"), 5, clock);
+    try {
+      host_sim::parse_target(json, "t.json");
+    } catch (const host_sim::TargetError& error) {
+      return std::string(error.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(message("800"), "t.json: at $.vector.clock_mhz: expected {\"value\": number, \"why\": \"source or reason\"}, got 800");
+  EXPECT_EQ(message(R"({"value": 800, "why": ""})"), "t.json: at $.vector.clock_mhz.why: every number needs its source or reason");
+  EXPECT_EQ(message(R"({"value": -5, "why": "a good reason"})"),
+            "t.json: at $.vector.clock_mhz.value: expected a number in [1, 100000], got -5");
+  EXPECT_THROW(host_sim::parse_target("{\"name\": ", "t.json"), host_sim::TargetError);
+}
+
+TEST(TargetMustFail, UnknownTargetNameSaysWhereItLooked) {
+  try {
+    host_sim::load_target("cv9-imaginary");
+    FAIL() << "expected TargetError";
+  } catch (const host_sim::TargetError& error) {
+    EXPECT_EQ(std::string(error.what()).rfind("no target named 'cv9-imaginary' (searched ", 0), 0u) << error.what();
+  }
+  EXPECT_THROW(host_sim::load_target("/nonexistent/target.json"), host_sim::TargetError);
+}
+
+TEST(Targets, ShippedTargetsLoadWithTheirDocumentedNumbers) {
+  const host_sim::Target cv1 = cv1_class();
+  EXPECT_EQ(cv1.name, "cv1-class");
+  const host_sim::Target tda4vm = host_sim::load_target_file(std::string(LPSTEREO_SOURCE_DIR) + "/targets/tda4vm-c7x.json");
+  EXPECT_EQ(tda4vm.vector.clock_mhz, 1000);
+  EXPECT_EQ(tda4vm.vector.vector_bits, 512);
+  EXPECT_EQ(tda4vm.memory.sram_bytes, 512u * 1024u);
+  EXPECT_NEAR(tda4vm.memory.dram_bandwidth_gbps, 17.1, 1e-9);
+  EXPECT_EQ(tda4vm.arm.cores, 2);
+}
+
+}  // namespace
+}  // namespace lpstereo
