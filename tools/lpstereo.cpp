@@ -99,7 +99,7 @@ void write_profile_outputs(const host_sim::ProfileReport& report, const ProfileO
 int run_profile(const std::string& graph_name, const std::string& target_name, FrameSize size, double fps, int frames,
                 bool count_every_tile, bool enforce, const ProfileOutputs& outputs) {
   check_frame_size(size);
-  if (!(fps > 0 && fps <= 1000)) throw CommandError(2, "--fps: expected a number in (0, 1000], got " + std::to_string(fps));
+  if (!(fps > 0 && fps <= 10000)) throw CommandError(2, "--fps: expected a number in (0, 10000], got " + std::to_string(fps));
   const host_sim::Target target = host_sim::load_target(target_name);
   const Graph graph = load_and_verify(graph_name, target, size);
   const std::map<std::string, Plane> inputs = synthetic_inputs(graph, size);

@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Profiles every graph under graphs/ at 3840x1728 on cv1-class with --enforce and prints each
+# Markdown summary. Fails if any enforced graph is over budget. Usage: profile-graphs.sh LPSTEREO_BINARY
+set -euo pipefail
+cd "$(dirname "$0")/.."
+binary=${1:?usage: profile-graphs.sh LPSTEREO_BINARY}
+summary_dir=$(mktemp -d)
+trap 'rm -rf "$summary_dir"' EXIT
+status=0
+for graph in graphs/*.json; do
+  name=$(basename "$graph" .json)
+  if "$binary" profile --graph "$graph" --target cv1-class --width 3840 --height 1728 --fps 30 --enforce \
+       --summary-md "$summary_dir/$name.md" >/dev/null; then
+    :
+  else
+    code=$?
+    echo "graph $name: lpstereo profile exited $code"
+    status=1
+  fi
+  [ -f "$summary_dir/$name.md" ] && cat "$summary_dir/$name.md" && echo
+done
+exit $status
