@@ -158,12 +158,7 @@ void FrameRunner::run_dispatch_item(int dispatch_index, size_t first_tile, size_
     return slot(node.input_buffers[i], node.input_delayed[i] ? frame_index_ - 1 : frame_index_);
   };
   if (dispatch.engine == Engine::vector) {
-    VectorNodeBinding binding;
-    binding.kernel = node.kernel;
-    binding.params = node.prepared.params.get();
-    binding.border_mode = node.spec.border_mode;
-    binding.border_value = node.spec.border_value;
-    binding.input_halos = node.prepared.input_halos;
+    VectorNodeBinding binding = vector_node_binding(node);
     for (size_t i = 0; i < node.input_buffers.size(); ++i) binding.inputs.push_back(input_plane(i).view());
     for (int output : node.output_buffers) binding.outputs.push_back(slot(output, frame_index_).view());
     const TileFunction function = node.kernel->native_for(simd::active_isa());

@@ -618,6 +618,16 @@ size_t tile_working_set_bytes(const NodeInfo& node, const std::vector<BufferInfo
   return bytes;
 }
 
+VectorNodeBinding vector_node_binding(const NodeInfo& node) {
+  VectorNodeBinding binding;
+  binding.kernel = node.kernel;
+  binding.params = node.prepared.params.get();
+  binding.border_mode = node.spec.border_mode;
+  binding.border_value = node.spec.border_value;
+  binding.input_halos = node.prepared.input_halos;
+  return binding;
+}
+
 void Graph::phase_memory_placement() {
   const MemoryBudget& memory = options_.memory;
   sram_peak_bytes_ = 0;

@@ -23,6 +23,7 @@
 #include "dag/arm_task.h"
 #include "dag/format.h"
 #include "dag/plane.h"
+#include "dag/tile_executor.h"
 #include "kernels/kernel.h"
 
 namespace lpstereo {
@@ -178,6 +179,9 @@ class Graph {
   size_t sram_peak_bytes_ = 0;
   size_t dram_peak_bytes_ = 0;
 };
+
+// A vector node's kernel, prepared parameters, border and halos, ready for its planes to be added.
+VectorNodeBinding vector_node_binding(const NodeInfo& node);
 
 // SRAM bytes a vector node needs for an output tile of tile_width x tile_height: every window
 // input with its halo, every whole input's source rectangle, every output, each double-buffered,

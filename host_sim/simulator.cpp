@@ -116,12 +116,7 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
       node_costs.arm_ns = node_costs.arm_cycles / (target.arm.clock_mhz * 1e-3);
       continue;
     }
-    VectorNodeBinding binding;
-    binding.kernel = node.kernel;
-    binding.params = node.prepared.params.get();
-    binding.border_mode = node.spec.border_mode;
-    binding.border_value = node.spec.border_value;
-    binding.input_halos = node.prepared.input_halos;
+    VectorNodeBinding binding = vector_node_binding(node);
     for (int input : node.input_buffers) binding.inputs.push_back(plane_of(input).view());
     // Counting writes its output into scratch planes, so the native results stay untouched.
     std::vector<Plane> scratch_outputs;

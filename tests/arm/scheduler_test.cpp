@@ -41,8 +41,9 @@ Plane expected_disparity(const Plane& left, const Plane& right, const Graph& gra
   auto run = [&](const std::string& node_name, std::vector<PlaneView> inputs, const Plane& output) {
     for (const NodeInfo& node : graph.nodes()) {
       if (node.spec.name != node_name) continue;
-      VectorNodeBinding binding{node.kernel, node.prepared.params.get(), node.spec.border_mode, node.spec.border_value,
-                                inputs, {output.view()}, node.prepared.input_halos};
+      VectorNodeBinding binding = vector_node_binding(node);
+      binding.inputs = inputs;
+      binding.outputs = {output.view()};
       run_vector_node(binding, output.width(), output.height(), KernelBackend::native, simd::Isa::scalar);
     }
   };
@@ -53,6 +54,21 @@ Plane expected_disparity(const Plane& left, const Plane& right, const Graph& gra
   run("census_right", {right.view()}, right_census);
   run("match", {left_census.view(), right_census.view()}, disparity);
   return disparity;
+}
+
+// Two frame counters in a loop closed by a delayed edge: a(f) = b(f - 1) + 1, b(f) = a(f) + 1.
+Graph verified_counter_loop() {
+  Graph graph(parse_graph_spec(R"({
+    "name": "loop", "inputs": [],
+    "nodes": [
+      {"name": "counter_a", "task": "test_frame_counter", "inputs": {"previous": {"buffer": "b", "delayed": true}}, "outputs": {"count": "a"}},
+      {"name": "counter_b", "task": "test_frame_counter", "inputs": {"previous": "a"}, "outputs": {"count": "b"}}
+    ]})", "loop.json"));
+  VerifyOptions options;
+  options.frame_width = 8;
+  options.frame_height = 8;
+  graph.verify(options);
+  return graph;
 }
 
 TEST(FrameRunner, SameBitsAsEachNodeAloneForAnyThreadCount) {
@@ -83,16 +99,7 @@ TEST(FrameRunner, ReReadsItsInputsEveryFrame) {
 }
 
 TEST(FrameRunner, DelayedEdgeReadsThePreviousFrame) {
-  Graph graph(parse_graph_spec(R"({
-    "name": "loop", "inputs": [],
-    "nodes": [
-      {"name": "counter_a", "task": "test_frame_counter", "inputs": {"previous": {"buffer": "b", "delayed": true}}, "outputs": {"count": "a"}},
-      {"name": "counter_b", "task": "test_frame_counter", "inputs": {"previous": "a"}, "outputs": {"count": "b"}}
-    ]})", "loop.json"));
-  VerifyOptions options;
-  options.frame_width = 8;
-  options.frame_height = 8;
-  graph.verify(options);
+  const Graph graph = verified_counter_loop();
   arm::FrameRunner runner(graph, 2);
   for (uint32_t frame = 1; frame <= 5; ++frame) {
     runner.process({});
@@ -125,16 +132,7 @@ TEST(FrameRunnerMustFail, RefusesMissingMismatchedAndUnknownInputs) {
 }
 
 TEST(FramePlan, DelayedEdgesOrderFramesNotNodes) {
-  Graph graph(parse_graph_spec(R"({
-    "name": "loop", "inputs": [],
-    "nodes": [
-      {"name": "counter_a", "task": "test_frame_counter", "inputs": {"previous": {"buffer": "b", "delayed": true}}, "outputs": {"count": "a"}},
-      {"name": "counter_b", "task": "test_frame_counter", "inputs": {"previous": "a"}, "outputs": {"count": "b"}}
-    ]})", "loop.json"));
-  VerifyOptions options;
-  options.frame_width = 8;
-  options.frame_height = 8;
-  graph.verify(options);
+  const Graph graph = verified_counter_loop();
   const arm::FramePlan plan = arm::plan_frame(graph);
   ASSERT_EQ(plan.dispatches.size(), 2u);
   EXPECT_TRUE(plan.dispatches[0].after.empty());
