@@ -98,14 +98,7 @@ void median3x3_reference(const std::vector<PlaneView>& inputs, const std::vector
                          const void* /*params*/, BorderMode border_mode, uint32_t border_value) {
   const PlaneView& source = inputs[0];
   const PlaneView& destination = outputs[0];
-  auto pixel = [&](int x, int y) -> uint8_t {
-    if (x < 0 || y < 0 || x >= source.width || y >= source.height) {
-      if (border_mode == BorderMode::constant) return static_cast<uint8_t>(border_value);
-      x = std::clamp(x, 0, source.width - 1);
-      y = std::clamp(y, 0, source.height - 1);
-    }
-    return plane_row<const uint8_t>(source, y)[x];
-  };
+  auto pixel = [&](int x, int y) { return reference_pixel_u8(source, x, y, border_mode, border_value); };
   for (int y = 0; y < destination.height; ++y) {
     for (int x = 0; x < destination.width; ++x) {
       std::array<uint8_t, 9> window{};

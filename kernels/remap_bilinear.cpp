@@ -197,14 +197,7 @@ void remap_bilinear_reference(const std::vector<PlaneView>& inputs, const std::v
   const PlaneView& source = inputs[0];
   const PlaneView& map = inputs[1];
   const PlaneView& destination = outputs[0];
-  auto pixel = [&](int x, int y) -> int {
-    if (x < 0 || y < 0 || x >= source.width || y >= source.height) {
-      if (border_mode == BorderMode::constant) return static_cast<int>(border_value & 0xFFu);
-      x = std::clamp(x, 0, source.width - 1);
-      y = std::clamp(y, 0, source.height - 1);
-    }
-    return plane_row<const uint8_t>(source, y)[x];
-  };
+  auto pixel = [&](int x, int y) -> int { return reference_pixel_u8(source, x, y, border_mode, border_value); };
   for (int y = 0; y < destination.height; ++y) {
     const int16_t* map_row = plane_row<const int16_t>(map, y);
     for (int x = 0; x < destination.width; ++x) {

@@ -75,40 +75,31 @@ TEST(Median3x3, GoldenValues) {
   check(KernelBackend::counting, simd::Isa::scalar, "counting");
 }
 
-// The closed form of kernels/median3x3.cpp for tiles of tile_width x tile_height over a W x H
-// image: every tile row is ceil(tile width / 64) chunks (64 = the counting back end's u8 lanes),
-// each chunk 9 loads, 30 min/max and 1 store.
-simd::OpCounts median3x3_closed_form(int width, int height, int tile_width, int tile_height) {
-  int64_t chunks = 0;
-  for (int y = 0; y < height; y += tile_height) {
-    const int64_t rows = std::min(tile_height, height - y);
-    for (int x = 0; x < width; x += tile_width) chunks += rows * ((std::min(tile_width, width - x) + 63) / 64);
-  }
+// The closed form of kernels/median3x3.cpp: every tile row is ceil(tile width / 64) chunks (64 =
+// the counting back end's u8 lanes), each chunk 9 loads, 30 min/max and 1 store; nothing else.
+simd::OpCounts median3x3_closed_form(const testing::TileWork& work) {
   simd::OpCounts counts;
-  counts[simd::OpClass::load] = 9 * chunks;
-  counts[simd::OpClass::arith] = 30 * chunks;
-  counts[simd::OpClass::store] = chunks;
+  counts[simd::OpClass::load] = 9 * work.chunks;
+  counts[simd::OpClass::arith] = 30 * work.chunks;
+  counts[simd::OpClass::store] = work.chunks;
   return counts;
 }
 
 TEST(Median3x3, CountedOpsEqualClosedForm) {
-  static_assert(simd::Counting::kLanesU8 == 64, "the closed form below assumes 64 u8 lanes");
-  const KernelDescriptor& kernel = testing::kernel_named("median3x3");
+  static_assert(simd::Counting::kLanesU8 == 64, "the closed form assumes 64 u8 lanes");
   struct Shape {
     int width, height, tile_width, tile_height;
   };
   for (const Shape& shape : std::vector<Shape>{{631, 479, 631, 479}, {640, 480, 640, 480}, {1, 1, 1, 1},
                                                {65, 7, 65, 7}, {631, 479, 100, 37}, {200, 3, 7, 5}}) {
-    Plane input = random_plane(shape.width, shape.height, {ElementType::u8, 0}, 0, 14);
-    Plane output(shape.width, shape.height, {ElementType::u8, 0});
-    VectorNodeBinding binding{&kernel, nullptr, BorderMode::replicate, 0, {input.view()}, {output.view()}};
-    simd::OpCounts counts;
-    run_vector_node(binding, shape.tile_width, shape.tile_height, KernelBackend::counting, simd::Isa::scalar, &counts);
-    const simd::OpCounts expected = median3x3_closed_form(shape.width, shape.height, shape.tile_width, shape.tile_height);
-    for (int op = 0; op < simd::kOpClassCount; ++op) {
-      EXPECT_EQ(counts.by_class[op], expected.by_class[op])
-          << "op class " << simd::kOpClassNames[op] << " at " << shape.width << "x" << shape.height << " in tiles of "
-          << shape.tile_width << "x" << shape.tile_height;
+    KernelCase test_case{"median3x3", {}, {}, 0};
+    test_case.inputs.push_back(random_plane(shape.width, shape.height, {ElementType::u8, 0}, 0, 14));
+    for (BorderMode mode : {BorderMode::replicate, BorderMode::constant}) {
+      EXPECT_TRUE(testing::op_counts_equal(
+          median3x3_closed_form(testing::tile_work(shape.width, shape.height, shape.tile_width, shape.tile_height, 64)),
+          testing::count_ops(test_case, shape.tile_width, shape.tile_height, mode)))
+          << shape.width << "x" << shape.height << " in tiles of " << shape.tile_width << "x" << shape.tile_height
+          << " border " << border_mode_name(mode);
     }
   }
 }

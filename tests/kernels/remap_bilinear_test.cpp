@@ -157,53 +157,38 @@ TEST(RemapBilinear, GoldenFractionalShifts) {
   });
 }
 
-// The closed form of kernels/remap_bilinear.cpp's header comment.
-simd::OpCounts remap_closed_form(int width, int height, int tile_width, int tile_height, bool constant_border) {
-  int64_t chunks = 0, rows = 0, tiles = 0;
-  for (int y = 0; y < height; y += tile_height) {
-    const int64_t tile_rows = std::min(tile_height, height - y);
-    for (int x = 0; x < width; x += tile_width) {
-      chunks += tile_rows * ((std::min(tile_width, width - x) + 63) / 64);
-      rows += tile_rows;
-      ++tiles;
-    }
-  }
+// The closed form of kernels/remap_bilinear.cpp's header comment (chunks of 64 pixels = the
+// counting back end's u8 lanes).
+simd::OpCounts remap_closed_form(const testing::TileWork& work, bool constant_border) {
   simd::OpCounts counts;
-  counts[simd::OpClass::load] = 4 * chunks + tiles;
-  counts[simd::OpClass::gather] = 16 * chunks;
-  counts[simd::OpClass::store] = chunks;
-  counts[simd::OpClass::arith] = 82 * chunks + tiles;
-  counts[simd::OpClass::shift] = 28 * chunks;
-  counts[simd::OpClass::logic] = (constant_border ? 40 : 8) * chunks;
-  counts[simd::OpClass::compare] = (constant_border ? 16 : 0) * chunks;
-  counts[simd::OpClass::multiply] = 14 * chunks;
-  counts[simd::OpClass::permute] = 13 * chunks + rows + 10 * tiles;
+  counts[simd::OpClass::load] = 4 * work.chunks + work.tiles;
+  counts[simd::OpClass::gather] = 16 * work.chunks;
+  counts[simd::OpClass::store] = work.chunks;
+  counts[simd::OpClass::arith] = 82 * work.chunks + work.tiles;
+  counts[simd::OpClass::shift] = 28 * work.chunks;
+  counts[simd::OpClass::logic] = (constant_border ? 40 : 8) * work.chunks;
+  counts[simd::OpClass::compare] = (constant_border ? 16 : 0) * work.chunks;
+  counts[simd::OpClass::multiply] = 14 * work.chunks;
+  counts[simd::OpClass::permute] = 13 * work.chunks + work.rows + 10 * work.tiles;
   return counts;
 }
 
 TEST(RemapBilinear, CountedOpsEqualClosedForm) {
   static_assert(simd::Counting::kLanesU8 == 64, "the closed form assumes 64 u8 lanes");
-  const KernelDescriptor& kernel = testing::kernel_named("remap_bilinear");
   struct Shape {
     int width, height, tile_width, tile_height;
   };
   for (const Shape& shape : std::vector<Shape>{{631, 479, 631, 479}, {640, 480, 640, 480}, {1, 1, 1, 1},
                                                {65, 7, 65, 7}, {631, 479, 100, 37}, {200, 3, 7, 5}}) {
-    const Plane source = random_plane(shape.width, shape.height, kU8, 0, 31);
-    const Plane map = random_map(shape.width, shape.height, 20, 32);
+    KernelCase test_case{"remap_bilinear", {}, {}, 0};
+    test_case.inputs.push_back(random_plane(shape.width, shape.height, kU8, 0, 31));
+    test_case.inputs.push_back(random_map(shape.width, shape.height, 20, 32));
+    const testing::TileWork work = testing::tile_work(shape.width, shape.height, shape.tile_width, shape.tile_height, 64);
     for (BorderMode mode : {BorderMode::replicate, BorderMode::constant}) {
-      const PreparedKernel prepared = kernel.prepare({}, {{shape.width, shape.height}, {shape.width, shape.height}});
-      Plane output(shape.width, shape.height, kU8);
-      VectorNodeBinding binding{&kernel, prepared.params.get(), mode, 0, {source.view(), map.view()}, {output.view()}};
-      simd::OpCounts counts;
-      run_vector_node(binding, shape.tile_width, shape.tile_height, KernelBackend::counting, simd::Isa::scalar, &counts);
-      const simd::OpCounts expected = remap_closed_form(shape.width, shape.height, shape.tile_width, shape.tile_height,
-                                                        mode == BorderMode::constant);
-      for (int op = 0; op < simd::kOpClassCount; ++op) {
-        EXPECT_EQ(counts.by_class[op], expected.by_class[op])
-            << "op class " << simd::kOpClassNames[op] << " at " << shape.width << "x" << shape.height << " in tiles of "
-            << shape.tile_width << "x" << shape.tile_height << " border " << border_mode_name(mode);
-      }
+      EXPECT_TRUE(testing::op_counts_equal(remap_closed_form(work, mode == BorderMode::constant),
+                                           testing::count_ops(test_case, shape.tile_width, shape.tile_height, mode)))
+          << shape.width << "x" << shape.height << " in tiles of " << shape.tile_width << "x" << shape.tile_height
+          << " border " << border_mode_name(mode);
     }
   }
 }
