@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "kernels/kernel.h"
+#include "kernels/row_access.h"
 
 namespace lpstereo::kernels {
 
@@ -58,11 +59,7 @@ void census_tile(const TileArgs& args) {
     const uint8_t* centre_row = plane_row<const uint8_t>(source, y);
     Word* out_row = plane_row<Word>(destination, y);
     for (int x = 0; x < width; x += kLanes) {
-      const int remaining = width - x;
-      const bool full = remaining >= kLanes + kRadiusX;  // every neighbour load stays inside the readable row
-      auto load_at = [&](const uint8_t* row, int column) {
-        return full ? B::load(row + column) : B::load_partial(row + column, readable_end - column < kLanes ? readable_end - column : kLanes);
-      };
+      auto load_at = [&](const uint8_t* row, int column) { return load_clipped<B>(row, column, readable_end); };
       const VU8 centre = load_at(centre_row, x);
       VU8 planes[kPlanes];
       for (int plane = 0; plane < kPlanes; ++plane) planes[plane] = zero;
@@ -85,14 +82,8 @@ void census_tile(const TileArgs& args) {
         const auto high_hi = B::zip_hi(planes[2], planes[3]);
         const typename B::VU32 words[4] = {B::zip_lo(low_lo, high_lo), B::zip_hi(low_lo, high_lo),
                                            B::zip_lo(low_hi, high_hi), B::zip_hi(low_hi, high_hi)};
-        for (int part = 0; part < 4; ++part) {
-          const int count = remaining - part * kWordLanes;
-          if (count <= 0) break;
-          if (count >= kWordLanes) {
-            B::store(reinterpret_cast<uint32_t*>(out_row + x + part * kWordLanes), words[part]);
-          } else {
-            B::store_partial(reinterpret_cast<uint32_t*>(out_row + x + part * kWordLanes), words[part], count);
-          }
+        for (int part = 0; part < 4 && x + part * kWordLanes < width; ++part) {
+          store_clipped<B>(reinterpret_cast<uint32_t*>(out_row), x + part * kWordLanes, width, words[part]);
         }
       } else {
         typename B::VU16 pairs[8];
@@ -113,13 +104,9 @@ void census_tile(const TileArgs& args) {
         for (int part = 0; part < 8; ++part) {
           const auto word = (part % 2 == 0) ? B::zip_lo(quads[0][part / 2], quads[1][part / 2])
                                             : B::zip_hi(quads[0][part / 2], quads[1][part / 2]);
-          const int count = remaining - part * kWordLanes;
-          if (count <= 0) continue;  // keeps the zip count per chunk fixed (census_chunk_permutes)
-          if (count >= kWordLanes) {
-            B::store(reinterpret_cast<uint64_t*>(out_row + x + part * kWordLanes), word);
-          } else {
-            B::store_partial(reinterpret_cast<uint64_t*>(out_row + x + part * kWordLanes), word, count);
-          }
+          // The zip above runs for every part, which keeps the count per chunk fixed (census_chunk_permutes).
+          if (x + part * kWordLanes >= width) continue;
+          store_clipped<B>(reinterpret_cast<uint64_t*>(out_row), x + part * kWordLanes, width, word);
         }
       }
     }
@@ -132,14 +119,7 @@ void census_reference(const std::vector<PlaneView>& inputs, const std::vector<Pl
                       const void* /*params*/, BorderMode border_mode, uint32_t border_value) {
   const PlaneView& source = inputs[0];
   const PlaneView& destination = outputs[0];
-  auto pixel = [&](int x, int y) -> int {
-    if (x < 0 || y < 0 || x >= source.width || y >= source.height) {
-      if (border_mode == BorderMode::constant) return static_cast<int>(border_value);
-      x = x < 0 ? 0 : (x >= source.width ? source.width - 1 : x);
-      y = y < 0 ? 0 : (y >= source.height ? source.height - 1 : y);
-    }
-    return plane_row<const uint8_t>(source, y)[x];
-  };
+  auto pixel = [&](int x, int y) -> int { return reference_pixel_u8(source, x, y, border_mode, border_value); };
   for (int y = 0; y < destination.height; ++y) {
     for (int x = 0; x < destination.width; ++x) {
       const int centre = pixel(x, y);

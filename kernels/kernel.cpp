@@ -14,6 +14,15 @@ std::string_view border_mode_name(BorderMode mode) {
   return "unknown";
 }
 
+uint8_t reference_pixel_u8(const PlaneView& plane, int x, int y, BorderMode border_mode, uint32_t border_value) {
+  if (x < 0 || y < 0 || x >= plane.width || y >= plane.height) {
+    if (border_mode == BorderMode::constant) return static_cast<uint8_t>(border_value);
+    x = std::clamp(x, 0, plane.width - 1);
+    y = std::clamp(y, 0, plane.height - 1);
+  }
+  return plane_row<const uint8_t>(plane, y)[x];
+}
+
 int KernelDescriptor::input_count() const {
   return static_cast<int>(std::count_if(ports.begin(), ports.end(),
                                         [](const PortSpec& port) { return port.direction == PortDirection::input; }));

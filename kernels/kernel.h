@@ -48,6 +48,11 @@ enum class BorderMode : uint8_t {
 
 std::string_view border_mode_name(BorderMode mode);
 
+// For scalar references: u8 pixel (x, y) of `plane`, or for (x, y) outside it what the border mode
+// gives (replicate: the nearest edge pixel; constant: the low byte of border_value, as the tile
+// executor fills a u8 halo). Out of line on purpose: references run in the baseline unit only.
+uint8_t reference_pixel_u8(const PlaneView& plane, int x, int y, BorderMode border_mode, uint32_t border_value);
+
 struct Halo {
   int left = 0, right = 0, top = 0, bottom = 0;
   bool operator==(const Halo&) const = default;

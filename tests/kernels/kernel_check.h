@@ -77,36 +77,42 @@ struct KernelCase {
   int output_stride_padding = 0;     // extra bytes per output row beyond the row size
 };
 
+// Output planes for a prepared kernel, each row padded by `stride_padding` bytes, every byte `fill`.
+inline std::vector<Plane> make_output_planes(const KernelDescriptor& kernel, const PreparedKernel& prepared,
+                                             int stride_padding, uint8_t fill) {
+  std::vector<Plane> outputs;
+  size_t index = 0;
+  for (const PortSpec& port : kernel.ports) {
+    if (port.direction != PortDirection::output) continue;
+    const PlaneShape& shape = prepared.output_shapes.at(index++);
+    const ptrdiff_t row_bytes = static_cast<ptrdiff_t>(shape.width) * element_bytes(port.format.type);
+    outputs.emplace_back(shape.width, shape.height, port.format, row_bytes + stride_padding);
+    for (int y = 0; y < shape.height; ++y) std::memset(outputs.back().row<uint8_t>(y), fill, outputs.back().stride_bytes());
+  }
+  return outputs;
+}
+
+inline std::vector<PlaneView> plane_views(const std::vector<Plane>& planes) {
+  std::vector<PlaneView> result;
+  for (const Plane& plane : planes) result.push_back(plane.view());
+  return result;
+}
+
+inline PreparedKernel prepare_case(const KernelDescriptor& kernel, const KernelCase& test_case) {
+  std::vector<PlaneShape> input_shapes;
+  for (const Plane& input : test_case.inputs) input_shapes.push_back({input.width(), input.height()});
+  return kernel.prepare(test_case.params, input_shapes);
+}
+
 // Runs the reference and every back end, with each tile shape, and compares. Returns the output of
 // the reference for further checks.
 inline std::vector<Plane> expect_all_back_ends_match_reference(const KernelCase& test_case,
                                                                const std::vector<std::pair<int, int>>& tile_shapes) {
   const KernelDescriptor& kernel = kernel_named(test_case.kernel);
-  std::vector<PlaneShape> input_shapes;
-  std::vector<PlaneView> input_views;
-  for (const Plane& input : test_case.inputs) {
-    input_shapes.push_back({input.width(), input.height()});
-    input_views.push_back(input.view());
-  }
-  const PreparedKernel prepared = kernel.prepare(test_case.params, input_shapes);
-  std::vector<BufferFormat> output_formats;
-  for (const PortSpec& port : kernel.ports) {
-    if (port.direction == PortDirection::output) output_formats.push_back(port.format);
-  }
+  const std::vector<PlaneView> input_views = plane_views(test_case.inputs);
+  const PreparedKernel prepared = prepare_case(kernel, test_case);
   auto make_outputs = [&](uint8_t fill) {
-    std::vector<Plane> outputs;
-    for (size_t i = 0; i < output_formats.size(); ++i) {
-      const PlaneShape& shape = prepared.output_shapes.at(i);
-      const ptrdiff_t row_bytes = static_cast<ptrdiff_t>(shape.width) * element_bytes(output_formats[i].type);
-      outputs.emplace_back(shape.width, shape.height, output_formats[i], row_bytes + test_case.output_stride_padding);
-      for (int y = 0; y < shape.height; ++y) std::memset(outputs.back().row<uint8_t>(y), fill, outputs.back().stride_bytes());
-    }
-    return outputs;
-  };
-  auto views = [](const std::vector<Plane>& planes) {
-    std::vector<PlaneView> result;
-    for (const Plane& plane : planes) result.push_back(plane.view());
-    return result;
+    return make_output_planes(kernel, prepared, test_case.output_stride_padding, fill);
   };
 
   std::vector<BorderMode> modes = kernel.border_modes.empty() ? std::vector<BorderMode>{BorderMode::replicate}
@@ -115,11 +121,11 @@ inline std::vector<Plane> expect_all_back_ends_match_reference(const KernelCase&
   for (BorderMode mode : modes) {
     const uint32_t border_value = 77;
     std::vector<Plane> expected = make_outputs(0xA5);
-    kernel.reference(input_views, views(expected), prepared.params.get(), mode, border_value);
+    kernel.reference(input_views, plane_views(expected), prepared.params.get(), mode, border_value);
     for (const auto& [tile_width, tile_height] : tile_shapes) {
       auto check = [&](KernelBackend backend, simd::Isa isa, const std::string& label) {
         std::vector<Plane> actual = make_outputs(0x5A);
-        VectorNodeBinding binding{&kernel, prepared.params.get(), mode, border_value, input_views, views(actual),
+        VectorNodeBinding binding{&kernel, prepared.params.get(), mode, border_value, input_views, plane_views(actual),
                                   prepared.input_halos};
         run_vector_node(binding, tile_width, tile_height, backend, isa);
         for (size_t i = 0; i < actual.size(); ++i) {
@@ -135,6 +141,52 @@ inline std::vector<Plane> expect_all_back_ends_match_reference(const KernelCase&
     last_reference = std::move(expected);
   }
   return last_reference;
+}
+
+// Tiles, tile rows and vector chunks of a width x height plane cut into tiles of at most
+// tile_width x tile_height (as make_tiles does), each tile row walked in chunks of chunk_pixels.
+// The closed-form op counts of the kernels are in these terms.
+struct TileWork {
+  int64_t tiles = 0;
+  int64_t rows = 0;    // tile rows, summed over tiles
+  int64_t chunks = 0;  // chunks, summed over tile rows
+};
+
+inline TileWork tile_work(int width, int height, int tile_width, int tile_height, int chunk_pixels) {
+  TileWork work;
+  for (const TileRect& tile : make_tiles(width, height, tile_width, tile_height)) {
+    ++work.tiles;
+    work.rows += tile.height;
+    work.chunks += static_cast<int64_t>(tile.height) * ((tile.width + chunk_pixels - 1) / chunk_pixels);
+  }
+  return work;
+}
+
+// The ops the counting back end tallies running the case's kernel over its inputs in tiles of
+// tile_width x tile_height with the given border mode.
+inline simd::OpCounts count_ops(const KernelCase& test_case, int tile_width, int tile_height,
+                                BorderMode mode = BorderMode::replicate) {
+  const KernelDescriptor& kernel = kernel_named(test_case.kernel);
+  const PreparedKernel prepared = prepare_case(kernel, test_case);
+  std::vector<Plane> outputs = make_output_planes(kernel, prepared, test_case.output_stride_padding, 0);
+  VectorNodeBinding binding{&kernel, prepared.params.get(), mode, 0, plane_views(test_case.inputs), plane_views(outputs),
+                            prepared.input_halos};
+  simd::OpCounts counts;
+  run_vector_node(binding, tile_width, tile_height, KernelBackend::counting, simd::Isa::scalar, &counts);
+  return counts;
+}
+
+// Equal op counts, class by class; the failure names every class that differs.
+inline ::testing::AssertionResult op_counts_equal(const simd::OpCounts& expected, const simd::OpCounts& actual) {
+  std::string differences;
+  for (int op = 0; op < simd::kOpClassCount; ++op) {
+    if (expected.by_class[op] != actual.by_class[op]) {
+      differences += " " + std::string(simd::kOpClassNames[op]) + ": expected " + std::to_string(expected.by_class[op]) +
+                     ", counted " + std::to_string(actual.by_class[op]) + ";";
+    }
+  }
+  if (differences.empty()) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "op counts differ:" << differences;
 }
 
 }  // namespace lpstereo::testing

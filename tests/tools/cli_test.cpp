@@ -97,11 +97,16 @@ TEST_F(Cli, ProfileWritesReportTraceAndSummary) {
 }
 
 TEST_F(Cli, EnforceExitsThreeWithOneLineWhenOverBudget) {
-  const Result result = run("profile --graph stereo-census-wta --width 640 --height 288 --fps 10000 --enforce");
+  const Result result = run("profile --graph rectify-census --width 640 --height 288 --fps 10000 --enforce");
   EXPECT_EQ(result.exit_code, 3);
   EXPECT_EQ(lines(result.err), 1) << result.err;
-  EXPECT_EQ(result.err.rfind("lpstereo: over budget: graph 'stereo-census-wta' on cv1-class at 640x288: frame time ", 0), 0u)
+  EXPECT_EQ(result.err.rfind("lpstereo: over budget: graph 'rectify-census' on cv1-class at 640x288: frame time ", 0), 0u)
       << result.err;
+  // A graph marked as not meant to fit is reported, not enforced.
+  const Result reported = run("profile --graph stereo-census-wta --width 640 --height 288 --fps 10000 --enforce");
+  EXPECT_EQ(reported.exit_code, 0) << reported.err;
+  EXPECT_NE(reported.out.find("OVER BUDGET: frame time "), std::string::npos) << reported.out;
+  EXPECT_NE(reported.out.find("not enforced: graph 'stereo-census-wta' is marked as not meant to fit"), std::string::npos);
 }
 
 TEST_F(Cli, GraphVerifyAndDot) {

@@ -1,0 +1,182 @@
+// Kernel throughput on the host: lpstereo's vector kernels through the tile executor
+// (run_vector_node, native back end at the active ISA level, one thread) next to the OpenCV
+// function that does the same job, on the same data, in the same process, with OpenCV held to one
+// thread (cv::setNumThreads(1)).
+//
+//   census5x5, census9x7          (no OpenCV counterpart)
+//   median3x3                      vs cv::medianBlur(ksize 3)                (both replicate borders)
+//   remap_bilinear (remap_q4 map)  vs cv::remap(INTER_LINEAR) with the float maps and with the
+//                                  fixed-point maps of cv::convertMaps (CV_16SC2 + CV_16UC1, built
+//                                  once outside the timing, as our remap_q4 map is)
+//
+// Sizes 1920x1080 and 3840x1728; throughput in megapixels of output per second of CPU time: the
+// rate counter "Mpx" (the console prints it with an SI prefix, "Mpx=2.5k/s" = 2500 megapixels/s).
+// CPU time, not wall time, because everything runs on the calling thread (so the two are equal on
+// an idle machine) and CPU time stays meaningful on a shared CI or developer machine.
+// Each benchmark warms up for 0.1 s (not timed) and runs 5 repetitions; read the _median rows.
+// The settings (ISA, tile shape, threads, OpenCV version) are printed in the context header.
+// Usage: kernels_bench [--benchmark_filter=median] [--benchmark_repetitions=N] (Google Benchmark flags).
+#include <benchmark/benchmark.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cstring>
+#include <map>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "dag/plane.h"
+#include "dag/remap_table.h"
+#include "dag/tile_executor.h"
+#include "kernels/kernel.h"
+#include "kernels/simd/isa.h"
+
+namespace lpstereo {
+namespace {
+
+// Output tile shape for every lpstereo kernel run here (a tile of 256x64 u8 plus halo is a few tens
+// of KiB, the order of a vector engine's tile buffers).
+constexpr int kTileWidth = 256;
+constexpr int kTileHeight = 64;
+constexpr int kRepetitions = 5;
+constexpr double kWarmUpSeconds = 0.1;
+
+// One frame's worth of inputs of a given size, built once per size and shared by all benchmarks.
+struct Frame {
+  cv::Mat image;                          // u8, textured
+  Plane image_plane;                      // the same pixels as an lpstereo plane
+  std::vector<float> map_x, map_y;        // synthetic rectification, absolute float coordinates
+  cv::Mat cv_map_x, cv_map_y;             // views of map_x, map_y
+  cv::Mat cv_fixed_xy, cv_fixed_fraction; // cv::convertMaps output (CV_16SC2, CV_16UC1)
+  Plane map_q4;                           // the same map as remap_q4
+};
+
+const Frame& frame(int width, int height) {
+  static std::map<std::pair<int, int>, Frame> frames;
+  auto found = frames.find({width, height});
+  if (found != frames.end()) return found->second;
+  Frame& built = frames[{width, height}];
+  cv::Mat noise(height, width, CV_8UC1);
+  cv::randu(noise, cv::Scalar(0), cv::Scalar(256));
+  cv::GaussianBlur(noise, built.image, cv::Size(5, 5), 1.0);
+  built.image_plane = Plane(width, height, {ElementType::u8, 0});
+  for (int y = 0; y < height; ++y) std::memcpy(built.image_plane.row<uint8_t>(y), built.image.ptr<uint8_t>(y), width);
+  make_synthetic_rectification_float(width, height, {}, built.map_x, built.map_y);
+  built.cv_map_x = cv::Mat(height, width, CV_32FC1, built.map_x.data());
+  built.cv_map_y = cv::Mat(height, width, CV_32FC1, built.map_y.data());
+  cv::convertMaps(built.cv_map_x, built.cv_map_y, built.cv_fixed_xy, built.cv_fixed_fraction, CV_16SC2);
+  built.map_q4 = make_remap_q4_from_float(built.map_x.data(), built.map_y.data(), width, height, width);
+  return built;
+}
+
+void set_megapixels_per_second(benchmark::State& state, int width, int height) {
+  state.counters["Mpx"] = benchmark::Counter(static_cast<double>(width) * height * 1e-6,
+                                              benchmark::Counter::kIsIterationInvariantRate);
+}
+
+const KernelDescriptor& kernel_named(const std::string& name) {
+  const KernelDescriptor* kernel = KernelRegistry::instance().find(name);
+  if (kernel == nullptr) throw std::runtime_error("kernel '" + name + "' is not registered");
+  return *kernel;
+}
+
+// Times one lpstereo kernel on the frame's image (and map, for the remap) through run_vector_node.
+void run_lpstereo_kernel(benchmark::State& state, const std::string& name, ElementType output_type) {
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const Frame& input = frame(width, height);
+  const KernelDescriptor& kernel = kernel_named(name);
+  std::vector<PlaneView> inputs = {input.image_plane.view()};
+  std::vector<PlaneShape> shapes = {{width, height}};
+  if (kernel.input_count() == 2) {
+    inputs.push_back(input.map_q4.view());
+    shapes.push_back({width, height});
+  }
+  const PreparedKernel prepared = kernel.prepare(nlohmann::json::object(), shapes);
+  Plane output(width, height, {output_type, 0});
+  const VectorNodeBinding binding{&kernel, prepared.params.get(), BorderMode::replicate, 0, inputs, {output.view()}};
+  const simd::Isa isa = simd::active_isa();
+  for (auto _ : state) {
+    run_vector_node(binding, kTileWidth, kTileHeight, KernelBackend::native, isa);
+    benchmark::DoNotOptimize(output.row<uint8_t>(0));
+    benchmark::ClobberMemory();
+  }
+  set_megapixels_per_second(state, width, height);
+}
+
+void BM_census5x5(benchmark::State& state) { run_lpstereo_kernel(state, "census5x5", ElementType::census32); }
+void BM_census9x7(benchmark::State& state) { run_lpstereo_kernel(state, "census9x7", ElementType::census64); }
+void BM_median3x3(benchmark::State& state) { run_lpstereo_kernel(state, "median3x3", ElementType::u8); }
+void BM_remap_bilinear(benchmark::State& state) { run_lpstereo_kernel(state, "remap_bilinear", ElementType::u8); }
+
+// Times `function(frame, output)`, an OpenCV call on the frame's inputs.
+template <class Function>
+void run_opencv(benchmark::State& state, const Function& function) {
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const Frame& input = frame(width, height);
+  cv::Mat output;
+  for (auto _ : state) {
+    function(input, output);
+    benchmark::DoNotOptimize(output.data);
+    benchmark::ClobberMemory();
+  }
+  set_megapixels_per_second(state, width, height);
+}
+
+void BM_opencv_medianBlur3(benchmark::State& state) {
+  run_opencv(state, [](const Frame& input, cv::Mat& output) { cv::medianBlur(input.image, output, 3); });
+}
+
+void BM_opencv_remap_linear_float_map(benchmark::State& state) {
+  run_opencv(state, [](const Frame& input, cv::Mat& output) {
+    cv::remap(input.image, output, input.cv_map_x, input.cv_map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  });
+}
+
+void BM_opencv_remap_linear_fixed_map(benchmark::State& state) {
+  run_opencv(state, [](const Frame& input, cv::Mat& output) {
+    cv::remap(input.image, output, input.cv_fixed_xy, input.cv_fixed_fraction, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  });
+}
+
+void sizes(benchmark::internal::Benchmark* benchmark) {
+  benchmark->ArgNames({"width", "height"})
+      ->Args({1920, 1080})
+      ->Args({3840, 1728})
+      ->Unit(benchmark::kMillisecond)
+      ->MinWarmUpTime(kWarmUpSeconds)
+      ->Repetitions(kRepetitions)
+      ->ReportAggregatesOnly(true);
+}
+
+BENCHMARK(BM_census5x5)->Apply(sizes);
+BENCHMARK(BM_census9x7)->Apply(sizes);
+BENCHMARK(BM_median3x3)->Apply(sizes);
+BENCHMARK(BM_opencv_medianBlur3)->Apply(sizes);
+BENCHMARK(BM_remap_bilinear)->Apply(sizes);
+BENCHMARK(BM_opencv_remap_linear_float_map)->Apply(sizes);
+BENCHMARK(BM_opencv_remap_linear_fixed_map)->Apply(sizes);
+
+}  // namespace
+}  // namespace lpstereo
+
+int main(int argc, char** argv) {
+  cv::setNumThreads(1);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::AddCustomContext("lpstereo_isa", std::string(lpstereo::simd::isa_name(lpstereo::simd::active_isa())));
+  benchmark::AddCustomContext("lpstereo_tile", std::to_string(lpstereo::kTileWidth) + "x" +
+                                                   std::to_string(lpstereo::kTileHeight) + " px, border replicate");
+  benchmark::AddCustomContext("threads", "1 (lpstereo: tiles on the calling thread; OpenCV: cv::setNumThreads(1), "
+                                         "cv::getNumThreads() = " + std::to_string(cv::getNumThreads()) + ")");
+  benchmark::AddCustomContext("opencv", CV_VERSION);
+  benchmark::AddCustomContext("sizes", "1920x1080 and 3840x1728 u8 (textured noise); remap map: synthetic "
+                                       "rectification (dag/remap_table.h defaults)");
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
