@@ -21,3 +21,22 @@ elseif(CMAKE_SYSTEM_PROCESSOR MATCHES "^(aarch64|arm64)$")
   set(LPSTEREO_ISA_FLAGS_neon "")
 endif()
 message(STATUS "lpstereo: native ISA levels compiled: scalar ${LPSTEREO_ISA_LEVELS}")
+
+# Compiles SOURCES once per ISA level above (object library <target>_<level>, with the level's flags
+# and LPSTEREO_ISA_TU, as kernels/CMakeLists.txt does for the kernels), links the objects into
+# <target>, and defines <DEFINE_PREFIX>_<LEVEL>=1 on <target> for each level built.
+# Used by tests that need per-ISA code of their own (tests/kernels/simd_ops_probe.cpp).
+function(lpstereo_add_per_isa_sources target)
+  cmake_parse_arguments(PARSE_ARGV 1 arg "" "DEFINE_PREFIX" "SOURCES")
+  foreach(level IN LISTS LPSTEREO_ISA_LEVELS)
+    string(TOUPPER ${level} level_upper)
+    set(objects ${target}_${level})
+    add_library(${objects} OBJECT ${arg_SOURCES})
+    target_include_directories(${objects} PRIVATE ${PROJECT_SOURCE_DIR})
+    target_compile_definitions(${objects} PRIVATE LPSTEREO_ISA_TU=${LPSTEREO_ISA_TU_${level}})
+    target_compile_options(${objects} PRIVATE ${LPSTEREO_ISA_FLAGS_${level}})
+    lpstereo_warnings(${objects})
+    target_sources(${target} PRIVATE $<TARGET_OBJECTS:${objects}>)
+    target_compile_definitions(${target} PRIVATE ${arg_DEFINE_PREFIX}_${level_upper}=1)
+  endforeach()
+endfunction()
