@@ -15,10 +15,10 @@
 //   unsigned compares (u8/u16/u32/u64: sign-bias xor then signed compare), min/max on u64 (compare +
 //   blend), u8 shifts (16-bit shift + mask), absdiff (two saturating subs), popcount (nibble table
 //   with vpshufb, then horizontal byte sums), narrow_sat_u8 (clamp to 255 first: packus is signed).
-//   load_partial / store_partial use vpmaskmov for 32- and 64-bit lanes (masked-off lanes are neither
-//   read nor written, and cannot fault); for 8- and 16-bit lanes they go through a zeroed stack
-//   buffer. Scalar loops: gather_u8 / gather_u16 (vpgatherdd reads 4 bytes per lane, past the
-//   addressed element).
+//   Scalar loops: gather_u8 / gather_u16 (vpgatherdd reads 4 bytes per lane, past the addressed
+//   element), and load_partial / store_partial through a stack buffer (so no byte past p + n is read
+//   or written). vpmaskmov is not used for them: the manuals leave faults on masked-off elements
+//   "implementation dependent", and QEMU's x86 emulation does fault there.
 #pragma once
 
 #if !defined(__AVX2__) || !defined(__BMI2__)
@@ -64,37 +64,23 @@ struct Avx2 {
   static Vec<Lane> load(const Lane* source) {
     return {_mm256_loadu_si256(reinterpret_cast<const __m256i*>(source))};
   }
-  // 32/64-bit lanes: masked load. 8/16-bit lanes (emulated): exactly lane_count lanes are copied
-  // into a zeroed buffer, then loaded.
+  // Emulated: copies exactly lane_count lanes into a zeroed buffer, then loads it.
   template <class Lane>
   static Vec<Lane> load_partial(const Lane* source, int lane_count) {
-    if constexpr (sizeof(Lane) == 4) {
-      return {_mm256_maskload_epi32(reinterpret_cast<const int*>(source), lanes_below<Lane>(lane_count))};
-    } else if constexpr (sizeof(Lane) == 8) {
-      return {_mm256_maskload_epi64(reinterpret_cast<const long long*>(source), lanes_below<Lane>(lane_count))};
-    } else {
-      alignas(32) uint8_t buffer[kBytes] = {};
-      if (lane_count > 0) std::memcpy(buffer, source, sizeof(Lane) * static_cast<size_t>(lane_count));
-      return {_mm256_load_si256(reinterpret_cast<const __m256i*>(buffer))};
-    }
+    alignas(32) uint8_t buffer[kBytes] = {};
+    if (lane_count > 0) std::memcpy(buffer, source, sizeof(Lane) * static_cast<size_t>(lane_count));
+    return {_mm256_load_si256(reinterpret_cast<const __m256i*>(buffer))};
   }
   template <class Lane>
   static void store(Lane* destination, const Vec<Lane>& value) {
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(destination), value.v);
   }
-  // 32/64-bit lanes: masked store. 8/16-bit lanes (emulated): stored to a buffer, then exactly
-  // lane_count lanes are copied out.
+  // Emulated: stores to a buffer, then copies exactly lane_count lanes out.
   template <class Lane>
   static void store_partial(Lane* destination, const Vec<Lane>& value, int lane_count) {
-    if constexpr (sizeof(Lane) == 4) {
-      _mm256_maskstore_epi32(reinterpret_cast<int*>(destination), lanes_below<Lane>(lane_count), value.v);
-    } else if constexpr (sizeof(Lane) == 8) {
-      _mm256_maskstore_epi64(reinterpret_cast<long long*>(destination), lanes_below<Lane>(lane_count), value.v);
-    } else {
-      alignas(32) uint8_t buffer[kBytes];
-      _mm256_store_si256(reinterpret_cast<__m256i*>(buffer), value.v);
-      if (lane_count > 0) std::memcpy(destination, buffer, sizeof(Lane) * static_cast<size_t>(lane_count));
-    }
+    alignas(32) uint8_t buffer[kBytes];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(buffer), value.v);
+    if (lane_count > 0) std::memcpy(destination, buffer, sizeof(Lane) * static_cast<size_t>(lane_count));
   }
 
   static VU8 set1_u8(uint8_t x) { return {_mm256_set1_epi8(static_cast<char>(x))}; }
@@ -347,16 +333,6 @@ struct Avx2 {
     const __m256i low = _mm256_and_si256(x, low_nibble);
     const __m256i high = _mm256_and_si256(_mm256_srli_epi16(x, 4), low_nibble);
     return _mm256_add_epi8(_mm256_shuffle_epi8(nibble_counts, low), _mm256_shuffle_epi8(nibble_counts, high));
-  }
-
-  // Lane mask with lanes [0, lane_count) all ones, for vpmaskmov.
-  template <class Lane>
-  static __m256i lanes_below(int lane_count) {
-    if constexpr (sizeof(Lane) == 4) {
-      return _mm256_cmpgt_epi32(_mm256_set1_epi32(lane_count), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-    } else {
-      return _mm256_cmpgt_epi64(_mm256_set1_epi64x(lane_count), _mm256_setr_epi64x(0, 1, 2, 3));
-    }
   }
 
   // 64-bit quarters (0 1 2 3) -> (0 2 1 3).
