@@ -9,9 +9,34 @@ if(CMAKE_SYSTEM_PROCESSOR MATCHES "^(x86_64|AMD64|amd64)$")
   set(LPSTEREO_ISA_FLAGS_avx2 -mavx2 -mbmi2 -mpopcnt)
   set(LPSTEREO_ISA_TU_avx512 3)
   set(LPSTEREO_ISA_FLAGS_avx512 -mavx512f -mavx512bw -mavx512vl -mavx512dq -mbmi2 -mpopcnt)
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_LESS 13)
+    # GCC 12's own AVX-512 intrinsics (_mm512_undefined_epi32, a deliberate self-initialisation used
+    # as the pass-through of unmasked ops) trip -Wmaybe-uninitialized once inlined (GCC PR 105593,
+    # fixed in GCC 13).
+    list(APPEND LPSTEREO_ISA_FLAGS_avx512 -Wno-maybe-uninitialized)
+  endif()
 elseif(CMAKE_SYSTEM_PROCESSOR MATCHES "^(aarch64|arm64)$")
   list(APPEND LPSTEREO_ISA_LEVELS neon)
   set(LPSTEREO_ISA_TU_neon 4)
   set(LPSTEREO_ISA_FLAGS_neon "")
 endif()
 message(STATUS "lpstereo: native ISA levels compiled: scalar ${LPSTEREO_ISA_LEVELS}")
+
+# Compiles SOURCES once per ISA level above (object library <target>_<level>, with the level's flags
+# and LPSTEREO_ISA_TU, as kernels/CMakeLists.txt does for the kernels), links the objects into
+# <target>, and defines <DEFINE_PREFIX>_<LEVEL>=1 on <target> for each level built.
+# Used by tests that need per-ISA code of their own (tests/kernels/simd_ops_probe.cpp).
+function(lpstereo_add_per_isa_sources target)
+  cmake_parse_arguments(PARSE_ARGV 1 arg "" "DEFINE_PREFIX" "SOURCES")
+  foreach(level IN LISTS LPSTEREO_ISA_LEVELS)
+    string(TOUPPER ${level} level_upper)
+    set(objects ${target}_${level})
+    add_library(${objects} OBJECT ${arg_SOURCES})
+    target_include_directories(${objects} PRIVATE ${PROJECT_SOURCE_DIR})
+    target_compile_definitions(${objects} PRIVATE LPSTEREO_ISA_TU=${LPSTEREO_ISA_TU_${level}})
+    target_compile_options(${objects} PRIVATE ${LPSTEREO_ISA_FLAGS_${level}})
+    lpstereo_warnings(${objects})
+    target_sources(${target} PRIVATE $<TARGET_OBJECTS:${objects}>)
+    target_compile_definitions(${target} PRIVATE ${arg_DEFINE_PREFIX}_${level_upper}=1)
+  endforeach()
+endfunction()

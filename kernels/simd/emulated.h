@@ -141,13 +141,14 @@ struct Emulated {
   static Lane extract(const Vec<Lane>& v, int index) { return v.lane[index]; }
 
   // ---- arithmetic ----
+  // Computed modulo 2^64 (unsigned, so no overflow even for u64 lanes), then truncated to the lane.
   template <class Lane>
   static Vec<Lane> add(const Vec<Lane>& a, const Vec<Lane>& b) {
-    return lanewise<Lane>(OpClass::arith, a, b, [](Lane x, Lane y) { return static_cast<Lane>(wide(x) + wide(y)); });
+    return lanewise<Lane>(OpClass::arith, a, b, [](Lane x, Lane y) { return static_cast<Lane>(modular(x) + modular(y)); });
   }
   template <class Lane>
   static Vec<Lane> sub(const Vec<Lane>& a, const Vec<Lane>& b) {
-    return lanewise<Lane>(OpClass::arith, a, b, [](Lane x, Lane y) { return static_cast<Lane>(wide(x) - wide(y)); });
+    return lanewise<Lane>(OpClass::arith, a, b, [](Lane x, Lane y) { return static_cast<Lane>(modular(x) - modular(y)); });
   }
   template <class Lane>
   static Vec<Lane> adds(const Vec<Lane>& a, const Vec<Lane>& b) {
@@ -285,7 +286,7 @@ struct Emulated {
 
  private:
   template <class Lane>
-  static int64_t wide(Lane x) { return static_cast<int64_t>(x); }
+  static uint64_t modular(Lane x) { return static_cast<uint64_t>(x); }
 
   template <class Lane>
   static Lane saturate(int64_t x) {
