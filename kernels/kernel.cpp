@@ -1,5 +1,7 @@
 #include "kernels/kernel.h"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>

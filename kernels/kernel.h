@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>  // the full header only where parameters are read (kernel.cpp), not in per-ISA units
 
 #include "dag/format.h"
 #include "kernels/simd/isa.h"

@@ -13,6 +13,8 @@
 #include "dag/plane.h"
 #include "dag/tile_executor.h"
 #include "kernels/kernel.h"
+
+#include <nlohmann/json.hpp>
 #include "kernels/simd/isa.h"
 
 namespace lpstereo::testing {
