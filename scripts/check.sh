@@ -2,15 +2,20 @@
 # The whole test suite, as CI runs it (.ci/run calls this): installs the Debian packages, then
 #   1. release build, every test;
 #   2. debug-asan build (AddressSanitizer + UndefinedBehaviorSanitizer), every test;
-#   3. the 4K budget: every graph under graphs/ profiled at 3840x1728 on cv1-class with --enforce,
+#   3. the release tests that exercise every kernel, run on an emulated CPU without AVX-512
+#      (qemu-x86_64 -cpu Haswell): the binary built here must run there, dispatching to AVX2;
+#   4. aarch64 cross-build (NEON), every test through qemu-aarch64;
+#   5. the 4K budget: every graph under graphs/ profiled at 3840x1728 on cv1-class with --enforce,
 #      its Markdown summary printed (graphs marked "budget": {"enforce": false} are reported only).
-# Stop at the first failure. LPSTEREO_CHECK_SKIP_ASAN=1 skips stage 2 for a quick local run.
+# Stops at the first failure. For a quick local run, LPSTEREO_CHECK_SKIP_ASAN=1 and
+# LPSTEREO_CHECK_SKIP_AARCH64=1 skip stages 2 and 4.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
 
 ./scripts/install-deps.sh
 
+start_seconds=$SECONDS
 echo "== release: build and test"
 cmake --preset release >/dev/null
 cmake --build --preset release -j "$jobs"
@@ -23,5 +28,16 @@ if [ "${LPSTEREO_CHECK_SKIP_ASAN:-0}" != "1" ]; then
   ctest --preset debug-asan
 fi
 
+echo "== release binaries on a CPU without AVX-512 (qemu-x86_64 -cpu Haswell)"
+./scripts/test-without-avx512.sh build/release
+
+if [ "${LPSTEREO_CHECK_SKIP_AARCH64:-0}" != "1" ]; then
+  echo "== aarch64 (NEON): cross-build, test through qemu-aarch64"
+  cmake --preset aarch64 >/dev/null
+  cmake --build --preset aarch64 -j "$jobs"
+  ctest --preset aarch64
+fi
+
 echo "== 4K budget on cv1-class: every graph at 3840x1728, --enforce"
 ./scripts/profile-graphs.sh build/release/tools/lpstereo
+echo "check: all stages passed in $((SECONDS - start_seconds)) s"

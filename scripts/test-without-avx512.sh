@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runs the host build's census_test and simd_ops_test on an emulated x86-64 CPU without AVX-512
+# Runs the host build's kernel, scheduler and simulator tests on an emulated x86-64 CPU without AVX-512
 # (qemu-x86_64 user mode, TCG, CPU model Haswell: AVX2 + BMI2, no AVX-512), to prove that a binary
 # built on an AVX-512 machine still runs there and that run-time dispatch then picks avx2.
 #
@@ -25,7 +25,8 @@ if ! command -v qemu-x86_64 >/dev/null 2>&1; then
   exit 2
 fi
 
-binaries=(tests/census_test tests/simd_ops_test)
+binaries=(tests/census_test tests/census_wta_disparity_test tests/median3x3_test tests/remap_bilinear_test
+          tests/simd_ops_test tests/scheduler_test tests/simulator_test)
 for binary in "${binaries[@]}"; do
   if [ ! -x "$build_dir/$binary" ]; then
     echo "test-without-avx512: $build_dir/$binary not found; build the host preset first" >&2
@@ -66,4 +67,4 @@ fi
 if [ "$failed" -ne 0 ]; then
   exit 1
 fi
-echo "test-without-avx512: census_test and simd_ops_test pass on -cpu $cpu_model with the $expected_isa level active"
+echo "test-without-avx512: ${#binaries[@]} test programs pass on -cpu $cpu_model with the $expected_isa level active"
