@@ -32,6 +32,8 @@
 #include "dag/remap_table.h"
 #include "dag/tile_executor.h"
 #include "kernels/kernel.h"
+
+#include <nlohmann/json.hpp>
 #include "kernels/simd/isa.h"
 
 namespace lpstereo {

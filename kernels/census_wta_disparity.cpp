@@ -1,20 +1,21 @@
 // census_wta_disparity: local stereo matching on 5x5 census signatures, winner takes all.
 //
-// For each left pixel x and each disparity d in [0, max_disparity), the matching cost is the
-// Hamming distance between left census(x) and right census(x - d); the disparity with the lowest
-// cost wins (ties: the smallest d). No aggregation and no sub-pixel step: this is the matching-cost
+// For each left pixel x and each disparity d in [min_disparity, min_disparity + num_disparities),
+// the matching cost is the Hamming distance between left census(x) and right census(x - d); the
+// disparity with the lowest cost wins (ties: the smallest d). min_disparity may be negative. No aggregation and no sub-pixel step: this is the matching-cost
 // stage of the disparity engine on its own, the baseline the SGM engine improves on.
 //
-// Ports: "left" census32, "right" census32 (window access; the right view needs max_disparity - 1
-// columns to the left of the tile, replicate border), output "disparity" s16 Q4.
-// Output: d * 16 (Q4, no fraction bits used); invalid = (0 - 1) * 16 = -16 (min_disparity 0, DESIGN.md §4)
-// where the best cost exceeds max_cost_bits (a weak match).
+// Ports: "left" census32, "right" census32 (window access; the right view needs
+// min_disparity + num_disparities - 1 columns to the left of the tile and -min_disparity to its
+// right, replicate border), output "disparity" s16 Q4.
+// Output: d * 16 (Q4, no fraction bits used); invalid = (min_disparity - 1) * 16 (DESIGN.md §4)
+// where the best cost exceeds max_cost_bits (a weak match). |d| < 2048 keeps d * 16 in s16.
 //
 // Vector schedule: one chunk = 2 x kLanesU32 pixels (two u32 halves, narrowed to one s16 vector).
-// Op count per chunk, D = max_disparity (closed form, tests/kernels/census_wta_disparity_test.cpp):
+// Op count per chunk, D = num_disparities (closed form, tests/kernels/census_wta_disparity_test.cpp):
 //   load = 2 + 2 D; logic = 2 D (xor) + 2 D (select) + 2 (invalid select); popcount = 2 D;
 //   compare = 2 D + 2; arith = 2 D (min) + 2 D (disparity += 1); shift = 2; permute = 1 (narrow);
-//   store = 1; plus 5 broadcasts (permute) per tile.
+//   store = 1; plus 6 broadcasts (permute) per tile.
 #include <cstdint>
 #include <vector>
 
@@ -25,11 +26,13 @@ namespace lpstereo::kernels {
 namespace {
 
 struct CensusWtaParams {
-  int max_disparity;   // pixels searched: d in [0, max_disparity)
+  int min_disparity;   // pixels; the search covers [min_disparity, min_disparity + num_disparities)
+  int num_disparities;
   int max_cost_bits;   // a best cost above this many differing bits gives an invalid pixel
 };
 
-constexpr int16_t kInvalidDisparityQ4 = -16;  // (min_disparity - 1) * 16 with min_disparity = 0
+// The one invalid value of the output (DESIGN.md §4).
+constexpr int32_t invalid_disparity_q4(const CensusWtaParams& params) { return (params.min_disparity - 1) * 16; }
 
 template <class B>
 void census_wta_disparity_body(const TileArgs& args) {
@@ -46,7 +49,10 @@ void census_wta_disparity_body(const TileArgs& args) {
   const VU32 one = B::set1_u32(1);
   const VU32 zero = B::set1_u32(0);
   const VU32 max_cost = B::set1_u32(static_cast<uint32_t>(params.max_cost_bits));
-  const VU32 invalid = B::set1_u32(static_cast<uint32_t>(static_cast<int32_t>(kInvalidDisparityQ4)));
+  const VU32 invalid = B::set1_u32(static_cast<uint32_t>(invalid_disparity_q4(params)));
+  const VU32 first_disparity = B::set1_u32(static_cast<uint32_t>(params.min_disparity));
+  // Readable right-view columns end at width + the right halo (-min_disparity when negative).
+  const int readable_end = width + (params.min_disparity < 0 ? -params.min_disparity : 0);
 
   for (int y = 0; y < output.height; ++y) {
     const uint32_t* left_row = plane_row<const uint32_t>(left, y);
@@ -56,14 +62,15 @@ void census_wta_disparity_body(const TileArgs& args) {
       VU32 result[2];
       for (int half = 0; half < 2; ++half) {
         const int first = x + half * kHalf;
-        // Columns readable in this row: [first - (max_disparity - 1), width).
+        // Left columns readable: [first, width); right: [first - max_d, readable_end).
         const int lanes = width - first >= kHalf ? kHalf : (width - first > 0 ? width - first : 0);
         const VU32 signature = lanes == kHalf ? B::load(left_row + first) : B::load_partial(left_row + first, lanes);
         VU32 best_cost = all_ones;
         VU32 best_disparity = zero;
-        VU32 disparity = zero;
-        for (int d = 0; d < params.max_disparity; ++d) {
-          const int readable = width - (first - d);
+        VU32 disparity = first_disparity;
+        for (int step = 0; step < params.num_disparities; ++step) {
+          const int d = params.min_disparity + step;
+          const int readable = readable_end - (first - d);
           const VU32 candidate = readable >= kHalf ? B::load(right_row + first - d)
                                                    : B::load_partial(right_row + first - d, readable > 0 ? readable : 0);
           const VU32 cost = B::popcount(B::bit_xor(signature, candidate));
@@ -109,9 +116,9 @@ void census_wta_disparity_reference(const std::vector<PlaneView>& inputs, const 
     for (int x = 0; x < output.width; ++x) {
       const uint32_t signature = plane_row<const uint32_t>(left, y)[x];
       int best_cost = 1 << 30;
-      int best_disparity = 0;
-      for (int d = 0; d < params.max_disparity; ++d) {
-        const int right_x = x - d < 0 ? 0 : x - d;  // replicate border
+      int best_disparity = params.min_disparity;
+      for (int d = params.min_disparity; d < params.min_disparity + params.num_disparities; ++d) {
+        const int right_x = x - d < 0 ? 0 : (x - d >= output.width ? output.width - 1 : x - d);  // replicate border
         const int cost = __builtin_popcount(signature ^ plane_row<const uint32_t>(right, y)[right_x]);
         if (cost < best_cost) {
           best_cost = cost;
@@ -119,15 +126,16 @@ void census_wta_disparity_reference(const std::vector<PlaneView>& inputs, const 
         }
       }
       plane_row<int16_t>(output, y)[x] =
-          best_cost > params.max_cost_bits ? kInvalidDisparityQ4 : static_cast<int16_t>(best_disparity * 16);
+          best_cost > params.max_cost_bits ? static_cast<int16_t>(invalid_disparity_q4(params)) : static_cast<int16_t>(best_disparity * 16);
     }
   }
 }
 
 PreparedKernel census_wta_disparity_prepare(const nlohmann::json& params, const std::vector<PlaneShape>& input_shapes) {
-  check_param_names(params, {"max_disparity", "max_cost_bits"});
+  check_param_names(params, {"min_disparity", "num_disparities", "max_cost_bits"});
   auto prepared = std::make_shared<CensusWtaParams>();
-  prepared->max_disparity = param_int(params, "max_disparity", 64, 1, 2047);
+  prepared->min_disparity = param_int(params, "min_disparity", 0, -2047, 2046);
+  prepared->num_disparities = param_int(params, "num_disparities", 64, 1, 2047 - prepared->min_disparity);
   prepared->max_cost_bits = param_int(params, "max_cost_bits", 8, 0, 24);
   if (!(input_shapes.at(0) == input_shapes.at(1))) {
     throw KernelError("port 'right': expected the left view's size " + std::to_string(input_shapes[0].width) + "x" +
@@ -135,14 +143,15 @@ PreparedKernel census_wta_disparity_prepare(const nlohmann::json& params, const 
                       std::to_string(input_shapes[1].height));
   }
   PreparedKernel result{prepared, {input_shapes.at(0)}, {}};
-  result.input_halos = {Halo{}, Halo{prepared->max_disparity - 1, 0, 0, 0}};
+  const int max_disparity = prepared->min_disparity + prepared->num_disparities - 1;
+  result.input_halos = {Halo{}, Halo{max_disparity > 0 ? max_disparity : 0, prepared->min_disparity < 0 ? -prepared->min_disparity : 0, 0, 0}};
   return result;
 }
 
 KernelDescriptor make_census_wta_disparity() {
   KernelDescriptor descriptor;
   descriptor.name = "census_wta_disparity";
-  descriptor.summary = "winner-takes-all disparity from 5x5 census Hamming costs (s16 Q4, invalid -16)";
+  descriptor.summary = "winner-takes-all disparity from 5x5 census Hamming costs (s16 Q4, invalid (min_disparity - 1) * 16)";
   descriptor.ports = {{"left", PortDirection::input, {ElementType::census32, 0}, PortAccess::window},
                       {"right", PortDirection::input, {ElementType::census32, 0}, PortAccess::window},
                       {"disparity", PortDirection::output, {ElementType::s16, 4}, PortAccess::window}};

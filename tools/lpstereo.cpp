@@ -163,15 +163,15 @@ int run_disparity(const std::string& left_path, const std::string& right_path, F
   arm::FrameRunner runner(graph);
   runner.process(pointers(inputs));
   const Plane& disparity = runner.buffer("disparity");
-  int max_disparity = 64;
+  int num_disparities = 64;
   for (const NodeInfo& node : graph.nodes()) {
-    if (node.spec.params.is_object() && node.spec.params.contains("max_disparity")) {
-      max_disparity = node.spec.params.at("max_disparity").get<int>();
+    if (node.spec.params.is_object() && node.spec.params.contains("num_disparities")) {
+      num_disparities = node.spec.params.at("num_disparities").get<int>();
     }
   }
   const std::filesystem::path out(out_directory);
   io::write_kitti_disparity_png((out / "disparity.png").string(), disparity, 0);
-  io::write_image((out / "disparity_color.png").string(), io::colorize_disparity(disparity, 0, max_disparity));
+  io::write_image((out / "disparity_color.png").string(), io::colorize_disparity(disparity, 0, num_disparities));
   if (synthetic) {
     io::write_image((out / "left.png").string(), io::plane_to_mat(scene->left));
     io::write_image((out / "right.png").string(), io::plane_to_mat(scene->right));

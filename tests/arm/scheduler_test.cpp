@@ -20,7 +20,7 @@ const char* kPipeline = R"({
      "schedule": {"tile_width": 96, "tile_height": 16}},
     {"name": "census_right", "kernel": "census5x5", "inputs": {"input": "right"}, "outputs": {"output": "right_census"}},
     {"name": "match", "kernel": "census_wta_disparity", "inputs": {"left": "left_census", "right": "right_census"},
-     "outputs": {"disparity": "disparity"}, "params": {"max_disparity": 24, "max_cost_bits": 10}},
+     "outputs": {"disparity": "disparity"}, "params": {"num_disparities": 24, "max_cost_bits": 10}},
     {"name": "exposure", "task": "exposure_statistics", "inputs": {"image": "left"}, "outputs": {"statistics": "stats"}}
   ],
   "outputs": ["disparity", "stats"]

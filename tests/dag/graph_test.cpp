@@ -39,7 +39,7 @@ const char* kCensusPair = R"({
     {"name": "census_left", "kernel": "census5x5", "inputs": {"input": "left"}, "outputs": {"output": "left_census"}},
     {"name": "census_right", "kernel": "census5x5", "inputs": {"input": "right"}, "outputs": {"output": "right_census"}},
     {"name": "match", "kernel": "census_wta_disparity", "inputs": {"left": "left_census", "right": "right_census"},
-     "outputs": {"disparity": "disparity"}, "params": {"max_disparity": 16}}
+     "outputs": {"disparity": "disparity"}, "params": {"num_disparities": 16}}
   ],
   "outputs": ["disparity"]
 })";
@@ -175,9 +175,9 @@ TEST(GraphVerifyMustFail, UnknownPortUnconnectedPortAndMissingWriter) {
 TEST(GraphVerifyMustFail, BadParametersAndBorderModes) {
   const std::string message = verify_error(R"({"name": "g", "inputs": [{"name": "l", "format": "census32"}, {"name": "r", "format": "census32"}],
     "nodes": [{"name": "m", "kernel": "census_wta_disparity", "inputs": {"left": "l", "right": "r"},
-               "outputs": {"disparity": "d"}, "params": {"max_disparity": 5000}}]})",
+               "outputs": {"disparity": "d"}, "params": {"num_disparities": 5000}}]})",
                                            options_for(64, 64));
-  EXPECT_NE(message.find("node 'm' (kernel 'census_wta_disparity'): parameter 'max_disparity': expected an integer in [1, 2047], got 5000"),
+  EXPECT_NE(message.find("node 'm' (kernel 'census_wta_disparity'): parameter 'num_disparities': expected an integer in [1, 2047], got 5000"),
             std::string::npos)
       << message;
   const std::string border = verify_error(R"({"name": "g", "inputs": [{"name": "l", "format": "census32"}, {"name": "r", "format": "census32"}],

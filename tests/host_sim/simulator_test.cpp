@@ -21,7 +21,7 @@ const char* kPipeline = R"({
     {"name": "census_left", "kernel": "census5x5", "inputs": {"input": "left"}, "outputs": {"output": "left_census"}},
     {"name": "census_right", "kernel": "census5x5", "inputs": {"input": "right"}, "outputs": {"output": "right_census"}},
     {"name": "match", "kernel": "census_wta_disparity", "inputs": {"left": "left_census", "right": "right_census"},
-     "outputs": {"disparity": "disparity"}, "params": {"max_disparity": 32}},
+     "outputs": {"disparity": "disparity"}, "params": {"num_disparities": 32}},
     {"name": "exposure", "task": "exposure_statistics", "inputs": {"image": "left"}, "outputs": {"statistics": "stats"}}
   ],
   "outputs": ["disparity", "stats"]
