@@ -83,6 +83,14 @@ FrameRunner::FrameRunner(const Graph& graph, int worker_threads) : graph_(graph)
     for (int s = 0; s < slot_count; ++s) slots_[b].emplace_back(buffer.shape.width, buffer.shape.height, buffer.format);
   }
   arm_work_.assign(graph.nodes().size(), ArmWork{});
+  node_state_.resize(graph.nodes().size());
+  for (size_t n = 0; n < graph.nodes().size(); ++n) {
+    const NodeInfo& node = graph.nodes()[n];
+    if (node.is_vector() && node.kernel->state_bytes) {
+      const PlaneShape output = buffers[node.output_buffers.at(0)].shape;
+      node_state_[n].assign(node.kernel->state_bytes(output.width, output.height, node.prepared.params.get()), 0);
+    }
+  }
   if (worker_threads <= 0) worker_threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   pool_ = std::make_unique<Pool>();
   for (int t = 0; t < worker_threads; ++t) {
@@ -121,8 +129,10 @@ FrameRunner::FrameRunner(const Graph& graph, int worker_threads) : graph_(graph)
 void FrameRunner::enqueue_locked(int dispatch_index) {
   const Dispatch& dispatch = plan_.dispatches[dispatch_index];
   const size_t tiles = dispatch.engine == Engine::vector ? dispatch.tiles.size() : 1;
-  // Vector nodes go out in chunks of tiles, so every worker gets a share of a large node.
-  const size_t chunk = std::max<size_t>(1, tiles / (4 * pool_->threads.size()));
+  // Vector nodes go out in chunks of tiles, so every worker gets a share of a large node; a
+  // row-state node goes out whole, so one worker runs its tiles top to bottom.
+  const bool row_state = dispatch.engine == Engine::vector && graph_.nodes()[dispatch.node].kernel->state_bytes;
+  const size_t chunk = row_state ? tiles : std::max<size_t>(1, tiles / (4 * pool_->threads.size()));
   int items = 0;
   for (size_t first = 0; first < tiles; first += chunk) {
     pool_->queue.push_back({dispatch_index, first, std::min(chunk, tiles - first)});
@@ -161,6 +171,12 @@ void FrameRunner::run_dispatch_item(int dispatch_index, size_t first_tile, size_
     VectorNodeBinding binding = vector_node_binding(node);
     for (size_t i = 0; i < node.input_buffers.size(); ++i) binding.inputs.push_back(input_plane(i).view());
     for (int output : node.output_buffers) binding.outputs.push_back(slot(output, frame_index_).view());
+    std::vector<uint8_t>& state = node_state_[dispatch.node];
+    if (!state.empty()) {
+      if (first_tile == 0) std::fill(state.begin(), state.end(), 0);  // a new frame
+      binding.state = state.data();
+      binding.state_bytes = state.size();
+    }
     const TileFunction function = node.kernel->native_for(simd::active_isa());
     for (size_t t = first_tile; t < first_tile + tile_count; ++t) runner.run(binding, dispatch.tiles[t], function);
     return;

@@ -73,6 +73,7 @@ class FrameRunner {
   std::vector<std::vector<Plane>> slots_;  // per buffer: 1 slot, or 2 for delayed buffers
   std::vector<const Plane*> input_planes_;
   std::vector<ArmWork> arm_work_;
+  std::vector<std::vector<uint8_t>> node_state_;  // per node: row state of row-state kernels
   int64_t frame_index_ = 0;
   std::unique_ptr<Pool> pool_;
 };

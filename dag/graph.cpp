@@ -615,6 +615,10 @@ size_t tile_working_set_bytes(const NodeInfo& node, const std::vector<BufferInfo
     ++input;
   }
   if (kernel.scratch_bytes) bytes += kernel.scratch_bytes(tile_width, tile_height, node.prepared.params.get());
+  if (kernel.state_bytes) {
+    const PlaneShape image = buffers[node.output_buffers.at(0)].shape;
+    bytes += kernel.state_bytes(image.width, image.height, node.prepared.params.get());
+  }
   return bytes;
 }
 
@@ -648,10 +652,16 @@ void Graph::phase_memory_placement() {
         while (node.tile_height > 1 && tile_working_set_bytes(node, buffers_, node.tile_width, node.tile_height) > limit) {
           node.tile_height = std::max(1, node.tile_height / 2);
         }
-        while (node.tile_width > 64 && tile_working_set_bytes(node, buffers_, node.tile_width, node.tile_height) > limit) {
+        while (!node.kernel->state_bytes && node.tile_width > 64 && tile_working_set_bytes(node, buffers_, node.tile_width, node.tile_height) > limit) {
           node.tile_width = (node.tile_width / 2 + 63) / 64 * 64;
         }
       }
+    }
+    if (node.kernel->state_bytes && node.tile_width != output.width) {
+      throw VerifyError(kPhaseMemory, "node '" + node.spec.name + "': kernel '" + node.kernel->name +
+                                          "' carries row state: expected full-width tiles (" +
+                                          std::to_string(output.width) + "), got tile width " +
+                                          std::to_string(node.tile_width));
     }
     const int block_width = std::max(1, node.kernel->block_width);
     const int block_height = std::max(1, node.kernel->block_height);

@@ -185,7 +185,7 @@ VectorNodeBinding vector_node_binding(const NodeInfo& node);
 
 // SRAM bytes a vector node needs for an output tile of tile_width x tile_height: every window
 // input with its halo, every whole input's source rectangle, every output, each double-buffered,
-// plus the kernel's scratch.
+// plus the kernel's scratch and its row state (kept in SRAM for the whole frame).
 size_t tile_working_set_bytes(const NodeInfo& node, const std::vector<BufferInfo>& buffers, int tile_width,
                               int tile_height);
 

@@ -120,19 +120,30 @@ void TileRunner::run(const VectorNodeBinding& binding, const TileRect& tile, Til
   if (scratch_.size() < scratch_bytes) scratch_.resize(scratch_bytes);
   args.scratch = scratch_bytes > 0 ? scratch_.data() : nullptr;
   args.scratch_bytes = scratch_bytes;
+  args.state = binding.state;
+  args.state_bytes = binding.state_bytes;
   function(args);
 }
 
 void run_vector_node(const VectorNodeBinding& binding, int tile_width, int tile_height, KernelBackend backend,
                      simd::Isa isa, simd::OpCounts* counts) {
   const PlaneView& output = binding.outputs.at(0);
+  // A row-state kernel keeps its state for the frame: full-width tiles, zeroed state, in order.
+  VectorNodeBinding with_state = binding;
+  std::vector<uint8_t> state;
+  if (binding.kernel->state_bytes && binding.state == nullptr) {
+    state.assign(binding.kernel->state_bytes(output.width, output.height, binding.params), 0);
+    with_state.state = state.data();
+    with_state.state_bytes = state.size();
+    tile_width = output.width;
+  }
   TileRunner runner;
   simd::OpCounts local;
   simd::CountingScope scope(local);
   const TileFunction function =
       backend == KernelBackend::counting ? binding.kernel->counting : binding.kernel->native_for(isa);
   for (const TileRect& tile : make_tiles(output.width, output.height, tile_width, tile_height)) {
-    runner.run(binding, tile, function);
+    runner.run(with_state, tile, function);
   }
   if (counts != nullptr) *counts += local;
 }

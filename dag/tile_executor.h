@@ -29,6 +29,8 @@ struct VectorNodeBinding {
   std::vector<PlaneView> inputs;   // full planes, in port order
   std::vector<PlaneView> outputs;  // full planes, in port order
   std::vector<Halo> input_halos;   // per input (PreparedKernel::input_halos); empty = kernel->halo
+  uint8_t* state = nullptr;        // row-state kernels: the frame's state (KernelDescriptor::state_bytes)
+  size_t state_bytes = 0;
 };
 
 // The halo of window input `input`: the prepared per-input halo if given, else the kernel's.
@@ -48,7 +50,8 @@ class TileRunner {
 
 enum class KernelBackend { native, counting };
 
-// Runs every tile in order on the calling thread. With KernelBackend::counting, adds the counted
+// Runs every tile in order on the calling thread (a row-state kernel: full-width tiles, whatever
+// tile_width says, with zeroed state unless the binding brings its own). With KernelBackend::counting, adds the counted
 // ops to *counts (if given). The native back end runs at the given ISA level.
 void run_vector_node(const VectorNodeBinding& binding, int tile_width, int tile_height, KernelBackend backend,
                      simd::Isa isa, simd::OpCounts* counts = nullptr);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <tuple>
 #include <sstream>
 
 #include "arm/scheduler.h"
@@ -124,17 +125,26 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
       scratch_outputs.emplace_back(buffers[output].shape.width, buffers[output].shape.height, buffers[output].format);
       binding.outputs.push_back(scratch_outputs.back().view());
     }
+    std::vector<uint8_t> state;
+    if (node.kernel->state_bytes) {
+      state.assign(node.kernel->state_bytes(scratch_outputs[0].width(), scratch_outputs[0].height(), binding.params), 0);
+      binding.state = state.data();
+      binding.state_bytes = state.size();
+    }
     TileRunner tile_runner;
-    std::map<std::pair<int, int>, simd::OpCounts> counts_by_shape;
+    // Tiles of one shape cost the same (data-oblivious kernels); the first row and column of tiles
+    // are keyed apart, since a kernel may start its state or its border work there.
+    std::map<std::tuple<int, int, bool, bool>, simd::OpCounts> counts_by_shape;
     for (const TileRect& tile : dispatch.tiles) {
       simd::OpCounts tile_counts;
-      auto cached = counts_by_shape.find({tile.width, tile.height});
+      const auto key = std::make_tuple(tile.width, tile.height, tile.x == 0, tile.y == 0);
+      auto cached = counts_by_shape.find(key);
       if (cached != counts_by_shape.end() && !options.count_every_tile) {
         tile_counts = cached->second;
       } else {
         simd::CountingScope scope(tile_counts);
         tile_runner.run(binding, tile, node.kernel->counting);
-        counts_by_shape.emplace(std::make_pair(tile.width, tile.height), tile_counts);
+        counts_by_shape.emplace(key, tile_counts);
       }
       TileCost cost;
       cost.compute_cycles = compute_cycles(tile_counts, target);

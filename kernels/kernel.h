@@ -73,6 +73,8 @@ struct TileArgs {
   int32_t image_width = 0, image_height = 0;  // full output plane size
   BorderMode border_mode = BorderMode::replicate;
   uint32_t border_value = 0;
+  uint8_t* state = nullptr;            // row-state kernels: state_bytes() kept across the tiles of a frame
+  size_t state_bytes = 0;
 };
 
 using TileFunction = void (*)(const TileArgs& args);
@@ -140,6 +142,11 @@ struct KernelDescriptor {
 
   // Tile-local scratch for an output tile of this size; defaults to none.
   std::function<size_t(int tile_width, int tile_height, const void* params)> scratch_bytes;
+
+  // Row-state kernels (SGM path costs carried from one row to the next): the bytes of state that
+  // persist across the tiles of one frame, zeroed before its first tile. Such a kernel gets
+  // full-width tiles, top to bottom, on one worker. Unset = no state, tiles independent.
+  std::function<size_t(int image_width, int image_height, const void* params)> state_bytes;
 
   // For whole-access inputs: the source rectangle an output tile reads (clipped to the plane), so
   // the simulator charges DMA for it. Defaults to the whole plane.
