@@ -608,9 +608,9 @@ size_t tile_working_set_bytes(const NodeInfo& node, const std::vector<BufferInfo
       }
       bytes += 2 * static_cast<size_t>(rect.x1 - rect.x0) * (rect.y1 - rect.y0) * element_size;
     } else {
-      const Halo& halo = input_halo(kernel, node.prepared.input_halos, input);
-      bytes += 2 * static_cast<size_t>(tile_width + halo.left + halo.right) * (tile_height + halo.top + halo.bottom) *
-               element_size;
+      const PixelRect rect = tile_input_rect(kernel, node.prepared.input_halos, node.prepared.input_scales, input,
+                                             TileRect{0, 0, tile_width, tile_height});
+      bytes += 2 * static_cast<size_t>(rect.x1 - rect.x0) * static_cast<size_t>(rect.y1 - rect.y0) * element_size;
     }
     ++input;
   }
@@ -629,6 +629,7 @@ VectorNodeBinding vector_node_binding(const NodeInfo& node) {
   binding.border_mode = node.spec.border_mode;
   binding.border_value = node.spec.border_value;
   binding.input_halos = node.prepared.input_halos;
+  binding.input_scales = node.prepared.input_scales;
   return binding;
 }
 

@@ -23,6 +23,12 @@ std::vector<TileRect> make_tiles(int width, int height, int tile_width, int tile
   return tiles;
 }
 
+PixelRect tile_input_rect(const KernelDescriptor& kernel, const std::vector<Halo>& input_halos,
+                          const std::vector<InputScale>& input_scales, int input, const TileRect& tile) {
+  const InputScale scale = input_scales.empty() ? InputScale{} : input_scales.at(static_cast<size_t>(input));
+  return window_input_rect(input_halo(kernel, input_halos, input), scale, tile.x, tile.y, tile.width, tile.height);
+}
+
 namespace {
 
 // Copies rectangle [x0, x0 + width) x [y0, y0 + height) of `source` into `destination` (row pitch
@@ -92,16 +98,22 @@ void TileRunner::run(const VectorNodeBinding& binding, const TileRect& tile, Til
       continue;
     }
     const Halo& halo = input_halo(kernel, binding.input_halos, input_index);
-    const int x0 = tile.x - halo.left;
-    const int y0 = tile.y - halo.top;
-    const int staged_width = tile.width + halo.left + halo.right;
-    const int staged_height = tile.height + halo.top + halo.bottom;
+    const PixelRect rect = tile_input_rect(kernel, binding.input_halos, binding.input_scales, input_index, tile);
+    const int x0 = rect.x0;
+    const int y0 = rect.y0;
+    const int staged_width = rect.x1 - rect.x0;
+    const int staged_height = rect.y1 - rect.y0;
+    // The input tile itself (halo excluded), in input coordinates.
+    const int input_x = x0 + halo.left;
+    const int input_y = y0 + halo.top;
+    const int input_width = staged_width - halo.left - halo.right;
+    const int input_height = staged_height - halo.top - halo.bottom;
     const bool inside = x0 >= 0 && y0 >= 0 && x0 + staged_width <= plane.width && y0 + staged_height <= plane.height;
     if (inside) {
       // The halo exists in the image: read it in place, as a DMA of the same rectangle would.
       args.inputs[input_index] = PlaneView{
-          plane.origin + static_cast<ptrdiff_t>(tile.y) * plane.stride_bytes + static_cast<ptrdiff_t>(tile.x) * element_size,
-          plane.stride_bytes, tile.width, tile.height};
+          plane.origin + static_cast<ptrdiff_t>(input_y) * plane.stride_bytes + static_cast<ptrdiff_t>(input_x) * element_size,
+          plane.stride_bytes, input_width, input_height};
     } else {
       std::vector<uint8_t>& staging = staging_[input_index];
       const size_t pitch = static_cast<size_t>(staged_width) * element_size;
@@ -109,7 +121,7 @@ void TileRunner::run(const VectorNodeBinding& binding, const TileRect& tile, Til
       stage_with_border(plane, element_size, x0, y0, staged_width, staged_height, binding.border_mode,
                         binding.border_value, staging.data());
       args.inputs[input_index] = PlaneView{staging.data() + halo.top * pitch + static_cast<size_t>(halo.left) * element_size,
-                                           static_cast<ptrdiff_t>(pitch), tile.width, tile.height};
+                                           static_cast<ptrdiff_t>(pitch), input_width, input_height};
     }
     ++input_index;
   }

@@ -29,6 +29,7 @@ struct VectorNodeBinding {
   std::vector<PlaneView> inputs;   // full planes, in port order
   std::vector<PlaneView> outputs;  // full planes, in port order
   std::vector<Halo> input_halos;   // per input (PreparedKernel::input_halos); empty = kernel->halo
+  std::vector<InputScale> input_scales;  // per input (PreparedKernel::input_scales); empty = 1/1
   uint8_t* state = nullptr;        // row-state kernels: the frame's state (KernelDescriptor::state_bytes)
   size_t state_bytes = 0;
 };
@@ -37,6 +38,11 @@ struct VectorNodeBinding {
 inline const Halo& input_halo(const KernelDescriptor& kernel, const std::vector<Halo>& input_halos, int input) {
   return input_halos.empty() ? kernel.halo : input_halos.at(static_cast<size_t>(input));
 }
+
+// The rectangle of window input `input` (halo included, not clipped) an output tile reads: the one
+// place the executor, verify's working set and the simulator's DMA take it from.
+PixelRect tile_input_rect(const KernelDescriptor& kernel, const std::vector<Halo>& input_halos,
+                          const std::vector<InputScale>& input_scales, int input, const TileRect& tile);
 
 // Per-worker state: halo staging buffers and scratch, reused from tile to tile.
 class TileRunner {

@@ -56,8 +56,7 @@ uint64_t tile_input_bytes(const NodeInfo& node, const std::vector<BufferInfo>& b
                                         buffer.shape, node.prepared.params.get());
       }
     } else {
-      const Halo& halo = input_halo(*node.kernel, node.prepared.input_halos, input);
-      rect = {tile.x - halo.left, tile.y - halo.top, tile.x + tile.width + halo.right, tile.y + tile.height + halo.bottom};
+      rect = tile_input_rect(*node.kernel, node.prepared.input_halos, node.prepared.input_scales, input, tile);
     }
     rect.x0 = std::clamp(rect.x0, 0, buffer.shape.width);
     rect.x1 = std::clamp(rect.x1, 0, buffer.shape.width);

@@ -25,6 +25,16 @@ uint8_t reference_pixel_u8(const PlaneView& plane, int x, int y, BorderMode bord
   return plane_row<const uint8_t>(plane, y)[x];
 }
 
+PixelRect window_input_rect(const Halo& halo, const InputScale& scale, int tile_x, int tile_y, int tile_width,
+                            int tile_height) {
+  auto floor_scaled = [&](int value) { return static_cast<int>((static_cast<int64_t>(value) * scale.numerator) / scale.denominator); };
+  auto ceil_scaled = [&](int value) {
+    return static_cast<int>((static_cast<int64_t>(value) * scale.numerator + scale.denominator - 1) / scale.denominator);
+  };
+  return PixelRect{floor_scaled(tile_x) - halo.left, floor_scaled(tile_y) - halo.top,
+                   ceil_scaled(tile_x + tile_width) + halo.right, ceil_scaled(tile_y + tile_height) + halo.bottom};
+}
+
 int KernelDescriptor::input_count() const {
   return static_cast<int>(std::count_if(ports.begin(), ports.end(),
                                         [](const PortSpec& port) { return port.direction == PortDirection::input; }));

@@ -113,6 +113,25 @@ class KernelError : public std::runtime_error {
 };
 
 // What prepare() returns: the kernel's own parameter struct and its output shapes.
+// How a window input's coordinates relate to the output's, on both axes:
+// input = output x numerator / denominator (2/1: the input is twice the output, a 2x downsampling
+// kernel; 1/2: a 2x upsampling kernel). The input tile starts at floor(tile_x x n / d).
+struct InputScale {
+  int numerator = 1;
+  int denominator = 1;
+  bool operator==(const InputScale&) const = default;
+};
+
+// Rectangle in the full plane, [x0, x1) x [y0, y1).
+struct PixelRect {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+
+// The input rectangle (input coordinates, halo included, not clipped to the plane) that the output
+// tile [tile_x, tile_x + tile_width) x [tile_y, tile_y + tile_height) reads.
+PixelRect window_input_rect(const Halo& halo, const InputScale& scale, int tile_x, int tile_y, int tile_width,
+                            int tile_height);
+
 struct PreparedKernel {
   std::shared_ptr<const void> params;
   std::vector<PlaneShape> output_shapes;  // one per output port, in port order
@@ -120,11 +139,8 @@ struct PreparedKernel {
   // view of a disparity search needs max_disparity - 1 columns to its left). Empty = every window
   // input uses the descriptor's halo.
   std::vector<Halo> input_halos;
-};
-
-// Rectangle in the full plane, [x0, x1) x [y0, y1).
-struct PixelRect {
-  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  // Per input port, for kernels whose inputs are not the output's size (pyramids). Empty = 1/1.
+  std::vector<InputScale> input_scales;
 };
 
 struct KernelDescriptor {

@@ -128,7 +128,7 @@ inline std::vector<Plane> expect_all_back_ends_match_reference(const KernelCase&
       auto check = [&](KernelBackend backend, simd::Isa isa, const std::string& label) {
         std::vector<Plane> actual = make_outputs(0x5A);
         VectorNodeBinding binding{&kernel, prepared.params.get(), mode, border_value, input_views, plane_views(actual),
-                                  prepared.input_halos};
+                                  prepared.input_halos, prepared.input_scales};
         run_vector_node(binding, tile_width, tile_height, backend, isa);
         for (size_t i = 0; i < actual.size(); ++i) {
           EXPECT_TRUE(planes_equal(expected[i], actual[i]))
@@ -172,7 +172,7 @@ inline simd::OpCounts count_ops(const KernelCase& test_case, int tile_width, int
   const PreparedKernel prepared = prepare_case(kernel, test_case);
   std::vector<Plane> outputs = make_output_planes(kernel, prepared, test_case.output_stride_padding, 0);
   VectorNodeBinding binding{&kernel, prepared.params.get(), mode, 0, plane_views(test_case.inputs), plane_views(outputs),
-                            prepared.input_halos};
+                            prepared.input_halos, prepared.input_scales};
   simd::OpCounts counts;
   run_vector_node(binding, tile_width, tile_height, KernelBackend::counting, simd::Isa::scalar, &counts);
   return counts;
