@@ -48,6 +48,7 @@ FramePlan plan_frame(const Graph& graph) {
     if (node.is_vector()) {
       const PlaneShape output = buffers[node.output_buffers.at(0)].shape;
       dispatch.tiles = make_tiles(output.width, output.height, node.tile_width, node.tile_height);
+      if (node.kernel->state_bytes && node.kernel->rows_bottom_up) std::reverse(dispatch.tiles.begin(), dispatch.tiles.end());
     }
   }
   return plan;

@@ -154,9 +154,9 @@ void run_vector_node(const VectorNodeBinding& binding, int tile_width, int tile_
   simd::CountingScope scope(local);
   const TileFunction function =
       backend == KernelBackend::counting ? binding.kernel->counting : binding.kernel->native_for(isa);
-  for (const TileRect& tile : make_tiles(output.width, output.height, tile_width, tile_height)) {
-    runner.run(with_state, tile, function);
-  }
+  std::vector<TileRect> tiles = make_tiles(output.width, output.height, tile_width, tile_height);
+  if (with_state.state != nullptr && binding.kernel->rows_bottom_up) std::reverse(tiles.begin(), tiles.end());
+  for (const TileRect& tile : tiles) runner.run(with_state, tile, function);
   if (counts != nullptr) *counts += local;
 }
 

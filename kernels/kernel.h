@@ -163,6 +163,9 @@ struct KernelDescriptor {
   // persist across the tiles of one frame, zeroed before its first tile. Such a kernel gets
   // full-width tiles, top to bottom, on one worker. Unset = no state, tiles independent.
   std::function<size_t(int image_width, int image_height, const void* params)> state_bytes;
+  // Row-state kernels only: the tiles come bottom to top (the backward pass of 8-path SGM); the
+  // kernel walks the rows of each tile bottom to top itself.
+  bool rows_bottom_up = false;
 
   // For whole-access inputs: the source rectangle an output tile reads (clipped to the plane), so
   // the simulator charges DMA for it. Defaults to the whole plane.

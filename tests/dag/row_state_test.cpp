@@ -13,24 +13,41 @@ namespace {
 using testing::planes_equal;
 using testing::random_plane;
 
-Plane reference_sums(const Plane& input) {
+Plane reference_sums(const Plane& input, const std::string& kernel = "test_column_running_sum") {
   Plane expected(input.width(), input.height(), {ElementType::u32, 0});
-  testing::kernel_named("test_column_running_sum").reference({input.view()}, {expected.view()}, nullptr, BorderMode::replicate, 0);
+  testing::kernel_named(kernel).reference({input.view()}, {expected.view()}, nullptr, BorderMode::replicate, 0);
   return expected;
 }
 
 TEST(RowState, TileExecutorCarriesStateDownTheFrameForEveryTileHeight) {
   const Plane input = random_plane(131, 77, {ElementType::u8, 0}, 150, 3);
-  const Plane expected = reference_sums(input);
-  const KernelDescriptor& kernel = testing::kernel_named("test_column_running_sum");
-  for (int tile_height : {1, 5, 16, 77}) {
-    for (KernelBackend backend : {KernelBackend::native, KernelBackend::counting}) {
-      Plane output(131, 77, {ElementType::u32, 0});
-      VectorNodeBinding binding{&kernel, nullptr, BorderMode::replicate, 0, {input.view()}, {output.view()}};
-      run_vector_node(binding, 40 /* ignored: row state needs full width */, tile_height, backend, simd::Isa::scalar);
-      EXPECT_TRUE(planes_equal(expected, output)) << "tile height " << tile_height;
+  for (const char* name : {"test_column_running_sum", "test_column_running_sum_bottom_up"}) {
+    const Plane expected = reference_sums(input, name);
+    const KernelDescriptor& kernel = testing::kernel_named(name);
+    for (int tile_height : {1, 5, 16, 77}) {
+      for (KernelBackend backend : {KernelBackend::native, KernelBackend::counting}) {
+        Plane output(131, 77, {ElementType::u32, 0});
+        VectorNodeBinding binding{&kernel, nullptr, BorderMode::replicate, 0, {input.view()}, {output.view()}};
+        run_vector_node(binding, 40 /* ignored: row state needs full width */, tile_height, backend, simd::Isa::scalar);
+        EXPECT_TRUE(planes_equal(expected, output)) << name << " tile height " << tile_height;
+      }
     }
   }
+}
+
+TEST(RowState, SchedulerRunsBottomUpTilesInReverseOrder) {
+  Graph graph(parse_graph_spec(R"({"name": "sums", "inputs": [{"name": "image", "format": "u8"}],
+    "nodes": [{"name": "sums", "kernel": "test_column_running_sum_bottom_up", "inputs": {"input": "image"},
+               "outputs": {"output": "sums"}, "schedule": {"tile_height": 7}}]})", "sums.json"));
+  VerifyOptions options;
+  options.frame_width = 150;
+  options.frame_height = 50;
+  graph.verify(options);
+  arm::FrameRunner runner(graph, 2);
+  const Plane input = random_plane(150, 50, {ElementType::u8, 0}, 0, 5);
+  runner.process({{"image", &input}});
+  EXPECT_TRUE(planes_equal(reference_sums(input, "test_column_running_sum_bottom_up"), runner.buffer("sums")));
+  EXPECT_EQ(runner.plan().dispatches[0].tiles.front().y, 49);  // the last strip (one row) comes first
 }
 
 const char* kGraph = R"({"name": "sums", "inputs": [{"name": "image", "format": "u8"}],
