@@ -29,7 +29,8 @@ class DisparityEngine {
   // Builds and verifies the graph for width x height frames against `memory` (unlimited by
   // default). Throws VerifyError (or std::invalid_argument for parameters out of range, naming
   // the parameter, the expected range and the actual value).
-  DisparityEngine(int width, int height, const DisparityParameters& parameters, const MemoryBudget& memory = {});
+  DisparityEngine(int width, int height, const DisparityParameters& parameters, const MemoryBudget& memory = {},
+                  KernelBackend backend = KernelBackend::native);
   ~DisparityEngine();
   DisparityEngine(const DisparityEngine&) = delete;
   DisparityEngine& operator=(const DisparityEngine&) = delete;

@@ -73,7 +73,8 @@ struct FrameRunner::Pool {
   std::vector<std::thread> threads;
 };
 
-FrameRunner::FrameRunner(const Graph& graph, int worker_threads) : graph_(graph), plan_(plan_frame(graph)) {
+FrameRunner::FrameRunner(const Graph& graph, int worker_threads, KernelBackend backend)
+    : graph_(graph), backend_(backend), plan_(plan_frame(graph)) {
   const std::vector<BufferInfo>& buffers = graph.buffers();
   slots_.resize(buffers.size());
   input_planes_.assign(buffers.size(), nullptr);
@@ -178,7 +179,8 @@ void FrameRunner::run_dispatch_item(int dispatch_index, size_t first_tile, size_
       binding.state = state.data();
       binding.state_bytes = state.size();
     }
-    const TileFunction function = node.kernel->native_for(simd::active_isa());
+    const TileFunction function =
+        backend_ == KernelBackend::counting ? node.kernel->counting : node.kernel->native_for(simd::active_isa());
     for (size_t t = first_tile; t < first_tile + tile_count; ++t) runner.run(binding, dispatch.tiles[t], function);
     return;
   }

@@ -46,8 +46,9 @@ class FrameInputError : public std::runtime_error {
 // have two slots that alternate each frame.
 class FrameRunner {
  public:
-  // worker_threads 0 = one per hardware thread.
-  FrameRunner(const Graph& graph, int worker_threads = 0);
+  // worker_threads 0 = one per hardware thread. KernelBackend::counting runs the vector nodes on
+  // the counting back end (same bits, slower): what `--backend counting` and the golden tests use.
+  FrameRunner(const Graph& graph, int worker_threads = 0, KernelBackend backend = KernelBackend::native);
   ~FrameRunner();
   FrameRunner(const FrameRunner&) = delete;
   FrameRunner& operator=(const FrameRunner&) = delete;
@@ -69,6 +70,7 @@ class FrameRunner {
   void run_dispatch_item(int dispatch, size_t first_tile, size_t tile_count, TileRunner& runner);
 
   const Graph& graph_;
+  KernelBackend backend_;
   FramePlan plan_;
   std::vector<std::vector<Plane>> slots_;  // per buffer: 1 slot, or 2 for delayed buffers
   std::vector<const Plane*> input_planes_;

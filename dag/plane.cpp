@@ -28,4 +28,11 @@ Plane::Plane(int width, int height, BufferFormat format, ptrdiff_t stride_bytes)
   view_ = PlaneView{memory, stride_bytes, width, height};
 }
 
+Plane Plane::clone() const {
+  if (empty()) return Plane();
+  Plane copy(width(), height(), format_, stride_bytes());
+  std::memcpy(copy.view_.origin, view_.origin, size_bytes_);
+  return copy;
+}
+
 }  // namespace lpstereo

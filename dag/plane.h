@@ -28,6 +28,8 @@ class Plane {
   size_t size_bytes() const { return size_bytes_; }
 
   PlaneView view() const { return view_; }
+  // Copies share the buffer (cheap handles); clone() makes an independent copy of the pixels.
+  Plane clone() const;
   template <class Element>
   Element* row(int y) const { return plane_row<Element>(view_, y); }
   template <class Element>

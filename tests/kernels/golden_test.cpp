@@ -1,0 +1,199 @@
+// Golden bits: for fixed inputs the project generates itself, the output of every kernel and of the
+// whole disparity pipeline hashes to the same value on every back end: the scalar level, each
+// native ISA level this CPU has (SSE4.2, AVX2, AVX-512 on x86; NEON on aarch64, run under
+// qemu-aarch64 by the aarch64 preset) and the counting back end. The hashes are written down here,
+// so the x86 host, the simulator and an ARM board are held to the same bits.
+//
+// A kernel registered without a golden case fails KernelsAllHaveAGoldenCase. When a kernel's
+// output changes on purpose, the failure prints the new hash to paste here (say why in the commit).
+#include <gtest/gtest.h>
+
+#include <cinttypes>
+#include <cstdio>
+#include <random>
+#include <set>
+
+#include "arm/disparity_engine.h"
+#include "dag/remap_table.h"
+#include "dag/tile_executor.h"
+#include "io/synthetic_scene.h"
+#include "tests/kernels/kernel_check.h"
+
+namespace lpstereo {
+namespace {
+
+// FNV-1a over the image area, row by row (padding excluded), plus the size.
+uint64_t plane_hash(const Plane& plane) {
+  uint64_t hash = 0xcbf29ce484222325ull;
+  auto mix = [&](uint8_t byte) {
+    hash ^= byte;
+    hash *= 0x100000001b3ull;
+  };
+  for (int shift = 0; shift < 32; shift += 8) mix(static_cast<uint8_t>(plane.width() >> shift));
+  for (int shift = 0; shift < 32; shift += 8) mix(static_cast<uint8_t>(plane.height() >> shift));
+  const size_t row_bytes = static_cast<size_t>(plane.width()) * plane.element_size();
+  for (int y = 0; y < plane.height(); ++y) {
+    const uint8_t* row = plane.row<uint8_t>(y);
+    for (size_t i = 0; i < row_bytes; ++i) mix(row[i]);
+  }
+  return hash;
+}
+
+// Deterministic inputs by format: raw mt19937 words (the engine is specified bit for bit by the
+// standard, unlike the distributions), shaped to exercise each kernel.
+Plane golden_input(const PortSpec& port, PlaneShape shape, uint32_t seed) {
+  if (port.format.type == ElementType::remap_q4) {
+    return make_synthetic_rectification_map(shape.width, shape.height, SyntheticRectification{});
+  }
+  Plane plane(shape.width, shape.height, port.format, 0);
+  std::mt19937 words(seed);
+  for (int y = 0; y < shape.height; ++y) {
+    for (int x = 0; x < shape.width; ++x) {
+      const uint32_t word = static_cast<uint32_t>(words());
+      switch (port.format.type) {
+        case ElementType::u8:
+          // A smooth ramp plus noise: structure for census and medians, ties for the comparisons.
+          plane.at<uint8_t>(x, y) = static_cast<uint8_t>((x * 3 + y * 2) / 4 + (word & 0x1F));
+          break;
+        case ElementType::census32:
+          plane.at<uint32_t>(x, y) = word & 0x00F0F0F0u & (word >> 3);
+          break;
+        case ElementType::census64:
+          plane.at<uint64_t>(x, y) = (uint64_t{word} << 32 | static_cast<uint32_t>(words())) & 0x3FFFFFFFFFFFFFFFull;
+          break;
+        case ElementType::s16:
+          plane.at<int16_t>(x, y) = static_cast<int16_t>(static_cast<int>(word % 1200) - 100);
+          break;
+        default: {
+          uint8_t* element = plane.row<uint8_t>(y) + static_cast<size_t>(x) * plane.element_size();
+          for (int byte = 0; byte < plane.element_size(); ++byte) element[byte] = static_cast<uint8_t>(word >> (8 * (byte % 4)));
+        }
+      }
+    }
+  }
+  return plane;
+}
+
+struct GoldenCase {
+  std::string kernel;
+  nlohmann::json params;
+  BorderMode border_mode;
+  std::vector<PlaneShape> input_shapes;
+  uint64_t hash;  // of output 0, from the scalar reference
+};
+
+// 97 x 61: odd, wider than one 512-bit vector of u8 and with a partial last chunk on every level.
+const std::vector<GoldenCase>& golden_cases() {
+  static const std::vector<GoldenCase> cases = {
+      {"census5x5", nlohmann::json::object(), BorderMode::replicate, {{97, 61}}, 0x40ccef81b86a8ea8ull},
+      {"census9x7", nlohmann::json::object(), BorderMode::constant, {{97, 61}}, 0x1baf97e699f34578ull},
+      {"census_wta_disparity", {{"min_disparity", -3}, {"num_disparities", 24}, {"max_cost_bits", 5}},
+       BorderMode::replicate, {{97, 61}, {97, 61}}, 0x78c485fbf2aecb61ull},
+      {"median3x3", nlohmann::json::object(), BorderMode::replicate, {{97, 61}}, 0xfe146256b73fdb16ull},
+      {"remap_bilinear", nlohmann::json::object(), BorderMode::constant, {{97, 61}, {97, 61}}, 0xab305ec907968711ull},
+  };
+  return cases;
+}
+
+// The first pixel where two planes differ, as "x=.. y=..", or "" if equal.
+std::string first_difference(const Plane& expected, const Plane& actual) {
+  const size_t element = static_cast<size_t>(expected.element_size());
+  for (int y = 0; y < expected.height(); ++y) {
+    for (int x = 0; x < expected.width(); ++x) {
+      if (std::memcmp(expected.row<uint8_t>(y) + x * element, actual.row<uint8_t>(y) + x * element, element) != 0) {
+        return "x=" + std::to_string(x) + " y=" + std::to_string(y);
+      }
+    }
+  }
+  return "";
+}
+
+std::string hex(uint64_t value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "0x%016" PRIx64 "ull", value);
+  return text;
+}
+
+TEST(Golden, EveryKernelGivesItsGoldenBitsOnEveryBackEnd) {
+  for (const GoldenCase& golden : golden_cases()) {
+    const KernelDescriptor& kernel = testing::kernel_named(golden.kernel);
+    std::vector<Plane> inputs;
+    std::vector<PlaneView> input_views;
+    int input = 0;
+    for (const PortSpec& port : kernel.ports) {
+      if (port.direction != PortDirection::input) continue;
+      inputs.push_back(golden_input(port, golden.input_shapes.at(input), 1000u + static_cast<uint32_t>(input)));
+      input_views.push_back(inputs.back().view());
+      ++input;
+    }
+    const PreparedKernel prepared = kernel.prepare(golden.params, golden.input_shapes);
+    std::vector<BufferFormat> output_formats;
+    for (const PortSpec& port : kernel.ports) {
+      if (port.direction == PortDirection::output) output_formats.push_back(port.format);
+    }
+    auto run = [&](const std::function<void(std::vector<PlaneView>&)>& execute) {
+      std::vector<Plane> outputs;
+      std::vector<PlaneView> views;
+      for (size_t o = 0; o < output_formats.size(); ++o) {
+        outputs.emplace_back(prepared.output_shapes[o].width, prepared.output_shapes[o].height, output_formats[o]);
+        views.push_back(outputs.back().view());
+      }
+      execute(views);
+      return outputs;
+    };
+    const std::vector<Plane> reference = run([&](std::vector<PlaneView>& views) {
+      kernel.reference(input_views, views, prepared.params.get(), golden.border_mode, 0);
+    });
+    const uint64_t reference_hash = plane_hash(reference[0]);
+    EXPECT_EQ(hex(reference_hash), hex(golden.hash)) << golden.kernel << ": the scalar reference's output hash changed";
+    auto check_back_end = [&](KernelBackend backend, simd::Isa isa, const std::string& label) {
+      const std::vector<Plane> outputs = run([&](std::vector<PlaneView>& views) {
+        VectorNodeBinding binding{&kernel, prepared.params.get(), golden.border_mode, 0, input_views, views,
+                                  prepared.input_halos, prepared.input_scales};
+        run_vector_node(binding, 40, 16, backend, isa);
+      });
+      for (size_t o = 0; o < outputs.size(); ++o) {
+        EXPECT_EQ(first_difference(reference[o], outputs[o]), "")
+            << golden.kernel << " on " << label << ", output " << o << ": first pixel that differs from the reference";
+      }
+      EXPECT_EQ(hex(plane_hash(outputs[0])), hex(golden.hash)) << golden.kernel << " on " << label;
+    };
+    for (simd::Isa isa : simd::available_isas()) check_back_end(KernelBackend::native, isa, std::string(simd::isa_name(isa)));
+    check_back_end(KernelBackend::counting, simd::Isa::scalar, "counting");
+  }
+}
+
+TEST(Golden, KernelsAllHaveAGoldenCase) {
+  std::set<std::string> covered;
+  for (const GoldenCase& golden : golden_cases()) covered.insert(golden.kernel);
+  for (const std::string& name : KernelRegistry::instance().names()) {
+    if (name.rfind("test_", 0) == 0) continue;  // test-only kernels
+    EXPECT_TRUE(covered.count(name)) << "kernel '" << name << "' has no golden case in tests/kernels/golden_test.cpp";
+  }
+}
+
+// The whole disparity pipeline on the built-in synthetic scene.
+TEST(Golden, DisparityPipelineGivesItsGoldenBitsOnEveryBackEnd) {
+  io::SyntheticSceneOptions scene_options;
+  scene_options.width = 193;
+  scene_options.height = 121;
+  const io::SyntheticStereoScene scene = io::make_synthetic_stereo_scene(scene_options);
+  arm::DisparityParameters parameters;
+  parameters.num_disparities = 32;
+  const uint64_t kGolden = 0xda34cfb5a57f0898ull;
+  std::optional<Plane> scalar;
+  auto check = [&](KernelBackend backend, simd::Isa isa, const std::string& label) {
+    simd::ActiveIsaScope scope(isa);
+    arm::DisparityEngine engine(scene_options.width, scene_options.height, parameters, {}, backend);
+    const Plane& disparity = engine.compute(scene.left, scene.right);
+    if (!scalar) scalar = disparity.clone();
+    EXPECT_EQ(first_difference(*scalar, disparity), "") << "disparity pipeline on " << label << " vs scalar";
+    EXPECT_EQ(hex(plane_hash(disparity)), hex(kGolden)) << "disparity pipeline on " << label;
+  };
+  check(KernelBackend::native, simd::Isa::scalar, "scalar");
+  for (simd::Isa isa : simd::available_isas()) check(KernelBackend::native, isa, std::string(simd::isa_name(isa)));
+  check(KernelBackend::counting, simd::Isa::scalar, "counting");
+}
+
+}  // namespace
+}  // namespace lpstereo
