@@ -44,7 +44,8 @@ GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
   return spec;
 }
 
-DisparityEngine::DisparityEngine(int width, int height, const DisparityParameters& parameters, const MemoryBudget& memory)
+DisparityEngine::DisparityEngine(int width, int height, const DisparityParameters& parameters, const MemoryBudget& memory,
+                                 int worker_threads)
     : parameters_(parameters) {
   check_range("num_disparities", parameters.num_disparities, 1, width);
   check_range("min_disparity", parameters.min_disparity, -width + 1, width - 1);
@@ -59,7 +60,7 @@ DisparityEngine::DisparityEngine(int width, int height, const DisparityParameter
   options.frame_height = height;
   options.memory = memory;
   graph_->verify(options);
-  runner_ = std::make_unique<FrameRunner>(*graph_);
+  runner_ = std::make_unique<FrameRunner>(*graph_, worker_threads);
 }
 
 DisparityEngine::~DisparityEngine() = default;

@@ -28,8 +28,10 @@ class DisparityEngine {
  public:
   // Builds and verifies the graph for width x height frames against `memory` (unlimited by
   // default). Throws VerifyError (or std::invalid_argument for parameters out of range, naming
-  // the parameter, the expected range and the actual value).
-  DisparityEngine(int width, int height, const DisparityParameters& parameters, const MemoryBudget& memory = {});
+  // the parameter, the expected range and the actual value). worker_threads: the FrameRunner's
+  // threads (0 = one per hardware thread).
+  DisparityEngine(int width, int height, const DisparityParameters& parameters, const MemoryBudget& memory = {},
+                  int worker_threads = 0);
   ~DisparityEngine();
   DisparityEngine(const DisparityEngine&) = delete;
   DisparityEngine& operator=(const DisparityEngine&) = delete;
