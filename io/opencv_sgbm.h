@@ -11,6 +11,8 @@
 
 #include <string>
 
+#include <opencv2/calib3d.hpp>
+
 #include "dag/plane.h"
 
 namespace lpstereo::io {
@@ -32,6 +34,11 @@ struct SgbmSettings {
 const char* sgbm_mode_name(SgbmMode mode);
 // One line with every setting, for reports and benchmark contexts.
 std::string sgbm_settings_text(const SgbmSettings& settings);
+
+// The matcher with these settings (num_disparities: a positive multiple of 16, else
+// std::invalid_argument).
+cv::Ptr<cv::StereoSGBM> make_opencv_sgbm(int min_disparity_px, int num_disparities, SgbmMode mode,
+                                         const SgbmSettings& settings = {});
 
 // Left/right u8 views of the same size; num_disparities must be a positive multiple of 16
 // (OpenCV's requirement; std::invalid_argument otherwise). Returns s16 Q4.

@@ -112,6 +112,24 @@ std::string leaf_name(const std::string& directory) {
   return (path.has_filename() ? path.filename() : path.parent_path().filename()).string();
 }
 
+// A pair with its views read from `directory` (which must exist); the caller adds truth and range.
+StereoPair pair_with_views(const std::string& collection, const std::string& name, const std::string& directory,
+                           const std::string& left_name, const std::string& right_name) {
+  require_directory(directory);
+  StereoPair pair;
+  pair.collection = collection;
+  pair.name = name;
+  pair.left = read_luma_u8(join(directory, left_name));
+  pair.right = read_luma_u8(join(directory, right_name));
+  return pair;
+}
+
+// `truth_px` read from `path`, checked against the left view's size.
+cv::Mat sized_like_left(const std::string& path, const cv::Mat& truth_px, const Plane& left) {
+  require_size(path, truth_px.size(), left);
+  return truth_px;
+}
+
 }  // namespace
 
 std::string shared_data_directory(const std::string& explicit_directory) {
@@ -151,12 +169,7 @@ cv::Mat nonocc_from_left_right(const cv::Mat& left_ground_truth_px, const cv::Ma
 }
 
 StereoPair load_middlebury2003_scene(const std::string& scene_directory) {
-  require_directory(scene_directory);
-  StereoPair pair;
-  pair.collection = "middlebury2003";
-  pair.name = leaf_name(scene_directory);
-  pair.left = read_luma_u8(join(scene_directory, "imL.png"));
-  pair.right = read_luma_u8(join(scene_directory, "imR.png"));
+  StereoPair pair = pair_with_views("middlebury2003", leaf_name(scene_directory), scene_directory, "imL.png", "imR.png");
   const std::string info_path = join(scene_directory, "info.txt");
   std::istringstream info(read_text(info_path));
   std::string divisor_text, ndisp_text;
@@ -164,8 +177,7 @@ StereoPair load_middlebury2003_scene(const std::string& scene_directory) {
   const int divisor = positive_int(info_path, "line 1 (ground-truth divisor)", divisor_text);
   const int ndisp = positive_int(info_path, "line 2 (ndisp)", ndisp_text);
   const std::string truth_path = join(scene_directory, "groundtruth.png");
-  pair.ground_truth_px = read_scaled_u8_ground_truth(truth_path, divisor);
-  require_size(truth_path, pair.ground_truth_px.size(), pair.left);
+  pair.ground_truth_px = sized_like_left(truth_path, read_scaled_u8_ground_truth(truth_path, divisor), pair.left);
   const cv::Mat evaluated = read_mask(join(scene_directory, "all.png"), pair.left);
   pair.ground_truth_px.setTo(cv::Scalar(kNoTruth), evaluated == 0);
   pair.nonocc_mask = read_mask(join(scene_directory, "nonocc.png"), pair.left);
@@ -174,18 +186,13 @@ StereoPair load_middlebury2003_scene(const std::string& scene_directory) {
 }
 
 StereoPair load_middlebury2005_scene(const std::string& scene_directory) {
-  require_directory(scene_directory);
-  StereoPair pair;
-  pair.collection = "middlebury2005";
-  pair.name = leaf_name(scene_directory);
-  pair.left = read_luma_u8(join(scene_directory, "view1.png"));
-  pair.right = read_luma_u8(join(scene_directory, "view5.png"));
+  StereoPair pair = pair_with_views("middlebury2005", leaf_name(scene_directory), scene_directory, "view1.png", "view5.png");
   const std::string left_truth_path = join(scene_directory, "disp1.png");
   const std::string right_truth_path = join(scene_directory, "disp5.png");
-  pair.ground_truth_px = read_scaled_u8_ground_truth(left_truth_path, 2.0);  // half size: value / 2
-  require_size(left_truth_path, pair.ground_truth_px.size(), pair.left);
-  const cv::Mat right_truth_px = read_scaled_u8_ground_truth(right_truth_path, 2.0);
-  require_size(right_truth_path, right_truth_px.size(), pair.left);
+  // Half size: value / 2.
+  pair.ground_truth_px = sized_like_left(left_truth_path, read_scaled_u8_ground_truth(left_truth_path, 2.0), pair.left);
+  const cv::Mat right_truth_px =
+      sized_like_left(right_truth_path, read_scaled_u8_ground_truth(right_truth_path, 2.0), pair.left);
   pair.nonocc_mask = nonocc_from_left_right(pair.ground_truth_px, right_truth_px);
   const std::string range_path = join(scene_directory, "drange.txt");
   set_range(pair, key_int(range_path, read_key_values(range_path), "dmax"), "drange.txt dmax");
@@ -193,15 +200,9 @@ StereoPair load_middlebury2005_scene(const std::string& scene_directory) {
 }
 
 StereoPair load_middlebury2014_scene(const std::string& scene_directory) {
-  require_directory(scene_directory);
-  StereoPair pair;
-  pair.collection = "middlebury2014";
-  pair.name = leaf_name(scene_directory);
-  pair.left = read_luma_u8(join(scene_directory, "im0.png"));
-  pair.right = read_luma_u8(join(scene_directory, "im1.png"));
+  StereoPair pair = pair_with_views("middlebury2014", leaf_name(scene_directory), scene_directory, "im0.png", "im1.png");
   const std::string truth_path = join(scene_directory, "disp0GT.pfm");
-  pair.ground_truth_px = read_pfm(truth_path);
-  require_size(truth_path, pair.ground_truth_px.size(), pair.left);
+  pair.ground_truth_px = sized_like_left(truth_path, read_pfm(truth_path), pair.left);
   pair.nonocc_mask = read_mask(join(scene_directory, "mask0nocc.png"), pair.left);
   const std::string calib_path = join(scene_directory, "calib.txt");
   set_range(pair, key_int(calib_path, read_key_values(calib_path), "ndisp"), "calib.txt ndisp");
@@ -209,16 +210,10 @@ StereoPair load_middlebury2014_scene(const std::string& scene_directory) {
 }
 
 StereoPair load_kitti2015_frame(const std::string& kitti_directory, const std::string& frame) {
-  require_directory(kitti_directory);
-  StereoPair pair;
-  pair.collection = "kitti2015";
-  pair.name = frame;
   const std::string file = frame + "_10.png";
-  pair.left = read_luma_u8(join(kitti_directory, "image_2/" + file));
-  pair.right = read_luma_u8(join(kitti_directory, "image_3/" + file));
+  StereoPair pair = pair_with_views("kitti2015", frame, kitti_directory, "image_2/" + file, "image_3/" + file);
   const std::string truth_path = join(kitti_directory, "disp_occ_0/" + file);
-  pair.ground_truth_px = read_kitti_disparity_png_px(truth_path);
-  require_size(truth_path, pair.ground_truth_px.size(), pair.left);
+  pair.ground_truth_px = sized_like_left(truth_path, read_kitti_disparity_png_px(truth_path), pair.left);
   set_range(pair, kKittiRangePx, "KITTI customary range (the set gives none)");
   return pair;
 }

@@ -13,6 +13,7 @@
 
 #include "io/disparity_io.h"
 #include "io/image_io.h"
+#include "tests/support/scratch_directory.h"
 
 namespace lpstereo::io {
 namespace {
@@ -22,18 +23,11 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 
 class DisparityFiles : public ::testing::Test {
  protected:
-  void SetUp() override {
-    directory_ = fs::temp_directory_path() / ("lpstereo_disparity_io_" + std::to_string(::getpid()) + "_" +
-                                              ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(directory_);
-    fs::create_directories(directory_);
-  }
-  void TearDown() override { fs::remove_all(directory_); }
-  std::string path(const std::string& name) const { return (directory_ / name).string(); }
+  std::string path(const std::string& name) const { return scratch_.path(name); }
   void write_bytes(const std::string& name, const std::string& bytes) const {
     std::ofstream(path(name), std::ios::binary) << bytes;
   }
-  fs::path directory_;
+  testing::ScratchDirectory scratch_{"lpstereo_disparity_io"};
 };
 
 // An odd-sized s16q4 map with fractional values, negative values, zeros and invalid pixels.

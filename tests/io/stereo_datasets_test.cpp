@@ -16,6 +16,7 @@
 #include "io/disparity_io.h"
 #include "io/image_io.h"
 #include "io/stereo_datasets.h"
+#include "tests/support/scratch_directory.h"
 
 namespace lpstereo::io {
 namespace {
@@ -66,13 +67,6 @@ void write_palette_png(const std::string& path, const cv::Mat& indices, const st
 
 class StereoDatasets : public ::testing::Test {
  protected:
-  void SetUp() override {
-    root_ = fs::temp_directory_path() / ("lpstereo_datasets_" + std::to_string(::getpid()) + "_" +
-                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-  }
-  void TearDown() override { fs::remove_all(root_); }
   std::string folder(const std::string& name) const {
     fs::create_directories(root_ / name);
     return (root_ / name).string();
@@ -85,7 +79,8 @@ class StereoDatasets : public ::testing::Test {
     cv::imwrite(left, view);
     cv::imwrite(right, view);
   }
-  fs::path root_;
+  testing::ScratchDirectory scratch_{"lpstereo_datasets"};
+  const fs::path& root_ = scratch_.root();
 };
 
 TEST_F(StereoDatasets, Middlebury2003DecodesThePaletteAndDividesByInfoTxt) {

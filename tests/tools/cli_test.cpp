@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io/disparity_io.h"
+#include "tests/support/scratch_directory.h"
 
 namespace {
 
@@ -51,22 +52,15 @@ int lines(const std::string& text) { return static_cast<int>(std::count(text.beg
 
 class Cli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    directory_ = fs::temp_directory_path() / ("lpstereo_cli_case_" + std::to_string(::getpid()) + "_" +
-                                              ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(directory_);
-    fs::create_directories(directory_);
-  }
-  void TearDown() override { fs::remove_all(directory_); }
-  std::string path(const std::string& name) const { return (directory_ / name).string(); }
+  std::string path(const std::string& name) const { return scratch_.path(name); }
   // Files in the case directory whose name starts with '.' (temporary names) must not remain.
   bool no_temporaries() const {
-    for (const auto& entry : fs::recursive_directory_iterator(directory_)) {
+    for (const auto& entry : fs::recursive_directory_iterator(scratch_.root())) {
       if (entry.path().filename().string().rfind(".", 0) == 0) return false;
     }
     return true;
   }
-  fs::path directory_;
+  lpstereo::testing::ScratchDirectory scratch_{"lpstereo_cli_case"};
 };
 
 TEST_F(Cli, MainJobWritesDisparityColourViewAndProfile) {
