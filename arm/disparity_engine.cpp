@@ -45,7 +45,7 @@ GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
 }
 
 DisparityEngine::DisparityEngine(int width, int height, const DisparityParameters& parameters, const MemoryBudget& memory,
-                                 KernelBackend backend)
+                                 int worker_threads, KernelBackend backend)
     : parameters_(parameters) {
   check_range("num_disparities", parameters.num_disparities, 1, width);
   check_range("min_disparity", parameters.min_disparity, -width + 1, width - 1);
@@ -60,7 +60,7 @@ DisparityEngine::DisparityEngine(int width, int height, const DisparityParameter
   options.frame_height = height;
   options.memory = memory;
   graph_->verify(options);
-  runner_ = std::make_unique<FrameRunner>(*graph_, 0, backend);
+  runner_ = std::make_unique<FrameRunner>(*graph_, worker_threads, backend);
 }
 
 DisparityEngine::~DisparityEngine() = default;

@@ -28,9 +28,11 @@ class DisparityEngine {
  public:
   // Builds and verifies the graph for width x height frames against `memory` (unlimited by
   // default). Throws VerifyError (or std::invalid_argument for parameters out of range, naming
-  // the parameter, the expected range and the actual value).
+  // the parameter, the expected range and the actual value). worker_threads: the FrameRunner's
+  // threads (0 = one per hardware thread). KernelBackend::counting runs the counting back end (same
+  // bits; the golden tests and `--backend counting` use it).
   DisparityEngine(int width, int height, const DisparityParameters& parameters, const MemoryBudget& memory = {},
-                  KernelBackend backend = KernelBackend::native);
+                  int worker_threads = 0, KernelBackend backend = KernelBackend::native);
   ~DisparityEngine();
   DisparityEngine(const DisparityEngine&) = delete;
   DisparityEngine& operator=(const DisparityEngine&) = delete;

@@ -10,17 +10,26 @@
 
 namespace lpstereo::io {
 
-Plane read_luma_u8(const std::string& path) {
+void require_regular_file(const std::string& path) {
   std::error_code error;
   if (!std::filesystem::exists(path, error)) throw ImageError(path + ": no such file");
   if (!std::filesystem::is_regular_file(path, error)) throw ImageError(path + ": not a regular file");
+}
+
+cv::Mat decode_image(const std::string& path, int flags) {
+  require_regular_file(path);
   cv::Mat image;
   try {
-    image = cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+    image = cv::imread(path, flags);
   } catch (const cv::Exception& exception) {
     throw ImageError(path + ": cannot decode: " + exception.what());
   }
   if (image.empty()) throw ImageError(path + ": cannot decode (unreadable, corrupt or not an image)");
+  return image;
+}
+
+Plane read_luma_u8(const std::string& path) {
+  cv::Mat image = decode_image(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
   if (image.channels() == 3) {
     cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);  // BT.601 luma weights
   } else if (image.channels() == 4) {

@@ -17,6 +17,13 @@ class ImageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Throws ImageError "<path>: no such file" / "not a regular file" unless `path` is a regular file.
+void require_regular_file(const std::string& path);
+
+// Decodes an image file with OpenCV `flags`; a missing, corrupt or undecodable file throws
+// ImageError naming it.
+cv::Mat decode_image(const std::string& path, int flags);
+
 // Reads an image file as 8-bit luma. 16-bit images are scaled to 8 bits (value >> 8).
 Plane read_luma_u8(const std::string& path);
 

@@ -8,4 +8,4 @@ cd "$(dirname "$0")/.."
 if [ "$(id -u)" -eq 0 ]; then ./scripts/install-deps.sh; else ./scripts/install-deps.sh || exit 1; fi
 cmake --preset release >/dev/null
 cmake --build --preset release -j "$(nproc)"
-./build/release/tools/lpstereo disparity --width 1280 --height 720 --target cv1-class --out out "$@"
+./build/release/tools/lpstereo disparity --synthetic --width 1280 --height 720 --target cv1-class --out-dir out "$@"

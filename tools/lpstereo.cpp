@@ -1,6 +1,8 @@
 // lpstereo: the command line. Sub-commands:
-//   disparity   the main job: a stereo pair (files or the built-in synthetic scene) -> disparity
-//               (KITTI PNG), colour view, and the simulated cost of the graph on a target
+//   disparity   the main job: LEFT RIGHT -o OUT through arm::DisparityEngine (KITTI PNG, PFM or raw
+//               s16; optional fill, colour view, profile on a target), or --synthetic: the built-in
+//               scene into a folder with its colour view, truth and cv1-class profile
+//   eval        middlebury | kitti: accuracy on the shared data, optionally beside OpenCV StereoSGBM
 //   profile     the cost of a graph on a target at a frame size: report JSON, Perfetto trace,
 //               Markdown summary; --enforce exits 3 when over the time or bandwidth budget
 //   graph       verify | dot
@@ -10,12 +12,16 @@
 // 3 over budget with --enforce.
 #include <CLI/CLI.hpp>
 
+#include <cctype>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <string>
 
+#include "arm/disparity_engine.h"
 #include "arm/scheduler.h"
 #include "dag/atomic_file.h"
 #include "dag/graph.h"
@@ -26,19 +32,16 @@
 #include "io/image_io.h"
 #include "io/synthetic_scene.h"
 #include "kernels/simd/isa.h"
+#include "tools/command_error.h"
+#include "tools/eval_command.h"
 
 namespace {
 
 using namespace lpstereo;
-
-constexpr int kExitInput = 1;
-constexpr int kExitOverBudget = 3;
-
-// An error that ends the command with one line and an exit code.
-struct CommandError : std::runtime_error {
-  CommandError(int code, const std::string& message) : std::runtime_error(message), exit_code(code) {}
-  int exit_code;
-};
+using tools::CommandError;
+using tools::kExitInput;
+using tools::kExitOverBudget;
+using tools::kExitUsage;
 
 struct FrameSize {
   int width = 0;
@@ -47,7 +50,7 @@ struct FrameSize {
 
 void check_frame_size(const FrameSize& size) {
   if (size.width < 16 || size.height < 16 || size.width > 16384 || size.height > 16384) {
-    throw CommandError(2, "frame size: expected 16..16384 x 16..16384, got " + std::to_string(size.width) + "x" +
+    throw CommandError(kExitUsage, "frame size: expected 16..16384 x 16..16384, got " + std::to_string(size.width) + "x" +
                               std::to_string(size.height));
   }
 }
@@ -99,7 +102,7 @@ void write_profile_outputs(const host_sim::ProfileReport& report, const ProfileO
 int run_profile(const std::string& graph_name, const std::string& target_name, FrameSize size, double fps, int frames,
                 bool count_every_tile, bool enforce, const ProfileOutputs& outputs) {
   check_frame_size(size);
-  if (!(fps > 0 && fps <= 10000)) throw CommandError(2, "--fps: expected a number in (0, 10000], got " + std::to_string(fps));
+  if (!(fps > 0 && fps <= 10000)) throw CommandError(kExitUsage, "--fps: expected a number in (0, 10000], got " + std::to_string(fps));
   const host_sim::Target target = host_sim::load_target(target_name);
   const Graph graph = load_and_verify(graph_name, target, size);
   const std::map<std::string, Plane> inputs = synthetic_inputs(graph, size);
@@ -124,86 +127,198 @@ int run_profile(const std::string& graph_name, const std::string& target_name, F
   return 0;
 }
 
-int run_disparity(const std::string& left_path, const std::string& right_path, FrameSize size, const std::string& graph_name,
-                  const std::string& target_name, const std::string& out_directory, double fps) {
-  const bool synthetic = left_path.empty() && right_path.empty();
-  if (left_path.empty() != right_path.empty()) throw CommandError(2, "give both --left and --right, or neither (synthetic scene)");
-  std::map<std::string, Plane> inputs;
-  std::optional<io::SyntheticStereoScene> scene;
-  if (synthetic) {
-    check_frame_size(size);
-    io::SyntheticSceneOptions options;
-    options.width = size.width;
-    options.height = size.height;
-    scene = io::make_synthetic_stereo_scene(options);
-    inputs["left"] = scene->left;
-    inputs["right"] = scene->right;
-  } else {
-    inputs["left"] = io::read_luma_u8(left_path);
-    inputs["right"] = io::read_luma_u8(right_path);
-    const Plane& left = inputs["left"];
-    const Plane& right = inputs["right"];
-    if (left.width() != right.width() || left.height() != right.height()) {
-      throw CommandError(kExitInput, "image sizes differ: left " + left_path + " is " + std::to_string(left.width()) + "x" +
-                                         std::to_string(left.height()) + ", right " + right_path + " is " +
-                                         std::to_string(right.width()) + "x" + std::to_string(right.height()));
-    }
-    size = {left.width(), left.height()};
-    check_frame_size(size);
-  }
-  const host_sim::Target target = host_sim::load_target(target_name);
-  const Graph graph = load_and_verify(graph_name, target, size);
-  if (graph.buffer_index("disparity") < 0 || graph.buffers()[graph.buffer_index("disparity")].format != BufferFormat{ElementType::s16, 4}) {
-    throw CommandError(kExitInput, "graph '" + graph.spec().name + "' has no s16q4 buffer named 'disparity'");
-  }
-  std::error_code error;
-  std::filesystem::create_directories(out_directory, error);
-  if (error) throw CommandError(kExitInput, out_directory + ": cannot create the output directory: " + error.message());
+struct DisparityOptions {
+  // LEFT RIGHT -o OUT
+  std::string left_path, right_path, output_path, format, color_path, report_path;
+  bool fill = false;
+  // --synthetic: the built-in scene, everything into out_directory
+  bool synthetic = false;
+  FrameSize size{640, 480};
+  std::string out_directory = "out";
+  double fps = 30;
+  // both
+  std::string target_name;  // empty: cv1-class for --synthetic, no profile otherwise
+  std::optional<int> min_disparity_px, num_disparities;
+  int threads = 0;
+};
 
-  arm::FrameRunner runner(graph);
-  runner.process(pointers(inputs));
-  const Plane& disparity = runner.buffer("disparity");
-  int num_disparities = 64;
-  for (const NodeInfo& node : graph.nodes()) {
-    if (node.spec.params.is_object() && node.spec.params.contains("num_disparities")) {
-      num_disparities = node.spec.params.at("num_disparities").get<int>();
+std::string lowercase(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
+}
+
+// --format, or the one OUT's extension implies (.png kitti, .pfm pfm, .s16/.raw s16).
+std::string output_format(const DisparityOptions& options) {
+  const std::string extension = lowercase(std::filesystem::path(options.output_path).extension().string());
+  std::string format = options.format;
+  if (format.empty()) {
+    if (extension == ".png") format = "kitti";
+    if (extension == ".pfm") format = "pfm";
+    if (extension == ".s16" || extension == ".raw") format = "s16";
+    if (format.empty()) {
+      throw CommandError(kExitUsage, "-o " + options.output_path + ": cannot tell the format from the extension '" + extension +
+                                         "'; expected .png, .pfm, .s16 or .raw, or give --format kitti|pfm|s16");
     }
   }
-  const std::filesystem::path out(out_directory);
-  io::write_kitti_disparity_png((out / "disparity.png").string(), disparity, 0);
-  io::write_image((out / "disparity_color.png").string(), io::colorize_disparity(disparity, 0, num_disparities));
-  if (synthetic) {
-    io::write_image((out / "left.png").string(), io::plane_to_mat(scene->left));
-    io::write_image((out / "right.png").string(), io::plane_to_mat(scene->right));
-    io::write_kitti_disparity_png((out / "ground_truth.png").string(), scene->disparity_q4, 0);
+  if (format == "kitti" && extension != ".png") {
+    throw CommandError(kExitUsage, "-o " + options.output_path + ": --format kitti writes a PNG; expected a .png name, got '" +
+                                       extension + "'");
   }
-  host_sim::ProfileOptions options;
-  options.fps_target = fps;
-  const host_sim::ProfileReport report = host_sim::profile_graph(graph, target, pointers(inputs), options);
+  return format;
+}
+
+// The search range for a width-pixel image, checked: one line naming the flag, expected and actual.
+arm::DisparityParameters disparity_parameters(const DisparityOptions& options, int width, int default_num_disparities) {
+  arm::DisparityParameters parameters;
+  parameters.min_disparity = options.min_disparity_px.value_or(0);
+  parameters.num_disparities = options.num_disparities.value_or(default_num_disparities);
+  const std::string w = std::to_string(width);
+  if (parameters.num_disparities <= 0) {
+    throw CommandError(kExitUsage, "--num-disp: expected a positive number, got " + std::to_string(parameters.num_disparities));
+  }
+  if (parameters.num_disparities > width) {
+    throw CommandError(kExitInput, "--num-disp: expected at most " + w + " (the image width), got " +
+                                       std::to_string(parameters.num_disparities));
+  }
+  if (parameters.min_disparity <= -width) {
+    throw CommandError(kExitInput, "--min-disp: expected more than -" + w + " (minus the image width), got " +
+                                       std::to_string(parameters.min_disparity));
+  }
+  if (parameters.min_disparity + parameters.num_disparities > width) {
+    throw CommandError(kExitInput, "--min-disp + --num-disp: expected at most " + w + " (the image width), got " +
+                                       std::to_string(parameters.min_disparity) + " + " +
+                                       std::to_string(parameters.num_disparities) + " = " +
+                                       std::to_string(parameters.min_disparity + parameters.num_disparities));
+  }
+  return parameters;
+}
+
+double density_pct(const Plane& disparity_q4, int16_t invalid_q4) {
+  int64_t valid = 0;
+  for (int y = 0; y < disparity_q4.height(); ++y) {
+    for (int x = 0; x < disparity_q4.width(); ++x) valid += disparity_q4.at<int16_t>(x, y) != invalid_q4 ? 1 : 0;
+  }
+  return 100.0 * static_cast<double>(valid) / (static_cast<double>(disparity_q4.width()) * disparity_q4.height());
+}
+
+Plane copy_plane(const Plane& plane) {
+  Plane copy(plane.width(), plane.height(), plane.format());
+  for (int y = 0; y < plane.height(); ++y) {
+    std::memcpy(copy.row<uint8_t>(y), plane.row<uint8_t>(y), static_cast<size_t>(plane.width() * plane.element_size()));
+  }
+  return copy;
+}
+
+// The built-in scene: disparity.png, disparity_color.png, the views, the truth and the profile on a
+// target, all into one folder.
+int run_disparity_synthetic(const DisparityOptions& options) {
+  if (!options.left_path.empty() || !options.right_path.empty() || !options.output_path.empty() || !options.report_path.empty() ||
+      !options.color_path.empty() || !options.format.empty()) {
+    throw CommandError(kExitUsage, "--synthetic writes everything into --out-dir; it takes no LEFT RIGHT, -o, --format, "
+                                   "--color or --report");
+  }
+  check_frame_size(options.size);
+  if (!(options.fps > 0 && options.fps <= 10000)) {
+    throw CommandError(kExitUsage, "--fps: expected a number in (0, 10000], got " + std::to_string(options.fps));
+  }
+  io::SyntheticSceneOptions scene_options;
+  scene_options.width = options.size.width;
+  scene_options.height = options.size.height;
+  const io::SyntheticStereoScene scene = io::make_synthetic_stereo_scene(scene_options);
+  // Default range: the scene's largest disparity, rounded up to a multiple of 16.
+  const int scene_num_disparities = std::min(options.size.width, (scene.max_disparity_px + 1 + 15) / 16 * 16);
+  const arm::DisparityParameters parameters = disparity_parameters(options, options.size.width, scene_num_disparities);
+  const host_sim::Target target = host_sim::load_target(options.target_name.empty() ? "cv1-class" : options.target_name);
+  arm::DisparityEngine engine(options.size.width, options.size.height, parameters, target.memory_budget(), options.threads);
+  const Plane& disparity = engine.compute(scene.left, scene.right);
+  const std::map<std::string, const Plane*> inputs = {{"left", &scene.left}, {"right", &scene.right}};
+  host_sim::ProfileOptions profile_options;
+  profile_options.fps_target = options.fps;
+  const host_sim::ProfileReport report = host_sim::profile_graph(engine.graph(), target, inputs, profile_options);
+
+  std::error_code error;
+  std::filesystem::create_directories(options.out_directory, error);
+  if (error) throw CommandError(kExitInput, options.out_directory + ": cannot create the output directory: " + error.message());
+  const std::filesystem::path out(options.out_directory);
+  const int min_disparity_px = parameters.min_disparity;
+  io::write_kitti_disparity_png((out / "disparity.png").string(), disparity, min_disparity_px);
+  io::write_image((out / "disparity_color.png").string(),
+                  io::colorize_disparity(disparity, min_disparity_px, min_disparity_px + parameters.num_disparities));
+  io::write_image((out / "left.png").string(), io::plane_to_mat(scene.left));
+  io::write_image((out / "right.png").string(), io::plane_to_mat(scene.right));
+  io::write_kitti_disparity_png((out / "ground_truth.png").string(), scene.disparity_q4, 0);
   write_profile_outputs(report, {(out / "profile.json").string(), (out / "trace.json").string(), (out / "profile.md").string()});
 
-  std::cout << "disparity " << size.width << "x" << size.height << " (" << graph.spec().name << ", native ISA "
+  std::cout << "disparity " << options.size.width << "x" << options.size.height << ", disparities [" << min_disparity_px << ", "
+            << min_disparity_px + parameters.num_disparities << ") (" << engine.graph().spec().name << ", native ISA "
             << simd::isa_name(simd::active_isa()) << ") -> " << (out / "disparity.png").string() << ", "
             << (out / "disparity_color.png").string() << "\n";
-  if (synthetic) {
-    // Against the scene's exact disparity: share of valid pixels within 1 px, and density.
-    int64_t valid = 0, good = 0;
-    const int64_t total = static_cast<int64_t>(size.width) * size.height;
-    for (int y = 0; y < size.height; ++y) {
-      for (int x = 0; x < size.width; ++x) {
-        const int estimate = disparity.at<int16_t>(x, y);
-        if (estimate == io::invalid_disparity_q4(0)) continue;
-        ++valid;
-        good += std::abs(estimate - scene->disparity_q4.at<int16_t>(x, y)) <= 16 ? 1 : 0;
-      }
+  // Against the scene's exact disparity: share of valid pixels within 1 px, and density.
+  int64_t valid = 0, good = 0;
+  const int64_t total = static_cast<int64_t>(options.size.width) * options.size.height;
+  for (int y = 0; y < options.size.height; ++y) {
+    for (int x = 0; x < options.size.width; ++x) {
+      const int estimate = disparity.at<int16_t>(x, y);
+      if (estimate == engine.invalid_disparity_q4()) continue;
+      ++valid;
+      good += std::abs(estimate - scene.disparity_q4.at<int16_t>(x, y)) <= 16 ? 1 : 0;
     }
-    std::printf("synthetic scene: %.1f %% of pixels valid, %.1f %% of valid pixels within 1 px of the truth\n",
-                100.0 * static_cast<double>(valid) / static_cast<double>(total),
-                valid ? 100.0 * static_cast<double>(good) / static_cast<double>(valid) : 0.0);
   }
+  std::printf("synthetic scene: %.1f %% of pixels valid, %.1f %% of valid pixels within 1 px of the truth\n",
+              100.0 * static_cast<double>(valid) / static_cast<double>(total),
+              valid ? 100.0 * static_cast<double>(good) / static_cast<double>(valid) : 0.0);
   std::cout << host_sim::report_table(report);
   std::cout << "profile: " << (out / "profile.json").string() << ", trace (open in ui.perfetto.dev): "
             << (out / "trace.json").string() << ", summary: " << (out / "profile.md").string() << "\n";
+  return 0;
+}
+
+// LEFT RIGHT -o OUT: every check before any file is written; the files are written atomically.
+int run_disparity_files(const DisparityOptions& options) {
+  if (options.left_path.empty() || options.right_path.empty() || options.output_path.empty()) {
+    throw CommandError(kExitUsage, "give LEFT RIGHT -o OUT, or --synthetic for the built-in scene");
+  }
+  if (options.target_name.empty() != options.report_path.empty()) {
+    throw CommandError(kExitUsage, "--target and --report go together (the report is the profile on that target)");
+  }
+  if (!options.color_path.empty() && lowercase(std::filesystem::path(options.color_path).extension().string()) != ".png") {
+    throw CommandError(kExitUsage, "--color " + options.color_path + ": expected a .png file name");
+  }
+  const std::string format = output_format(options);
+  const Plane left = io::read_luma_u8(options.left_path);
+  const Plane right = io::read_luma_u8(options.right_path);
+  if (left.width() != right.width() || left.height() != right.height()) {
+    throw CommandError(kExitInput, "image sizes differ: left " + options.left_path + " is " + std::to_string(left.width()) + "x" +
+                                       std::to_string(left.height()) + ", right " + options.right_path + " is " +
+                                       std::to_string(right.width()) + "x" + std::to_string(right.height()));
+  }
+  check_frame_size({left.width(), left.height()});
+  const arm::DisparityParameters parameters = disparity_parameters(options, left.width(), arm::DisparityParameters{}.num_disparities);
+  std::optional<host_sim::Target> target;
+  if (!options.target_name.empty()) target = host_sim::load_target(options.target_name);
+  arm::DisparityEngine engine(left.width(), left.height(), parameters, target ? target->memory_budget() : MemoryBudget{},
+                              options.threads);
+  Plane disparity = copy_plane(engine.compute(left, right));
+  const double produced_pct = density_pct(disparity, engine.invalid_disparity_q4());
+  if (options.fill) io::fill_invalid_kitti(disparity, engine.invalid_disparity_q4());
+  std::optional<host_sim::ProfileReport> report;
+  if (target) {
+    const std::map<std::string, const Plane*> inputs = {{"left", &left}, {"right", &right}};
+    report = host_sim::profile_graph(engine.graph(), *target, inputs, host_sim::ProfileOptions{});
+  }
+
+  const int min_disparity_px = parameters.min_disparity;
+  if (format == "kitti") io::write_kitti_disparity_png(options.output_path, disparity, min_disparity_px);
+  if (format == "pfm") io::write_pfm(options.output_path, io::disparity_q4_to_px(disparity, min_disparity_px));
+  if (format == "s16") io::write_s16_raw(options.output_path, disparity);
+  if (!options.color_path.empty()) {
+    io::write_image(options.color_path,
+                    io::colorize_disparity(disparity, min_disparity_px, min_disparity_px + parameters.num_disparities));
+  }
+  if (report) write_profile_outputs(*report, {options.report_path, "", ""});
+  std::printf("disparity %dx%d, disparities [%d, %d), %.1f %% of pixels produced%s -> %s (%s)\n", left.width(), left.height(),
+              min_disparity_px, min_disparity_px + parameters.num_disparities, produced_pct,
+              options.fill ? ", the rest filled" : "", options.output_path.c_str(), format.c_str());
   return 0;
 }
 
@@ -261,18 +376,55 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "lpstereo 0.1.0");
 
   // disparity
-  std::string left_path, right_path, out_directory = "out", graph_name = "stereo-census-wta", target_name = "cv1-class";
-  FrameSize size{640, 480};
-  double fps = 30;
-  CLI::App* disparity = app.add_subcommand("disparity", "disparity of a stereo pair (or the built-in synthetic scene) and its cost on a target");
-  disparity->add_option("--left", left_path, "left image (any format OpenCV reads; colour becomes BT.601 luma)");
-  disparity->add_option("--right", right_path, "right image, same size as the left");
-  disparity->add_option("--width", size.width, "synthetic scene width in pixels")->capture_default_str();
-  disparity->add_option("--height", size.height, "synthetic scene height in pixels")->capture_default_str();
-  disparity->add_option("--graph", graph_name, "graph name (graphs/NAME.json) or file")->capture_default_str();
-  disparity->add_option("--target", target_name, "target name (targets/NAME.json) or file")->capture_default_str();
-  disparity->add_option("--out", out_directory, "output directory")->capture_default_str();
-  disparity->add_option("--fps", fps, "frame rate the profile is judged against")->capture_default_str();
+  DisparityOptions disparity_options;
+  CLI::App* disparity = app.add_subcommand(
+      "disparity", "left-view disparity of a rectified pair (LEFT RIGHT -o OUT), or of the built-in scene (--synthetic)");
+  disparity->add_option("left", disparity_options.left_path, "left image (any format OpenCV reads; colour becomes BT.601 luma)");
+  disparity->add_option("right", disparity_options.right_path, "right image, same size as the left");
+  disparity->add_option("-o,--output", disparity_options.output_path, "disparity file to write");
+  disparity->add_option("--format", disparity_options.format,
+                        "kitti (16-bit PNG, x256, 0 = invalid; negative disparities are written invalid), pfm (float "
+                        "px, +inf = invalid, rows bottom to top) or s16 (raw little-endian int16 x16, no header, "
+                        "invalid = (min-disp - 1) * 16); default: from OUT's extension (.png .pfm .s16/.raw)")
+      ->check(CLI::IsMember({"kitti", "pfm", "s16"}));
+  disparity->add_option("--min-disp", disparity_options.min_disparity_px, "smallest disparity searched, px (may be negative; default 0)");
+  disparity->add_option("--num-disp", disparity_options.num_disparities,
+                        "disparities searched: [min-disp, min-disp + num-disp) (default 64; --synthetic: the scene's range)");
+  disparity->add_flag("--fill", disparity_options.fill,
+                      "fill invalid pixels as the KITTI development kit does (along the row, from the lower neighbour)");
+  disparity->add_option("--color", disparity_options.color_path, "also write a colour view (PNG)");
+  disparity->add_option("--threads", disparity_options.threads, "worker threads (0 = one per hardware thread)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 256));
+  disparity->add_option("--target", disparity_options.target_name,
+                        "target to profile the engine's graph on (targets/NAME.json or file; with --report; "
+                        "--synthetic: default cv1-class)");
+  disparity->add_option("--report", disparity_options.report_path, "profile report JSON (with --target)");
+  disparity->add_flag("--synthetic", disparity_options.synthetic,
+                      "the built-in scene: disparity.png, disparity_color.png, left/right/ground_truth.png and "
+                      "profile.json/trace.json/profile.md into --out-dir");
+  disparity->add_option("--out-dir", disparity_options.out_directory, "--synthetic: output folder")->capture_default_str();
+  disparity->add_option("--width", disparity_options.size.width, "--synthetic: scene width in pixels")->capture_default_str();
+  disparity->add_option("--height", disparity_options.size.height, "--synthetic: scene height in pixels")->capture_default_str();
+  disparity->add_option("--fps", disparity_options.fps, "--synthetic: frame rate the profile is judged against")
+      ->capture_default_str();
+
+  // eval
+  tools::EvalOptions eval_options;
+  CLI::App* eval = app.add_subcommand("eval", "accuracy on the real pairs of the shared data folder (bad-N, D1, EPE, density)");
+  eval->add_option("benchmark", eval_options.benchmark, "middlebury (8 pairs) or kitti (2015, 000046)")
+      ->required()
+      ->check(CLI::IsMember({"middlebury", "kitti"}));
+  eval->add_option("--data", eval_options.data_directory,
+                   "shared data folder (default: $LPSTEREO_SHARED_DATA, else ../shared/data)");
+  eval->add_option("--baseline", eval_options.baseline, "opencv: StereoSGBM in MODE_SGBM, MODE_SGBM_3WAY and MODE_HH too")
+      ->check(CLI::IsMember({"opencv"}));
+  eval->add_option("--json", eval_options.json_path, "write every number to this JSON file");
+  eval->add_option("--num-disp", eval_options.num_disparities, "override every pair's number of disparities");
+  eval->add_option("--min-disp", eval_options.min_disparity_px, "override every pair's smallest disparity, px");
+  eval->add_option("--threads", eval_options.threads, "engine worker threads (0 = one per hardware thread)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 256));
 
   // profile
   std::string profile_graph, profile_target = "cv1-class";
@@ -316,7 +468,10 @@ int main(int argc, char** argv) {
     return app.exit(error);
   }
   try {
-    if (*disparity) return run_disparity(left_path, right_path, size, graph_name, target_name, out_directory, fps);
+    if (*disparity) {
+      return disparity_options.synthetic ? run_disparity_synthetic(disparity_options) : run_disparity_files(disparity_options);
+    }
+    if (*eval) return tools::run_eval(eval_options);
     if (*profile) {
       return run_profile(profile_graph, profile_target, profile_size, profile_fps, frames, count_every_tile, enforce, outputs);
     }

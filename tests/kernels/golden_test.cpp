@@ -184,7 +184,7 @@ TEST(Golden, DisparityPipelineGivesItsGoldenBitsOnEveryBackEnd) {
   std::optional<Plane> scalar;
   auto check = [&](KernelBackend backend, simd::Isa isa, const std::string& label) {
     simd::ActiveIsaScope scope(isa);
-    arm::DisparityEngine engine(scene_options.width, scene_options.height, parameters, {}, backend);
+    arm::DisparityEngine engine(scene_options.width, scene_options.height, parameters, {}, 0, backend);
     const Plane& disparity = engine.compute(scene.left, scene.right);
     if (!scalar) scalar = disparity.clone();
     EXPECT_EQ(first_difference(*scalar, disparity), "") << "disparity pipeline on " << label << " vs scalar";

@@ -13,8 +13,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "io/disparity_io.h"
+#include "tests/support/scratch_directory.h"
+
 namespace {
 
+using namespace lpstereo;
 namespace fs = std::filesystem;
 
 struct Result {
@@ -48,26 +52,19 @@ int lines(const std::string& text) { return static_cast<int>(std::count(text.beg
 
 class Cli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    directory_ = fs::temp_directory_path() / ("lpstereo_cli_case_" + std::to_string(::getpid()) + "_" +
-                                              ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(directory_);
-    fs::create_directories(directory_);
-  }
-  void TearDown() override { fs::remove_all(directory_); }
-  std::string path(const std::string& name) const { return (directory_ / name).string(); }
+  std::string path(const std::string& name) const { return scratch_.path(name); }
   // Files in the case directory whose name starts with '.' (temporary names) must not remain.
   bool no_temporaries() const {
-    for (const auto& entry : fs::recursive_directory_iterator(directory_)) {
+    for (const auto& entry : fs::recursive_directory_iterator(scratch_.root())) {
       if (entry.path().filename().string().rfind(".", 0) == 0) return false;
     }
     return true;
   }
-  fs::path directory_;
+  lpstereo::testing::ScratchDirectory scratch_{"lpstereo_cli_case"};
 };
 
 TEST_F(Cli, MainJobWritesDisparityColourViewAndProfile) {
-  const Result result = run("disparity --width 320 --height 240 --out " + path("out"));
+  const Result result = run("disparity --synthetic --width 320 --height 240 --out-dir " + path("out"));
   ASSERT_EQ(result.exit_code, 0) << result.err;
   for (const char* file : {"disparity.png", "disparity_color.png", "profile.json", "trace.json", "profile.md", "left.png",
                            "right.png", "ground_truth.png"}) {
@@ -123,26 +120,50 @@ struct BadInput {
   std::string arguments;
   std::string error_start;  // expected beginning of the single stderr line
   int exit_code;
+  std::string must_not_exist = "";  // an output file the failed command must not leave behind
 };
 
 TEST_F(Cli, BadInputGetsOneClearLineAndANonZeroExit) {
   // Files for the cases.
   {
     std::ofstream(path("corrupt.png")) << "not a png at all";
+    std::ofstream(path("empty.png"));
     std::ofstream(path("broken.json")) << "{\n  \"name\": \"x\",\n  \"nodes\": [ oops ]\n}\n";
     std::ofstream(path("unknown_kernel.json"))
         << R"({"name": "u", "inputs": [{"name": "left", "format": "u8"}], "nodes": [{"name": "n", "kernel": "sobel", "inputs": {"input": "left"}, "outputs": {"output": "o"}}]})";
   }
-  run("disparity --width 64 --height 48 --out " + path("pair"));
+  run("disparity --synthetic --width 64 --height 48 --out-dir " + path("pair"));
   const std::string left = path("pair/left.png");
+  const std::string right = path("pair/right.png");
+  const std::string pair = left + " " + right;
   const std::vector<BadInput> cases = {
-      {"missing image", "disparity --left " + path("none.png") + " --right " + left + " --out " + path("o1"),
-       "lpstereo: " + path("none.png") + ": no such file", 1},
-      {"corrupt image", "disparity --left " + path("corrupt.png") + " --right " + left + " --out " + path("o2"),
-       "lpstereo: " + path("corrupt.png") + ": cannot decode", 1},
-      {"mismatched images", "disparity --left " + left + " --right " + path("pair/disparity_color.png") + " --out " + path("o3"),
-       "", 0},  // same size: accepted (colour becomes luma)
-      {"one view only", "disparity --left " + left + " --out " + path("o4"), "lpstereo: give both --left and --right", 2},
+      {"missing image", "disparity " + path("none.png") + " " + left + " -o " + path("o1.png"),
+       "lpstereo: " + path("none.png") + ": no such file", 1, "o1.png"},
+      {"corrupt image", "disparity " + path("corrupt.png") + " " + left + " -o " + path("o2.png"),
+       "lpstereo: " + path("corrupt.png") + ": cannot decode", 1, "o2.png"},
+      {"empty image", "disparity " + left + " " + path("empty.png") + " -o " + path("o2.pfm"),
+       "lpstereo: " + path("empty.png") + ": cannot decode", 1, "o2.pfm"},
+      {"colour view of the same size", "disparity " + left + " " + path("pair/disparity_color.png") + " -o " + path("o3.png"),
+       "", 0},  // accepted (colour becomes luma)
+      {"one view only", "disparity " + left + " -o " + path("o4.png"), "lpstereo: give LEFT RIGHT -o OUT, or --synthetic", 2},
+      {"no output", "disparity " + pair, "lpstereo: give LEFT RIGHT -o OUT, or --synthetic", 2},
+      {"num-disp zero", "disparity " + pair + " -o " + path("o6.png") + " --num-disp 0",
+       "lpstereo: --num-disp: expected a positive number, got 0", 2, "o6.png"},
+      {"num-disp wider than the image", "disparity " + pair + " -o " + path("o7.png") + " --num-disp 65",
+       "lpstereo: --num-disp: expected at most 64 (the image width), got 65", 1, "o7.png"},
+      {"range beyond the width", "disparity " + pair + " -o " + path("o8.s16") + " --min-disp 10 --num-disp 60",
+       "lpstereo: --min-disp + --num-disp: expected at most 64 (the image width), got 10 + 60 = 70", 1, "o8.s16"},
+      {"unknown output extension", "disparity " + pair + " -o " + path("o9.tif"),
+       "lpstereo: -o " + path("o9.tif") + ": cannot tell the format from the extension '.tif'", 2, "o9.tif"},
+      {"kitti format without .png", "disparity " + pair + " -o " + path("o10.pfm") + " --format kitti",
+       "lpstereo: -o " + path("o10.pfm") + ": --format kitti writes a PNG", 2, "o10.pfm"},
+      {"target without report", "disparity " + pair + " -o " + path("o11.png") + " --target cv1-class",
+       "lpstereo: --target and --report go together", 2, "o11.png"},
+      {"unknown target", "disparity " + pair + " -o " + path("o12.png") + " --target cv9 --report " + path("r12.json"),
+       "lpstereo: no target named 'cv9'", 1, "o12.png"},
+      {"eval without data", "eval middlebury --data " + path("no_data"), "lpstereo: " + path("no_data") + ": no such data folder", 1},
+      {"eval num-disp not a multiple of 16 with opencv", "eval kitti --baseline opencv --num-disp 20 --data " + path("pair"),
+       "lpstereo: --num-disp: OpenCV StereoSGBM needs a multiple of 16", 2},
       {"malformed graph", "profile --graph " + path("broken.json") + " --width 64 --height 64",
        "lpstereo: " + path("broken.json") + ":3:14: malformed JSON", 1},
       {"unknown kernel", "profile --graph " + path("unknown_kernel.json") + " --width 64 --height 64",
@@ -157,17 +178,77 @@ TEST_F(Cli, BadInputGetsOneClearLineAndANonZeroExit) {
   for (const BadInput& bad : cases) {
     const Result result = run(bad.arguments);
     EXPECT_EQ(result.exit_code, bad.exit_code) << bad.name << ": " << result.err;
+    if (!bad.must_not_exist.empty()) {
+      EXPECT_FALSE(fs::exists(path(bad.must_not_exist))) << bad.name;
+    }
     if (bad.exit_code == 0) continue;
     EXPECT_EQ(lines(result.err), 1) << bad.name << ": " << result.err;
     EXPECT_EQ(result.err.rfind(bad.error_start, 0), 0u) << bad.name << ": " << result.err;
   }
   // A size mismatch between the views.
-  run("disparity --width 80 --height 48 --out " + path("pair2"));
-  const Result mismatch = run("disparity --left " + left + " --right " + path("pair2/right.png") + " --out " + path("o5"));
+  run("disparity --synthetic --width 80 --height 48 --out-dir " + path("pair2"));
+  const Result mismatch = run("disparity " + left + " " + path("pair2/right.png") + " -o " + path("o5.png"));
   EXPECT_EQ(mismatch.exit_code, 1);
   EXPECT_EQ(mismatch.err.rfind("lpstereo: image sizes differ: left ", 0), 0u) << mismatch.err;
-  EXPECT_FALSE(fs::exists(path("o5/disparity.png")));
+  EXPECT_FALSE(fs::exists(path("o5.png")));
   EXPECT_TRUE(no_temporaries());
+}
+
+TEST_F(Cli, DisparityWritesTheSameMapInEveryFormat) {
+  ASSERT_EQ(run("disparity --synthetic --width 96 --height 64 --out-dir " + path("pair")).exit_code, 0);
+  const std::string pair = path("pair/left.png") + " " + path("pair/right.png");
+  const Result kitti = run("disparity " + pair + " -o " + path("d.png") + " --num-disp 32 --threads 1 --color " + path("c.png") +
+                           " --target cv1-class --report " + path("r.json"));
+  ASSERT_EQ(kitti.exit_code, 0) << kitti.err;
+  EXPECT_EQ(kitti.out.rfind("disparity 96x64, disparities [0, 32), ", 0), 0u) << kitti.out;
+  ASSERT_EQ(run("disparity " + pair + " -o " + path("d.pfm") + " --num-disp 32").exit_code, 0);
+  ASSERT_EQ(run("disparity " + pair + " -o " + path("d.bin") + " --format s16 --num-disp 32").exit_code, 0);
+  const Plane from_png = io::read_kitti_disparity_png(path("d.png"));
+  const Plane from_pfm = io::disparity_px_to_q4(io::read_pfm(path("d.pfm")), 0);
+  const Plane from_s16 = io::read_s16_raw(path("d.bin"), 96, 64);
+  int invalid = 0;
+  for (int y = 0; y < 64; ++y) {
+    for (int x = 0; x < 96; ++x) {
+      ASSERT_EQ(from_pfm.at<int16_t>(x, y), from_s16.at<int16_t>(x, y)) << x << "," << y;
+      ASSERT_EQ(from_png.at<int16_t>(x, y), from_s16.at<int16_t>(x, y)) << x << "," << y;
+      invalid += from_s16.at<int16_t>(x, y) == -16 ? 1 : 0;
+    }
+  }
+  EXPECT_GT(invalid, 0);  // winner-takes-all leaves holes (at least the left border) ...
+  ASSERT_EQ(run("disparity " + pair + " -o " + path("f.s16") + " --num-disp 32 --fill").exit_code, 0);
+  const Plane filled = io::read_s16_raw(path("f.s16"), 96, 64);
+  for (int y = 0; y < 64; ++y) {
+    for (int x = 0; x < 96; ++x) ASSERT_NE(filled.at<int16_t>(x, y), -16) << "--fill left a hole at " << x << "," << y;
+  }  // ... and --fill closes them.
+  EXPECT_TRUE(fs::is_regular_file(path("c.png")));
+  std::ifstream report(path("r.json"));
+  EXPECT_EQ(nlohmann::json::parse(report)["target"], "cv1-class");
+  EXPECT_TRUE(no_temporaries());
+}
+
+TEST_F(Cli, EvalRunsTheEngineAndOpenCvOnAKittiLayoutAndWritesEveryNumber) {
+  // A KITTI 2015 layout made of the synthetic scene (its truth is a KITTI 16-bit PNG already).
+  ASSERT_EQ(run("disparity --synthetic --width 320 --height 240 --out-dir " + path("scene")).exit_code, 0);
+  for (const char* folder : {"image_2", "image_3", "disp_occ_0"}) fs::create_directories(path("data/kitti2015/") + folder);
+  fs::copy_file(path("scene/left.png"), path("data/kitti2015/image_2/000046_10.png"));
+  fs::copy_file(path("scene/right.png"), path("data/kitti2015/image_3/000046_10.png"));
+  fs::copy_file(path("scene/ground_truth.png"), path("data/kitti2015/disp_occ_0/000046_10.png"));
+  const Result result = run("eval kitti --baseline opencv --data " + path("data") + " --json " + path("r.json"));
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.err, "eval: kitti2015/000046 320x240, disparities [0, 128) ...\n");
+  EXPECT_NE(result.out.find("mean over 1 pair(s) (kitti)"), std::string::npos) << result.out;
+  std::ifstream file(path("r.json"));
+  const nlohmann::json json = nlohmann::json::parse(file);
+  const nlohmann::json& methods = json["pairs"][0]["methods"];
+  for (const char* method : {"lpstereo", "opencv MODE_SGBM", "opencv MODE_SGBM_3WAY", "opencv MODE_HH"}) {
+    ASSERT_TRUE(methods.contains(method)) << method;
+    EXPECT_EQ(methods[method]["all"]["ground_truth_pixels"], 320 * 240) << method;  // the scene's truth is dense
+    EXPECT_TRUE(methods[method]["nonocc"]["dense"]["bad2_pct"].is_null()) << method;  // KITTI: no occlusion mask
+    EXPECT_GT(methods[method]["all"]["density_pct"].get<double>(), 50.0) << method;
+  }
+  // The harness lines up views, truth and scale: OpenCV's SGM gets most of this textured scene right.
+  EXPECT_LT(methods["opencv MODE_HH"]["all"]["dense"]["bad2_pct"].get<double>(), 15.0);
+  EXPECT_EQ(json["mean"]["lpstereo"], methods["lpstereo"]);
 }
 
 }  // namespace

@@ -1,0 +1,174 @@
+// Dense disparity on the host: lpstereo's arm::DisparityEngine (today census 5x5 + winner-takes-all;
+// SGM comes behind the same API) next to OpenCV's StereoSGBM in MODE_SGBM, MODE_SGBM_3WAY and
+// MODE_HH, same process, same u8 luma inputs, same disparity range, 2 threads for both:
+//   OpenCV: cv::setNumThreads(2); lpstereo: the engine's FrameRunner with 2 worker threads.
+// Sizes 640x480 and 1242x375, 128 disparities [0, 128). Inputs: the real pairs when the shared data
+// folder exists ($LPSTEREO_SHARED_DATA or ../shared/data: KITTI 2015 000046 at 1242x375, the
+// top-left 640x480 of Middlebury 2014 Motorcycle), else the synthetic scene (io/synthetic_scene.h).
+// The engine and the matchers are built outside the timing (graph build and verify are not timed).
+// Each benchmark warms up for 0.5 s (not timed), then runs 7 repetitions; read the _median rows.
+// Wall-clock time (UseRealTime), as both run on 2 threads. Counters per frame: ms, fps, and MDE/s
+// (million disparity evaluations per second = W * H * D / seconds / 1e6).
+// Usage: disparity_bench [--benchmark_filter=opencv] (Google Benchmark flags).
+#include <benchmark/benchmark.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/core/utility.hpp>
+
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include "arm/disparity_engine.h"
+#include "io/image_io.h"
+#include "io/opencv_sgbm.h"
+#include "io/stereo_datasets.h"
+#include "io/synthetic_scene.h"
+#include "kernels/simd/isa.h"
+
+namespace lpstereo {
+namespace {
+
+constexpr int kDisparities = 128;
+constexpr int kThreads = 2;
+constexpr int kRepetitions = 7;
+constexpr double kWarmUpSeconds = 0.5;
+
+struct Pair {
+  Plane left, right;
+  cv::Mat left_mat, right_mat;
+  std::string source;
+};
+
+Plane crop(const Plane& plane, int width, int height) {
+  return io::mat_to_plane(io::plane_to_mat(plane)(cv::Rect(0, 0, width, height)).clone(), plane.format());
+}
+
+// The real pair of that size when the shared data is there, else the synthetic scene.
+Pair load_pair(int width, int height) {
+  Pair pair;
+  const std::string data = io::shared_data_directory();
+  try {
+    if (width == 1242 && height == 375 && std::filesystem::is_directory(data + "/kitti2015")) {
+      io::StereoPair kitti = io::load_kitti2015_frame(data + "/kitti2015");
+      pair.left = kitti.left;
+      pair.right = kitti.right;
+      pair.source = "KITTI 2015 000046 (" + data + ")";
+    } else if (width == 640 && height == 480 && std::filesystem::is_directory(data + "/middlebury2014/Motorcycle")) {
+      io::StereoPair motorcycle = io::load_middlebury2014_scene(data + "/middlebury2014/Motorcycle");
+      pair.left = crop(motorcycle.left, width, height);
+      pair.right = crop(motorcycle.right, width, height);
+      pair.source = "Middlebury 2014 Motorcycle, top-left 640x480 (" + data + ")";
+    }
+  } catch (const std::exception&) {
+    pair.source.clear();  // unreadable data: fall back to the synthetic scene
+  }
+  if (pair.source.empty()) {
+    io::SyntheticSceneOptions options;
+    options.width = width;
+    options.height = height;
+    const io::SyntheticStereoScene scene = io::make_synthetic_stereo_scene(options);
+    pair.left = scene.left;
+    pair.right = scene.right;
+    pair.source = "synthetic scene (io/synthetic_scene.h)";
+  }
+  pair.left_mat = io::plane_to_mat(pair.left);
+  pair.right_mat = io::plane_to_mat(pair.right);
+  return pair;
+}
+
+const Pair& pair_of_size(int width, int height) {
+  static std::map<std::pair<int, int>, Pair> pairs;
+  auto found = pairs.find({width, height});
+  if (found == pairs.end()) found = pairs.emplace(std::make_pair(width, height), load_pair(width, height)).first;
+  return found->second;
+}
+
+// Per frame: ms (wall clock measured around the timed loop, a plain number so it prints without a
+// unit suffix), fps and MDE/s (rates over the benchmark's own time).
+void set_counters(benchmark::State& state, int width, int height, std::chrono::steady_clock::duration loop_time) {
+  using benchmark::Counter;
+  const double loop_ms = std::chrono::duration<double, std::milli>(loop_time).count();
+  state.counters["ms"] = Counter(state.iterations() > 0 ? loop_ms / static_cast<double>(state.iterations()) : 0.0);
+  state.counters["fps"] = Counter(1.0, Counter::kIsIterationInvariantRate);
+  state.counters["MDE/s"] = Counter(static_cast<double>(width) * height * kDisparities * 1e-6, Counter::kIsIterationInvariantRate);
+}
+
+void BM_lpstereo_engine(benchmark::State& state) {
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const Pair& pair = pair_of_size(width, height);
+  arm::DisparityParameters parameters;
+  parameters.min_disparity = 0;
+  parameters.num_disparities = kDisparities;
+  arm::DisparityEngine engine(width, height, parameters, {}, kThreads);
+  const auto start = std::chrono::steady_clock::now();
+  for (auto _ : state) {
+    const Plane& disparity = engine.compute(pair.left, pair.right);
+    benchmark::DoNotOptimize(disparity.row<int16_t>(0));
+    benchmark::ClobberMemory();
+  }
+  set_counters(state, width, height, std::chrono::steady_clock::now() - start);
+}
+
+void run_opencv(benchmark::State& state, io::SgbmMode mode) {
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const Pair& pair = pair_of_size(width, height);
+  const cv::Ptr<cv::StereoSGBM> matcher = io::make_opencv_sgbm(0, kDisparities, mode);
+  cv::Mat disparity;
+  const auto start = std::chrono::steady_clock::now();
+  for (auto _ : state) {
+    matcher->compute(pair.left_mat, pair.right_mat, disparity);
+    benchmark::DoNotOptimize(disparity.data);
+    benchmark::ClobberMemory();
+  }
+  set_counters(state, width, height, std::chrono::steady_clock::now() - start);
+}
+
+void BM_opencv_MODE_SGBM(benchmark::State& state) { run_opencv(state, io::SgbmMode::sgbm); }
+void BM_opencv_MODE_SGBM_3WAY(benchmark::State& state) { run_opencv(state, io::SgbmMode::sgbm_3way); }
+void BM_opencv_MODE_HH(benchmark::State& state) { run_opencv(state, io::SgbmMode::hh); }
+
+void sizes(benchmark::internal::Benchmark* benchmark) {
+  benchmark->ArgNames({"width", "height"})
+      ->Args({640, 480})
+      ->Args({1242, 375})
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime()
+      ->MinWarmUpTime(kWarmUpSeconds)
+      ->Repetitions(kRepetitions)
+      ->ReportAggregatesOnly(true);
+}
+
+BENCHMARK(BM_lpstereo_engine)->Apply(sizes);
+BENCHMARK(BM_opencv_MODE_SGBM)->Apply(sizes);
+BENCHMARK(BM_opencv_MODE_SGBM_3WAY)->Apply(sizes);
+BENCHMARK(BM_opencv_MODE_HH)->Apply(sizes);
+
+}  // namespace
+}  // namespace lpstereo
+
+int main(int argc, char** argv) {
+  cv::setNumThreads(lpstereo::kThreads);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  const lpstereo::arm::DisparityParameters engine_defaults;
+  benchmark::AddCustomContext("threads", "2 for both (OpenCV: cv::setNumThreads(2), cv::getNumThreads() = " +
+                                             std::to_string(cv::getNumThreads()) +
+                                             "; lpstereo: FrameRunner with 2 worker threads)");
+  benchmark::AddCustomContext("disparities", "[0, 128): 128 for both");
+  benchmark::AddCustomContext("lpstereo", "arm::DisparityEngine: census " + std::to_string(engine_defaults.census_width) + "x" +
+                                              std::to_string(engine_defaults.census_width) +
+                                              " + winner-takes-all (no aggregation), native ISA " +
+                                              std::string(lpstereo::simd::isa_name(lpstereo::simd::active_isa())));
+  benchmark::AddCustomContext("opencv", lpstereo::io::sgbm_settings_text({}));
+  benchmark::AddCustomContext("input 640x480", lpstereo::pair_of_size(640, 480).source);
+  benchmark::AddCustomContext("input 1242x375", lpstereo::pair_of_size(1242, 375).source);
+  benchmark::AddCustomContext("timing", "wall clock; 0.5 s warm-up, 7 repetitions, read the _median rows; "
+                                        "MDE/s = W*H*D/seconds/1e6");
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

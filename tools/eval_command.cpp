@@ -1,0 +1,237 @@
+#include "tools/eval_command.h"
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "arm/disparity_engine.h"
+#include "dag/atomic_file.h"
+#include "io/disparity_metrics.h"
+#include "io/opencv_sgbm.h"
+#include "io/stereo_datasets.h"
+#include "tools/command_error.h"
+
+namespace lpstereo::tools {
+
+namespace {
+
+constexpr const char* kLpstereoMethod = "lpstereo";
+
+struct Method {
+  std::string name;                 // row label and JSON key
+  std::optional<io::SgbmMode> sgbm; // empty: lpstereo's engine
+};
+
+// Every number of one evaluation, flattened ("all.dense.bad2_pct" -> value); NaN = not available.
+using FlatMetrics = std::vector<std::pair<std::string, double>>;
+
+void add_error_metrics(FlatMetrics& flat, const std::string& prefix, const io::ErrorMetrics& metrics) {
+  flat.emplace_back(prefix + "pixels", static_cast<double>(metrics.pixels));
+  flat.emplace_back(prefix + "bad1_pct", metrics.bad1_pct);
+  flat.emplace_back(prefix + "bad2_pct", metrics.bad2_pct);
+  flat.emplace_back(prefix + "bad4_pct", metrics.bad4_pct);
+  flat.emplace_back(prefix + "d1_pct", metrics.d1_pct);
+  flat.emplace_back(prefix + "epe_px", metrics.epe_px);
+}
+
+FlatMetrics flatten(const io::DisparityMetrics& metrics) {
+  FlatMetrics flat;
+  for (const auto& [name, region] : {std::pair<std::string, const io::RegionMetrics*>{"nonocc", &metrics.nonocc},
+                                     std::pair<std::string, const io::RegionMetrics*>{"all", &metrics.all}}) {
+    flat.emplace_back(name + ".ground_truth_pixels", static_cast<double>(region->ground_truth_pixels));
+    flat.emplace_back(name + ".density_pct", region->density_pct);
+    add_error_metrics(flat, name + ".dense.", region->dense);
+    add_error_metrics(flat, name + ".valid.", region->valid);
+  }
+  return flat;
+}
+
+double lookup(const FlatMetrics& flat, const std::string& key) {
+  for (const auto& [name, value] : flat) {
+    if (name == key) return value;
+  }
+  return std::nan("");
+}
+
+// Mean over pairs of each number, ignoring pairs where it is not available.
+FlatMetrics mean_of(const std::vector<FlatMetrics>& per_pair) {
+  FlatMetrics mean;
+  if (per_pair.empty()) return mean;
+  for (const auto& [key, unused] : per_pair.front()) {
+    double sum = 0;
+    int count = 0;
+    for (const FlatMetrics& flat : per_pair) {
+      const double value = lookup(flat, key);
+      if (std::isnan(value)) continue;
+      sum += value;
+      ++count;
+    }
+    mean.emplace_back(key, count > 0 ? sum / count : std::nan(""));
+  }
+  return mean;
+}
+
+nlohmann::json to_json(const FlatMetrics& flat) {
+  nlohmann::json json = nlohmann::json::object();
+  for (const auto& [key, value] : flat) {
+    std::string pointer = "/" + key;
+    for (char& c : pointer) c = c == '.' ? '/' : c;
+    const bool count = key.size() >= 6 && key.compare(key.size() - 6, 6, "pixels") == 0;
+    json[nlohmann::json::json_pointer(pointer)] = std::isnan(value) ? nlohmann::json(nullptr)
+                                                  : count           ? nlohmann::json(std::llround(value))
+                                                                    : nlohmann::json(value);
+  }
+  return json;
+}
+
+std::string cell(const FlatMetrics& flat, const std::string& region, const std::string& metric) {
+  const double dense = lookup(flat, region + ".dense." + metric);
+  const double valid = lookup(flat, region + ".valid." + metric);
+  char text[32];
+  if (std::isnan(dense) && std::isnan(valid)) return "-";
+  std::snprintf(text, sizeof text, "%.2f/%.2f", dense, valid);
+  return text;
+}
+
+std::string number(double value, const char* format) {
+  if (std::isnan(value)) return "-";
+  char text[32];
+  std::snprintf(text, sizeof text, format, value);
+  return text;
+}
+
+void print_table(const std::vector<Method>& methods, const std::vector<FlatMetrics>& rows) {
+  std::printf("  %-22s %8s %8s | %13s %13s %13s %13s | %13s %13s %13s\n", "method (dense/valid)", "dens-noc", "dens-all",
+              "noc bad-1 %", "noc bad-2 %", "noc bad-4 %", "noc EPE px", "all bad-2 %", "all D1 %", "all EPE px");
+  for (size_t m = 0; m < methods.size(); ++m) {
+    const FlatMetrics& flat = rows[m];
+    std::printf("  %-22s %8s %8s | %13s %13s %13s %13s | %13s %13s %13s\n", methods[m].name.c_str(),
+                number(lookup(flat, "nonocc.density_pct"), "%.1f%%").c_str(),
+                number(lookup(flat, "all.density_pct"), "%.1f%%").c_str(), cell(flat, "nonocc", "bad1_pct").c_str(),
+                cell(flat, "nonocc", "bad2_pct").c_str(), cell(flat, "nonocc", "bad4_pct").c_str(),
+                cell(flat, "nonocc", "epe_px").c_str(), cell(flat, "all", "bad2_pct").c_str(),
+                cell(flat, "all", "d1_pct").c_str(), cell(flat, "all", "epe_px").c_str());
+  }
+}
+
+std::string range_text(int min_disparity_px, int num_disparities) {
+  return "[" + std::to_string(min_disparity_px) + ", " + std::to_string(min_disparity_px + num_disparities) + ")";
+}
+
+}  // namespace
+
+int run_eval(const EvalOptions& options) {
+  if (options.benchmark != "middlebury" && options.benchmark != "kitti") {
+    throw CommandError(kExitUsage, "eval: expected 'middlebury' or 'kitti', got '" + options.benchmark + "'");
+  }
+  const bool with_opencv = options.baseline == "opencv";
+  if (!options.baseline.empty() && !with_opencv) {
+    throw CommandError(kExitUsage, "--baseline: expected 'opencv', got '" + options.baseline + "'");
+  }
+  if (options.num_disparities && *options.num_disparities <= 0) {
+    throw CommandError(kExitUsage, "--num-disp: expected a positive number of disparities, got " +
+                                       std::to_string(*options.num_disparities));
+  }
+  if (with_opencv && options.num_disparities && *options.num_disparities % 16 != 0) {
+    throw CommandError(kExitUsage, "--num-disp: OpenCV StereoSGBM needs a multiple of 16 (the same range for both), got " +
+                                       std::to_string(*options.num_disparities));
+  }
+  const std::string data_directory = io::shared_data_directory(options.data_directory);
+  std::vector<io::StereoPair> pairs = options.benchmark == "middlebury" ? io::load_middlebury_pairs(data_directory)
+                                                                         : io::load_kitti_pairs(data_directory);
+  std::vector<Method> methods = {{kLpstereoMethod, std::nullopt}};
+  if (with_opencv) {
+    for (io::SgbmMode mode : {io::SgbmMode::sgbm, io::SgbmMode::sgbm_3way, io::SgbmMode::hh}) {
+      methods.push_back({std::string("opencv ") + io::sgbm_mode_name(mode), mode});
+    }
+  }
+  const arm::DisparityParameters defaults;
+  const io::SgbmSettings sgbm_settings;
+  std::printf("eval %s: %zu pair(s) from %s; dense = after the KITTI fill, every ground-truth pixel; valid = only the "
+              "pixels the method produced\n",
+              options.benchmark.c_str(), pairs.size(), data_directory.c_str());
+  std::printf("lpstereo: arm::DisparityEngine (census %dx%d, winner-takes-all, max cost %d bits)\n", defaults.census_width,
+              defaults.census_width, defaults.max_cost_bits);
+  if (with_opencv) std::printf("%s\n", io::sgbm_settings_text(sgbm_settings).c_str());
+
+  nlohmann::json report;
+  report["benchmark"] = options.benchmark;
+  report["data_directory"] = data_directory;
+  report["settings"]["lpstereo"] = {{"engine", "arm::DisparityEngine"},
+                                    {"census_width", defaults.census_width},
+                                    {"max_cost_bits", defaults.max_cost_bits}};
+  if (with_opencv) report["settings"]["opencv"] = io::sgbm_settings_text(sgbm_settings);
+  report["settings"]["fill"] = "KITTI devkit interpolateBackground (dense metrics)";
+  report["pairs"] = nlohmann::json::array();
+
+  std::map<std::string, std::vector<FlatMetrics>> per_method;
+  for (io::StereoPair& pair : pairs) {
+    if (options.num_disparities) {
+      pair.num_disparities = *options.num_disparities;
+      pair.range_source = "--num-disp";
+    }
+    if (options.min_disparity_px) {
+      pair.min_disparity_px = *options.min_disparity_px;
+      pair.range_source += pair.range_source == "--num-disp" ? " and --min-disp" : "; --min-disp";
+    }
+    const int width = pair.left.width();
+    if (pair.min_disparity_px + pair.num_disparities > width || pair.min_disparity_px <= -width) {
+      throw CommandError(kExitInput, pair.name + ": disparity range " + range_text(pair.min_disparity_px, pair.num_disparities) +
+                                         ": expected min-disp > -" + std::to_string(width) + " and min-disp + num-disp <= " +
+                                         std::to_string(width) + " (the image width)");
+    }
+    std::fprintf(stderr, "eval: %s/%s %dx%d, disparities %s ...\n", pair.collection.c_str(), pair.name.c_str(), width,
+                 pair.left.height(), range_text(pair.min_disparity_px, pair.num_disparities).c_str());
+    const int16_t invalid_q4 = static_cast<int16_t>((pair.min_disparity_px - 1) * 16);
+    std::vector<FlatMetrics> rows;
+    nlohmann::json pair_json = {{"collection", pair.collection},
+                                {"name", pair.name},
+                                {"width", width},
+                                {"height", pair.left.height()},
+                                {"min_disparity_px", pair.min_disparity_px},
+                                {"num_disparities", pair.num_disparities},
+                                {"range_source", pair.range_source},
+                                {"has_nonocc", !pair.nonocc_mask.empty()}};
+    for (const Method& method : methods) {
+      Plane disparity_q4;
+      if (method.sgbm) {
+        disparity_q4 = io::run_opencv_sgbm(pair.left, pair.right, pair.min_disparity_px, pair.num_disparities, *method.sgbm,
+                                           sgbm_settings);
+      } else {
+        arm::DisparityParameters parameters;
+        parameters.min_disparity = pair.min_disparity_px;
+        parameters.num_disparities = pair.num_disparities;
+        arm::DisparityEngine engine(width, pair.left.height(), parameters, {}, options.threads);
+        disparity_q4 = engine.compute(pair.left, pair.right);  // shares the buffer, which outlives the engine
+      }
+      rows.push_back(flatten(io::evaluate_disparity(disparity_q4, invalid_q4, pair.ground_truth_px, pair.nonocc_mask)));
+      pair_json["methods"][method.name] = to_json(rows.back());
+      per_method[method.name].push_back(rows.back());
+    }
+    std::printf("\n%s/%s (%dx%d, disparities %s: %s)\n", pair.collection.c_str(), pair.name.c_str(), width,
+                pair.left.height(), range_text(pair.min_disparity_px, pair.num_disparities).c_str(),
+                pair.range_source.c_str());
+    print_table(methods, rows);
+    report["pairs"].push_back(pair_json);
+  }
+  std::vector<FlatMetrics> means;
+  for (const Method& method : methods) {
+    means.push_back(mean_of(per_method[method.name]));
+    report["mean"][method.name] = to_json(means.back());
+  }
+  std::printf("\nmean over %zu pair(s) (%s)\n", pairs.size(), options.benchmark.c_str());
+  print_table(methods, means);
+  if (!options.json_path.empty()) {
+    write_file_atomically(options.json_path, report.dump(2) + "\n");
+    std::printf("\nreport: %s\n", options.json_path.c_str());
+  }
+  return 0;
+}
+
+}  // namespace lpstereo::tools
