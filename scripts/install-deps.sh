@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   # build
-  build-essential cmake ninja-build pkg-config git
+  build-essential cmake ninja-build pkg-config git ccache
   # libraries: linear algebra, JSON, command line, codecs and reference algorithms
   libeigen3-dev nlohmann-json3-dev libcli11-dev libopencv-dev libpng-dev
   # tests and benchmarks
