@@ -67,15 +67,17 @@ TEST(DisparityFuseMultires, GoldenValuesOfTheFusionRule) {
     const char* why;
   };
   const std::vector<Case> cases = {
-      {100, 500, 100, "valid far value inside the trusted range wins over a valid near value"},
-      {976, 600, 976, "the top trusted far value is still the far value"},
-      {977, 600, 1200, "far value in the top margin: the near value x 2"},
-      {1008, 368, -16, "far value in the top margin, near invalid: invalid"},
+      {100, 480, 100, "near x 2 = 960 inside the far range: the far value"},
+      {100, 500, 1000, "near x 2 = 1000 beyond the far range: the near value x 2, whatever the far pass found"},
+      {976, 368, 976, "near invalid: the top trusted far value"},
+      {977, 368, -16, "far value in the top margin, near invalid: invalid"},
+      {977, 480, -16, "far value in the top margin, near inside the far range: invalid"},
       {-16, 700, 1400, "far invalid: the near value x 2"},
       {-16, 480, -16, "far invalid, near x 2 = 960 inside the far range: invalid"},
       {-16, 489, 978, "far invalid, near x 2 = 978 just above top"},
       {-16, 368, -16, "both invalid"},
-      {0, 700, 0, "disparity 0 is a valid far value (0 is never the invalid value)"},
+      {0, 300, 0, "near below its invalid value counts as invalid; disparity 0 is a valid far value"},
+      {-20, 368, -16, "far below its invalid value counts as invalid"},
   };
   const int width = 2 * static_cast<int>(cases.size());
   Plane full(width, 2, {ElementType::s16, 4});
@@ -110,7 +112,7 @@ TEST(DisparityFuseMultires, GoldenValuesOfTheFusionRule) {
 
 // The closed form of kernels/disparity_fuse_multires.cpp: per chunk of 64 output pixels (two
 // vectors of the counting back end's 32 16-bit lanes) 3 loads, 1 shift, 6 compares, 6 logic,
-// 2 zips (permute), 2 stores; per tile 4 broadcasts (permute).
+// 2 max (arith), 2 zips (permute), 2 stores; per tile 4 broadcasts (permute).
 TEST(DisparityFuseMultires, CountedOpsEqualClosedForm) {
   static_assert(simd::Counting::kLanesU16 == 32, "the closed form assumes 32 16-bit lanes");
   struct Shape {
@@ -125,6 +127,7 @@ TEST(DisparityFuseMultires, CountedOpsEqualClosedForm) {
     expected[simd::OpClass::shift] = work.chunks;
     expected[simd::OpClass::compare] = 6 * work.chunks;
     expected[simd::OpClass::logic] = 6 * work.chunks;
+    expected[simd::OpClass::arith] = 2 * work.chunks;
     expected[simd::OpClass::permute] = 2 * work.chunks + 4 * work.tiles;
     expected[simd::OpClass::store] = 2 * work.chunks;
     EXPECT_TRUE(testing::op_counts_equal(expected, testing::count_ops(test_case, shape.tile_width, shape.tile_height)))
