@@ -39,7 +39,7 @@ Plane matcher_output(int width, int height, ptrdiff_t stride, uint32_t seed, int
 KernelCase fuse_case(int width, int height, uint32_t seed, double invalid_share) {
   KernelCase test_case{"disparity_fuse_multires", kParams, {}, 6};
   test_case.inputs.push_back(matcher_output(width, height, width * 2 + 10, seed, 0, 64, invalid_share));
-  test_case.inputs.push_back(matcher_output((width + 1) / 2, (height + 1) / 2, width + 8, seed + 1, 24, 40, invalid_share));
+  test_case.inputs.push_back(matcher_output((width + 1) / 2, (height + 1) / 2, (width + 1) / 2 * 2 + 8, seed + 1, 24, 40, invalid_share));
   return test_case;
 }
 
