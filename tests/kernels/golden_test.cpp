@@ -91,6 +91,10 @@ const std::vector<GoldenCase>& golden_cases() {
        BorderMode::replicate, {{97, 61}, {97, 61}}, 0x78c485fbf2aecb61ull},
       {"median3x3", nlohmann::json::object(), BorderMode::replicate, {{97, 61}}, 0xfe146256b73fdb16ull},
       {"remap_bilinear", nlohmann::json::object(), BorderMode::constant, {{97, 61}, {97, 61}}, 0xab305ec907968711ull},
+      {"downsample2x", nlohmann::json::object(), BorderMode::replicate, {{97, 61}}, 0xf62a5de4e48df7b2ull},
+      {"median3x3_s16", {{"invalid_q4", -16}}, BorderMode::replicate, {{97, 61}}, 0x2a44dd156fc0ce16ull},
+      {"disparity_fuse_multires", {{"min_far", 0}, {"num_far", 40}, {"min_near", 0}, {"num_near", 40}, {"margin_px", 2}},
+       BorderMode::replicate, {{97, 61}, {49, 31}}, 0x34612fa49176e9deull},
   };
   return cases;
 }
