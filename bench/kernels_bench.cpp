@@ -5,9 +5,9 @@
 //
 //   census5x5, census9x7          (no OpenCV counterpart)
 //   median3x3                      vs cv::medianBlur(ksize 3)                (both replicate borders)
-//   remap_bilinear (remap_q4 map)  vs cv::remap(INTER_LINEAR) with the float maps and with the
+//   remap_bilinear (remap_q5 map)  vs cv::remap(INTER_LINEAR) with the float maps and with the
 //                                  fixed-point maps of cv::convertMaps (CV_16SC2 + CV_16UC1, built
-//                                  once outside the timing, as our remap_q4 map is)
+//                                  once outside the timing, as our remap_q5 map is)
 //
 // Sizes 1920x1080 and 3840x1728; throughput in megapixels of output per second of CPU time: the
 // rate counter "Mpx" (the console prints it with an SI prefix, "Mpx=2.5k/s" = 2500 megapixels/s).
@@ -53,7 +53,7 @@ struct Frame {
   std::vector<float> map_x, map_y;        // synthetic rectification, absolute float coordinates
   cv::Mat cv_map_x, cv_map_y;             // views of map_x, map_y
   cv::Mat cv_fixed_xy, cv_fixed_fraction; // cv::convertMaps output (CV_16SC2, CV_16UC1)
-  Plane map_q4;                           // the same map as remap_q4
+  Plane map_q5;                           // the same map as remap_q5
 };
 
 const Frame& frame(int width, int height) {
@@ -70,7 +70,7 @@ const Frame& frame(int width, int height) {
   built.cv_map_x = cv::Mat(height, width, CV_32FC1, built.map_x.data());
   built.cv_map_y = cv::Mat(height, width, CV_32FC1, built.map_y.data());
   cv::convertMaps(built.cv_map_x, built.cv_map_y, built.cv_fixed_xy, built.cv_fixed_fraction, CV_16SC2);
-  built.map_q4 = make_remap_q4_from_float(built.map_x.data(), built.map_y.data(), width, height, width);
+  built.map_q5 = make_remap_q5_from_float(built.map_x.data(), built.map_y.data(), width, height, width);
   return built;
 }
 
@@ -94,7 +94,7 @@ void run_lpstereo_kernel(benchmark::State& state, const std::string& name, Eleme
   std::vector<PlaneView> inputs = {input.image_plane.view()};
   std::vector<PlaneShape> shapes = {{width, height}};
   if (kernel.input_count() == 2) {
-    inputs.push_back(input.map_q4.view());
+    inputs.push_back(input.map_q5.view());
     shapes.push_back({width, height});
   }
   const PreparedKernel prepared = kernel.prepare(nlohmann::json::object(), shapes);

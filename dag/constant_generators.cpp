@@ -6,15 +6,15 @@ namespace lpstereo {
 
 std::vector<BuiltinConstantGenerator> builtin_constant_generators() {
   std::vector<BuiltinConstantGenerator> generators;
-  // identity_rectification: an all-zero remap_q4 map (the views are already rectified).
-  generators.push_back({"identity_rectification", {ElementType::remap_q4, 0},
+  // identity_rectification: an all-zero remap_q5 map (the views are already rectified).
+  generators.push_back({"identity_rectification", {ElementType::remap_q5, 0},
                         [](const nlohmann::json& params, int width, int height) {
                           check_param_names(params, {});
-                          return Plane(width, height, {ElementType::remap_q4, 0});
+                          return Plane(width, height, {ElementType::remap_q5, 0});
                         }});
   // synthetic_rectification: a realistic rectification map (rotation, zoom, radial distortion)
   // for running the pipeline without a calibration file (dag/remap_table.h).
-  generators.push_back({"synthetic_rectification", {ElementType::remap_q4, 0},
+  generators.push_back({"synthetic_rectification", {ElementType::remap_q5, 0},
                         [](const nlohmann::json& params, int width, int height) {
                           check_param_names(params, {"rotation_rad", "scale", "k1", "focal_px"});
                           SyntheticRectification model;

@@ -19,7 +19,7 @@ constexpr std::array<TypeInfo, 9> kTypes = {{
     {ElementType::s32, "s32", 4},
     {ElementType::census32, "census32", 4},
     {ElementType::census64, "census64", 8},
-    {ElementType::remap_q4, "remap_q4", 4},
+    {ElementType::remap_q5, "remap_q5", 4},
     {ElementType::bytes, "bytes", 1},
 }};
 bool has_q_format(ElementType type) { return type == ElementType::s16 || type == ElementType::s32; }

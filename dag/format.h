@@ -22,8 +22,9 @@ enum class ElementType : uint8_t {
   census32,  // census signature of a window of at most 32 pixels (5x5: 24 bits, bit k = neighbour k
              // in raster order, centre skipped, is darker than the centre; upper bits 0).
   census64,  // census signature of a window of at most 64 pixels (9x7: 62 bits, same bit order).
-  remap_q4,  // rectification look-up entry: two s16 per pixel, (source_x - x) and (source_y - y) in
-             // Q11.4 (1/16 px, range +-2047.9375 px). Out-of-range sources follow the border mode.
+  remap_q5,  // rectification look-up entry: two s16 per pixel, (source_x - x) and (source_y - y) in
+             // Q10.5 (1/32 px, range -1024 .. +1023.96875 px), interleaved; the positions cv::remap
+             // uses. Out-of-range sources follow the border mode (kernels/remap_bilinear.cpp).
   bytes,     // opaque bytes of an ARM-side structure (feature lists, statistics); size in bytes.
 };
 

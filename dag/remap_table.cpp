@@ -11,16 +11,20 @@ namespace lpstereo {
 
 namespace {
 
-// The Q11.4 value nearest to delta_px (ties away from zero), or an error naming the pixel and axis.
-int16_t to_q4(double delta_px, int x, int y, const char* axis) {
-  constexpr double kMinPx = std::numeric_limits<int16_t>::min() / 16.0;
-  constexpr double kMaxPx = std::numeric_limits<int16_t>::max() / 16.0;
-  const double scaled = std::round(delta_px * 16.0);
+// position_px - pixel in Q10.5: the source position rounded to the nearest 1/32 px (ties to even,
+// as OpenCV's cvRound in cv::remap), minus the pixel's own coordinate; or an error naming the pixel
+// and axis.
+int16_t to_q5(float position_px, int pixel, int x, int y, const char* axis) {
+  constexpr double kMinPx = std::numeric_limits<int16_t>::min() / 32.0;
+  constexpr double kMaxPx = std::numeric_limits<int16_t>::max() / 32.0;
+  const double delta_px = static_cast<double>(position_px) - pixel;
+  // position * 32 is exact in double; nearbyint rounds ties to even in the default rounding mode.
+  const double scaled = std::nearbyint(static_cast<double>(position_px) * 32.0) - 32.0 * pixel;
   if (!std::isfinite(delta_px) || scaled < std::numeric_limits<int16_t>::min() ||
       scaled > std::numeric_limits<int16_t>::max()) {
     std::ostringstream message;
     message << "remap map: pixel (" << x << ", " << y << "): source_" << axis << " - " << axis
-            << ": expected a finite displacement in [" << kMinPx << ", " << kMaxPx << "] px (Q11.4), got "
+            << ": expected a finite displacement in [" << kMinPx << ", " << kMaxPx << "] px (Q10.5), got "
             << delta_px << " px";
     throw std::invalid_argument(message.str());
   }
@@ -36,7 +40,7 @@ void check_size(int width, int height) {
 
 }  // namespace
 
-Plane make_remap_q4_from_float(const float* map_x, const float* map_y, int width, int height,
+Plane make_remap_q5_from_float(const float* map_x, const float* map_y, int width, int height,
                                ptrdiff_t stride_elements) {
   check_size(width, height);
   if (stride_elements < width) {
@@ -44,14 +48,14 @@ Plane make_remap_q4_from_float(const float* map_x, const float* map_y, int width
                                 std::to_string(stride_elements));
   }
   if (map_x == nullptr || map_y == nullptr) throw std::invalid_argument("remap map: map_x and map_y must not be null");
-  Plane map(width, height, {ElementType::remap_q4, 0});
+  Plane map(width, height, {ElementType::remap_q5, 0});
   for (int y = 0; y < height; ++y) {
     const float* row_x = map_x + static_cast<ptrdiff_t>(y) * stride_elements;
     const float* row_y = map_y + static_cast<ptrdiff_t>(y) * stride_elements;
     int16_t* out = map.row<int16_t>(y);
     for (int x = 0; x < width; ++x) {
-      out[2 * x] = to_q4(static_cast<double>(row_x[x]) - x, x, y, "x");
-      out[2 * x + 1] = to_q4(static_cast<double>(row_y[x]) - y, x, y, "y");
+      out[2 * x] = to_q5(row_x[x], x, x, y, "x");
+      out[2 * x + 1] = to_q5(row_y[x], y, x, y, "y");
     }
   }
   return map;
@@ -96,7 +100,7 @@ Plane make_synthetic_rectification_map(int width, int height, const SyntheticRec
   std::vector<float> map_x;
   std::vector<float> map_y;
   make_synthetic_rectification_float(width, height, model, map_x, map_y);
-  return make_remap_q4_from_float(map_x.data(), map_y.data(), width, height, width);
+  return make_remap_q5_from_float(map_x.data(), map_y.data(), width, height, width);
 }
 
 }  // namespace lpstereo

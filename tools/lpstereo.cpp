@@ -7,6 +7,7 @@
 //               Markdown summary; --enforce exits 3 when over the time or bandwidth budget
 //   graph       verify | dot
 //   kernels     the kernels and ARM tasks this binary has
+//   rectify, check-rectification, calibrate   cameras (tools/geometry_commands.h)
 //
 // Exit codes: 0 done; 1 bad input or a graph that fails verify (one line on stderr); 2 bad usage;
 // 3 over budget with --enforce.
@@ -34,6 +35,7 @@
 #include "kernels/simd/isa.h"
 #include "tools/command_error.h"
 #include "tools/eval_command.h"
+#include "tools/geometry_commands.h"
 
 namespace {
 
@@ -462,6 +464,9 @@ int main(int argc, char** argv) {
 
   CLI::App* kernels = app.add_subcommand("kernels", "list the kernels, ARM tasks and ISA levels");
 
+  // rectify, check-rectification, calibrate
+  tools::GeometryCommands geometry(app);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
@@ -478,6 +483,7 @@ int main(int argc, char** argv) {
     if (*verify) return run_graph_verify(verify_graph, verify_target, verify_size);
     if (*dot) return run_graph_dot(dot_graph, dot_output);
     if (*kernels) return run_kernels();
+    if (geometry.selected()) return geometry.run();
   } catch (const CommandError& error) {
     std::cerr << "lpstereo: " << error.what() << "\n";
     return error.exit_code;

@@ -235,7 +235,7 @@ TEST(GraphDot, DrawsNodesBuffersAndDelayedEdges) {
 }
 
 TEST(Formats, ParseAndNameRoundTrip) {
-  for (const char* name : {"u8", "u16", "s16q4", "s16", "s32q8", "census32", "census64", "remap_q4", "u32"}) {
+  for (const char* name : {"u8", "u16", "s16q4", "s16", "s32q8", "census32", "census64", "remap_q5", "u32"}) {
     std::optional<BufferFormat> format = parse_format(name);
     ASSERT_TRUE(format.has_value()) << name;
     EXPECT_EQ(format_name(*format), std::string(name) == "s16" ? "s16q0" : name);

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io/disparity_io.h"
+#include "tests/support/cli_runner.h"
 #include "tests/support/scratch_directory.h"
 
 namespace {
@@ -21,32 +22,8 @@ namespace {
 using namespace lpstereo;
 namespace fs = std::filesystem;
 
-struct Result {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-// Runs lpstereo with the arguments (a shell word list), capturing stdout and stderr.
-Result run(const std::string& arguments) {
-  const fs::path directory = fs::temp_directory_path() / ("lpstereo_cli_" + std::to_string(::getpid()));
-  fs::create_directories(directory);
-  const std::string out_file = (directory / "stdout").string();
-  const std::string err_file = (directory / "stderr").string();
-  const std::string command = std::string(LPSTEREO_BINARY) + " " + arguments + " >" + out_file + " 2>" + err_file;
-  const int status = std::system(command.c_str());
-  Result result;
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  auto slurp = [](const std::string& path) {
-    std::ifstream file(path);
-    std::ostringstream text;
-    text << file.rdbuf();
-    return text.str();
-  };
-  result.out = slurp(out_file);
-  result.err = slurp(err_file);
-  return result;
-}
+using lpstereo::testing::Result;
+using lpstereo::testing::run;
 
 int lines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
 
