@@ -470,7 +470,10 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
-    return app.exit(error);
+    // --help and --version exit 0; every usage error prints one line and exits 2 (the README's code).
+    if (error.get_exit_code() == 0) return app.exit(error);
+    std::cerr << "lpstereo: " << error.what() << " (run with --help for the options)\n";
+    return 2;
   }
   try {
     if (*disparity) {

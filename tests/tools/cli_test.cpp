@@ -147,6 +147,8 @@ TEST_F(Cli, BadInputGetsOneClearLineAndANonZeroExit) {
        "lpstereo: verify phase 2 (ports and formats): node 'n': unknown kernel 'sobel'", 1},
       {"unknown target", "profile --graph rectify-census --target cv9 --width 64 --height 64", "lpstereo: no target named 'cv9'", 1},
       {"unknown graph", "profile --graph no-such-graph --width 64 --height 64", "lpstereo: no graph named 'no-such-graph'", 1},
+      {"missing required option", "profile --width 64 --height 64", "lpstereo: --graph is required", 2},
+      {"unknown option", "profile --graph rectify-census --colour red", "lpstereo: The following arguments were not expected", 2},
       {"impossible size", "profile --graph rectify-census --width 0 --height 64", "lpstereo: frame size: expected", 2},
       {"impossible fps", "profile --graph rectify-census --width 64 --height 64 --fps -3", "lpstereo: --fps: expected", 2},
       {"unwritable report", "profile --graph rectify-census --width 64 --height 64 --report " + path("no/such/dir/r.json"),
