@@ -49,9 +49,11 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 
 #include "kernels/kernel.h"
 #include "kernels/row_access.h"
+#include "kernels/simd/emulated.h"
 
 namespace lpstereo::kernels {
 
@@ -128,6 +130,10 @@ inline SgmScratchLayout sgm_scratch_layout(int width, const SgmParams& params, S
 
 namespace sgm_detail {
 
+// The per-pixel helpers are inlined into the row loop (a call per path and pixel costs as much as
+// the path step on the host).
+#define LPSTEREO_SGM_INLINE [[gnu::always_inline]] inline
+
 // 0, 1, 2, ...: lane numbers for building constant vectors (one load).
 alignas(64) inline constexpr uint16_t kLaneNumbersU16[64] = {
     0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21,
@@ -139,7 +145,7 @@ alignas(64) inline constexpr uint32_t kLaneNumbersU32[32] = {0,  1,  2,  3,  4, 
 
 // Every lane = the minimum of v's lanes: log2(L16) stages of 2 zips + 1 min.
 template <class B>
-typename B::VU16 broadcast_min_u16(typename B::VU16 v) {
+LPSTEREO_SGM_INLINE typename B::VU16 broadcast_min_u16(typename B::VU16 v) {
   v = B::min(B::as_u16(B::zip_lo(v, v)), B::as_u16(B::zip_hi(v, v)));
   for (int lanes = B::kLanesU16 / 2; lanes > 1; lanes /= 2) {
     const typename B::VU32 w = B::as_u32(v);
@@ -150,7 +156,7 @@ typename B::VU16 broadcast_min_u16(typename B::VU16 v) {
 
 // Every lane = the minimum of v's lanes: log2(L32) stages of 2 zips + 1 min.
 template <class B>
-typename B::VU32 broadcast_min_u32(typename B::VU32 v) {
+LPSTEREO_SGM_INLINE typename B::VU32 broadcast_min_u32(typename B::VU32 v) {
   for (int lanes = B::kLanesU32; lanes > 1; lanes /= 2) v = B::min(B::as_u32(B::zip_lo(v, v)), B::as_u32(B::zip_hi(v, v)));
   return v;
 }
@@ -158,7 +164,7 @@ typename B::VU32 broadcast_min_u32(typename B::VU32 v) {
 // The census Hamming costs of one u16 vector of disparity lanes: lane i is
 // popcount(left XOR right_row[column + i]); right words at or past readable_end read as 0.
 template <class B, class Word, class VWord>
-typename B::VU16 census_costs(const VWord& left, const Word* right_row, int column, int readable_end) {
+LPSTEREO_SGM_INLINE typename B::VU16 census_costs(const VWord& left, const Word* right_row, int column, int readable_end) {
   if constexpr (sizeof(Word) == 4) {
     const auto c0 = B::popcount(B::bit_xor(left, load_clipped<B>(right_row, column, readable_end)));
     const auto c1 = B::popcount(B::bit_xor(left, load_clipped<B>(right_row, column + B::kLanesU32, readable_end)));
@@ -185,13 +191,12 @@ struct PathConstants {
 // a path start); the new costs go to `out` (which may be `previous`: everything is loaded before
 // anything is stored). sum[k] gets the costs added (or set, for the first path).
 template <class B, int kMaxVectors>
-void path_step(const uint16_t* previous, uint16_t* out, const typename B::VU16* cost, typename B::VU16* sum, bool first,
+LPSTEREO_SGM_INLINE void path_step(const uint16_t* previous, uint16_t* out, const typename B::VU16* cost, typename B::VU16* sum, bool first,
                int vectors, const PathConstants<B>& constants) {
   using VU16 = typename B::VU16;
   constexpr int L = B::kLanesU16;
   VU16 last[kMaxVectors];
-  VU16 lower[kMaxVectors];
-  VU16 upper[kMaxVectors];
+  VU16 neighbours[kMaxVectors];
   last[0] = B::load(previous);
   VU16 minimum = last[0];
   for (int k = 1; k < vectors; ++k) {
@@ -200,13 +205,13 @@ void path_step(const uint16_t* previous, uint16_t* out, const typename B::VU16* 
   }
   minimum = broadcast_min_u16<B>(minimum);
   const VU16 minimum_p2 = B::adds(minimum, constants.p2);
+  // min(L(d - 1), L(d + 1)) + P1: lanes shifted by one through unaligned loads (0xFFFF sentinels at
+  // both ends saturate).
   for (int k = 0; k < vectors; ++k) {
-    lower[k] = B::load(previous + k * L - 1);
-    upper[k] = B::load(previous + k * L + 1);
+    neighbours[k] = B::adds(B::min(B::load(previous + k * L - 1), B::load(previous + k * L + 1)), constants.p1);
   }
   for (int k = 0; k < vectors; ++k) {
-    VU16 best = B::adds(B::min(lower[k], upper[k]), constants.p1);
-    best = B::min(best, B::min(last[k], minimum_p2));
+    const VU16 best = B::min(neighbours[k], B::min(last[k], minimum_p2));
     const VU16 value = B::adds(cost[k], B::sub(best, minimum));
     B::store(out + k * L, value);
     sum[k] = first ? value : B::adds(sum[k], value);
@@ -220,8 +225,12 @@ void path_step(const uint16_t* previous, uint16_t* out, const typename B::VU16* 
 // right view's halo; the forward pass gets the census planes whole and stages each right row with
 // its replicate border itself (its output is W*D wide, so the executor cannot cut census windows
 // for it). Output 0: s16 Q4 disparity (single, backward) or the sums (forward).
-template <class B, class Word, SgmPass kPass>
-void sgm_tile(const TileArgs& args) {
+namespace sgm_detail {
+
+// kFixedVectors > 0: the body compiled for exactly that many disparity vectors (loops unrolled,
+// per-pixel vectors kept in registers); 0: any count.
+template <class B, class Word, SgmPass kPass, int kFixedVectors>
+void sgm_tile_for(const TileArgs& args) {
   using VU16 = typename B::VU16;
   using VU32 = typename B::VU32;
   constexpr int L16 = B::kLanesU16;
@@ -232,7 +241,7 @@ void sgm_tile(const TileArgs& args) {
 
   const SgmParams& params = *static_cast<const SgmParams*>(args.params);
   const int count = params.num_disparities;
-  const int vectors = (count + L16 - 1) / L16;
+  const int vectors = kFixedVectors > 0 ? kFixedVectors : (count + L16 - 1) / L16;
   const int padded = vectors * L16;
   const int width = kPass == SgmPass::forward ? args.inputs[0].width : args.outputs[0].width;
   const int height = kPass == SgmPass::forward ? args.inputs[0].height : args.image_height;
@@ -290,6 +299,7 @@ void sgm_tile(const TileArgs& args) {
   const VU32 disparity_base = B::set1_u32(static_cast<uint32_t>(params.min_disparity * 16));
   const VU32 invalid = B::set1_u32(static_cast<uint32_t>((params.min_disparity - 1) * 16));
   VU32 near_index[2 * kMaxVectors];  // (d - min_disparity) + 1 per u32 key lane, for |d - best| <= 1
+  for (VU32& lane_index : near_index) lane_index = zero32;
   VU32 three = zero32, hundred = zero32, keep_percent = zero32;
   if (kSelect && params.uniqueness_percent > 0) {
     const VU32 one = B::set1_u32(1);
@@ -494,6 +504,30 @@ void sgm_tile(const TileArgs& args) {
       }
     }
   }
+}
+
+template <class B>
+struct IsEmulated : std::false_type {};
+template <int kBytes, bool kCounting, int kTag>
+struct IsEmulated<simd::Emulated<kBytes, kCounting, kTag>> : std::true_type {};
+
+}  // namespace sgm_detail
+
+// The tile body (see sgm_tile_for). Native vector back ends get bodies specialised for 2, 4 and 8
+// disparity vectors (64, 128, 256 disparities on AVX-512): same ops, same bits, faster on the host.
+// The emulated back ends (counting, scalar fallback) run the general body.
+template <class B, class Word, SgmPass kPass>
+void sgm_tile(const TileArgs& args) {
+  if constexpr (!sgm_detail::IsEmulated<B>::value) {
+    const int vectors = (static_cast<const SgmParams*>(args.params)->num_disparities + B::kLanesU16 - 1) / B::kLanesU16;
+    switch (vectors) {
+      case 2: return sgm_detail::sgm_tile_for<B, Word, kPass, 2>(args);
+      case 4: return sgm_detail::sgm_tile_for<B, Word, kPass, 4>(args);
+      case 8: return sgm_detail::sgm_tile_for<B, Word, kPass, 8>(args);
+      default: break;
+    }
+  }
+  sgm_detail::sgm_tile_for<B, Word, kPass, 0>(args);
 }
 
 }  // namespace lpstereo::kernels

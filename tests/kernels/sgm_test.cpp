@@ -74,9 +74,10 @@ struct RangeCase {
   int min_disparity, num_disparities, uniqueness, subpixel, lr_max_diff;
 };
 
-// Ranges: a full and a partial last vector on every back end, negative ranges, one disparity.
-const std::vector<RangeCase> kRanges = {
-    {0, 32, 10, 1, 1}, {0, 17, 0, 1, -1}, {-9, 20, 15, 1, 0}, {-30, 10, 5, 0, 2}, {3, 1, 0, 1, 1}, {0, 40, 50, 1, 3}};
+// Ranges: a full and a partial last vector on every back end, negative ranges, one disparity, and
+// 64 / 128 disparities, which run the bodies specialised for 2, 4 and 8 vectors on the native levels.
+const std::vector<RangeCase> kRanges = {{0, 32, 10, 1, 1}, {0, 17, 0, 1, -1}, {-9, 20, 15, 1, 0}, {-30, 10, 5, 0, 2},
+                                        {3, 1, 0, 1, 1},   {0, 40, 50, 1, 3}, {0, 64, 10, 1, 1}, {-7, 128, 5, 1, 2}};
 
 TEST(Sgm4Path, MatchesReferenceAtOddSizesInPaddedBuffersAcrossTileHeights) {
   for (const RangeCase& range : kRanges) {
