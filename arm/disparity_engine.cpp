@@ -59,8 +59,8 @@ GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
   const nlohmann::json penalties = {
       {"min_disparity", parameters.min_disparity},
       {"num_disparities", parameters.num_disparities},
-      {"p1", parameters.p1 >= 0 ? parameters.p1 : (census64 ? 11 : 7)},
-      {"p2", parameters.p2 >= 0 ? parameters.p2 : (census64 ? 130 : 86)}};
+      {"p1", parameters.p1 >= 0 ? parameters.p1 : (census64 ? 7 : 5)},
+      {"p2", parameters.p2 >= 0 ? parameters.p2 : (census64 ? 50 : 45)}};
   nlohmann::json selection = penalties;
   selection["uniqueness_percent"] = parameters.uniqueness_percent;
   selection["subpixel"] = parameters.subpixel ? 1 : 0;

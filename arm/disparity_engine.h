@@ -30,8 +30,9 @@ struct DisparityParameters {
   int num_disparities = 64;    // pixels searched: [min_disparity, min_disparity + num_disparities), 1..512 with SGM
   int census_width = 5;        // census window: 5 (5x5, census32 signatures) or 9 (9x7, census64)
   int paths = 4;               // SGM paths: 4 (one pass) or 8 (two passes); 0 = census winner takes all
-  int p1 = -1;                 // SGM penalty for a 1 px disparity change, Hamming bits; -1 = 7 (5x5) or 11 (9x7)
-  int p2 = -1;                 // SGM penalty for larger changes, Hamming bits (>= p1, <= 4000); -1 = 86 (5x5) or 130 (9x7)
+  int p1 = -1;                 // SGM penalty for a 1 px disparity change, Hamming bits; -1 = 5 (5x5) or 7 (9x7)
+  int p2 = -1;                 // SGM penalty for larger changes, Hamming bits (>= p1, <= 4000); -1 = 45 (5x5) or 50 (9x7)
+                               // (the defaults: lowest mean bad-2 over the 8 Middlebury pairs of ../shared/data)
   int uniqueness_percent = 5;  // SGM: the best cost must beat the others (|d - best| > 1) by this %; 0 = off, <= 50
   bool subpixel = true;        // SGM: parabola sub-pixel step (Q4); false = whole pixels
   int lr_max_diff = 1;         // SGM: left-right check tolerance in px; -1 = off

@@ -112,7 +112,7 @@ int main(int argc, char** argv) {
   std::printf("settings: threads %d (lpstereo workers and cv::setNumThreads), median of %d runs after 1 warm-up, "
               "ISA %s, OpenCV %s, synthetic scene (io/synthetic_scene.h)\n",
               threads, runs, std::string(lpstereo::simd::isa_name(lpstereo::simd::active_isa())).c_str(), CV_VERSION);
-  std::printf("lpstereo: census 5x5, SGM P1 7, P2 86, uniqueness 5 %%, LR check 1 px, sub-pixel; "
+  std::printf("lpstereo: census 5x5, SGM P1 5, P2 45, uniqueness 5 %%, LR check 1 px, sub-pixel; "
               "OpenCV: blockSize 5, P1 200, P2 800, uniqueness 10, speckle 100/2, disp12MaxDiff 1\n");
   for (const auto& [width, height] : sizes) {
     lpstereo::io::SyntheticSceneOptions options;

@@ -60,8 +60,8 @@ namespace lpstereo::kernels {
 struct SgmParams {
   int min_disparity = 0;       // pixels, may be negative
   int num_disparities = 64;    // D: the search covers [min_disparity, min_disparity + D)
-  int p1 = 7;                  // penalty for a disparity change of 1 px, Hamming bits
-  int p2 = 86;                 // penalty for a larger change, Hamming bits (>= p1)
+  int p1 = 5;                  // penalty for a disparity change of 1 px, Hamming bits
+  int p2 = 45;                 // penalty for a larger change, Hamming bits (>= p1)
   int uniqueness_percent = 0;  // 0..50, 0 = off
   int subpixel = 1;            // 1: parabola sub-pixel step; 0: integer disparities (x 16)
   int lr_max_diff = -1;        // left-right check tolerance in px; -1 = off
@@ -88,14 +88,15 @@ inline size_t sgm_state_bytes(int width, int disparities) {
 
 // Scratch layout (bytes, sized for the widest back end): three u16 buffers of Dp32 + 2 (a zero
 // "previous pixel" for path starts, the left-to-right path's previous pixel, the current pixel's
-// sums for the sub-pixel gathers), then u32 rows: the right-view keys (W + 2 Dp32 + 64), the
-// per-pixel result and best index (W + 64 each); the forward pass adds the staged right census row.
+// sums for the sub-pixel gathers), then u32 rows: the right-view keys (W + 2 Dp32 + 64) and four
+// per-pixel records (W + 64 each: best key, second-best cost, S(best - 1), S(best + 1)) that the
+// row's final pass turns into disparities 16 pixels per vector; the forward pass adds the staged
+// right census row.
 struct SgmScratchLayout {
   size_t u16_buffer = 0;    // elements per u16 buffer
   size_t keys_offset = 0;   // bytes
   size_t keys_count = 0;
-  size_t result_offset = 0;
-  size_t best_offset = 0;
+  size_t rows_offset = 0;    // four u32 rows: best key, second-best cost, S(best - 1), S(best + 1)
   size_t row_count = 0;
   size_t staged_offset = 0;  // forward pass: the right census row with its border
   size_t staged_count = 0;   // words
@@ -117,10 +118,9 @@ inline SgmScratchLayout sgm_scratch_layout(int width, const SgmParams& params, S
   layout.u16_buffer = dp32 + 2;
   layout.keys_offset = align(3 * layout.u16_buffer * 2);
   layout.keys_count = static_cast<size_t>(width) + 2 * dp32 + 64;
-  layout.result_offset = align(layout.keys_offset + 4 * layout.keys_count);
+  layout.rows_offset = align(layout.keys_offset + 4 * layout.keys_count);
   layout.row_count = static_cast<size_t>(width) + 64;
-  layout.best_offset = align(layout.result_offset + 4 * layout.row_count);
-  layout.staged_offset = align(layout.best_offset + 4 * layout.row_count);
+  layout.staged_offset = align(layout.rows_offset + 4 * 4 * layout.row_count);
   layout.staged_count = pass == SgmPass::forward ? static_cast<size_t>(width) + sgm_left_halo(params) +
                                                        sgm_right_halo(params) + 64
                                                  : 0;
@@ -266,8 +266,10 @@ void sgm_tile_for(const TileArgs& args) {
   uint16_t* const left_path = zero_buffer + layout.u16_buffer;
   uint16_t* const sums_buffer = left_path + layout.u16_buffer;
   uint32_t* const right_keys = reinterpret_cast<uint32_t*>(args.scratch + layout.keys_offset);
-  uint32_t* const result_row = reinterpret_cast<uint32_t*>(args.scratch + layout.result_offset);
-  uint32_t* const best_row = reinterpret_cast<uint32_t*>(args.scratch + layout.best_offset);
+  uint32_t* const best_key_row = reinterpret_cast<uint32_t*>(args.scratch + layout.rows_offset);
+  uint32_t* const second_row = best_key_row + layout.row_count;
+  uint32_t* const minus_row = second_row + layout.row_count;
+  uint32_t* const plus_row = minus_row + layout.row_count;
   Word* const staged = reinterpret_cast<Word*>(args.scratch + layout.staged_offset);
 
   // Per-tile constants.
@@ -298,16 +300,14 @@ void sgm_tile_for(const TileArgs& args) {
   const VU32 ones32 = B::set1_u32(0xFFFFFFFFu);
   const VU32 disparity_base = B::set1_u32(static_cast<uint32_t>(params.min_disparity * 16));
   const VU32 invalid = B::set1_u32(static_cast<uint32_t>((params.min_disparity - 1) * 16));
-  VU32 near_index[2 * kMaxVectors];  // (d - min_disparity) + 1 per u32 key lane, for |d - best| <= 1
-  for (VU32& lane_index : near_index) lane_index = zero32;
-  VU32 three = zero32, hundred = zero32, keep_percent = zero32;
+  VU16 near_index[kMaxVectors];  // (d - min_disparity) + 1 per lane, for |d - best| <= 1
+  for (VU16& lane_index : near_index) lane_index = zero16;
+  VU16 three = zero16;
+  VU32 hundred = zero32, keep_percent = zero32;
   if (kSelect && params.uniqueness_percent > 0) {
-    const VU32 one = B::set1_u32(1);
-    for (int k = 0; k < vectors; ++k) {
-      near_index[2 * k] = B::add(B::as_u32(B::zip_lo(best_index[k], zero16)), one);
-      near_index[2 * k + 1] = B::add(B::as_u32(B::zip_hi(best_index[k], zero16)), one);
-    }
-    three = B::set1_u32(3);
+    const VU16 one = B::set1_u16(1);
+    for (int k = 0; k < vectors; ++k) near_index[k] = B::add(best_index[k], one);
+    three = B::set1_u16(3);
     hundred = B::set1_u32(100);
     keep_percent = B::set1_u32(static_cast<uint32_t>(100 - params.uniqueness_percent));
   }
@@ -412,62 +412,24 @@ void sgm_tile_for(const TileArgs& args) {
         VU32 best_key = keys[0];
         for (int m = 1; m < 2 * vectors; ++m) best_key = B::min(best_key, keys[m]);
         best_key = sgm_detail::broadcast_min_u32<B>(best_key);
+        B::store_partial(best_key_row + x, best_key, 1);
         const VU32 best = B::bit_and(best_key, low_half);
-        const VU32 best_cost = B::template shr<16>(best_key);
-        VU32 disparity = B::add(B::template shl<4>(best), disparity_base);
-        if (params.subpixel) {
-          for (int k = 0; k < vectors; ++k) B::store(sums_buffer + 1 + k * L16, sum[k]);
-          const VU32 minus = B::gather_u16(sums_buffer, B::as_s32(B::sub(gather_minus, best)));
-          const VU32 plus = B::gather_u16(sums_buffer, B::as_s32(B::sub(gather_plus, best)));
-          const VU32 a = B::sub(minus, best_cost);
-          const VU32 c = B::sub(plus, best_cost);
-          const VU32 difference = B::sub(B::max(a, c), B::min(a, c));
-          const VU32 negative = B::cmpgt(c, a);
-          const VU32 denominator = B::add(a, c);
-          VU32 numerator = B::add(B::template shl<4>(difference), denominator);
-          const VU32 divisor = B::add(denominator, denominator);
-          // Restoring division, 4 quotient bits: q = numerator / divisor, 0 <= q <= 8.
-          VU32 quotient;
-          {
-            const VU32 t3 = B::template shl<3>(divisor);
-            const VU32 below3 = B::cmplt(numerator, t3);
-            numerator = B::select(below3, numerator, B::sub(numerator, t3));
-            quotient = B::bit_andnot(below3, bit_values[3]);
-          }
-          {
-            const VU32 t2 = B::template shl<2>(divisor);
-            const VU32 below2 = B::cmplt(numerator, t2);
-            numerator = B::select(below2, numerator, B::sub(numerator, t2));
-            quotient = B::add(quotient, B::bit_andnot(below2, bit_values[2]));
-          }
-          {
-            const VU32 t1 = B::template shl<1>(divisor);
-            const VU32 below1 = B::cmplt(numerator, t1);
-            numerator = B::select(below1, numerator, B::sub(numerator, t1));
-            quotient = B::add(quotient, B::bit_andnot(below1, bit_values[1]));
-          }
-          {
-            const VU32 below0 = B::cmplt(numerator, divisor);
-            quotient = B::add(quotient, B::bit_andnot(below0, bit_values[0]));
-          }
-          const VU32 offset = B::select(negative, B::sub(zero32, quotient), quotient);
-          const VU32 interior = B::bit_and(B::cmpgt(best, zero32), B::cmplt(best, gather_plus));
-          disparity = B::add(disparity, B::bit_and(offset, interior));
-        }
         if (params.uniqueness_percent > 0) {
-          VU32 second = ones32;
-          for (int m = 0; m < 2 * vectors; ++m) {
-            const VU32 near = B::cmplt(B::sub(near_index[m], best), three);
-            second = B::min(second, B::bit_or(keys[m], near));
+          // The lowest sum farther than 1 px from the best: lanes d - best in {-1, 0, 1} masked to 0xFFFF.
+          const VU16 best16 = B::as_u16(B::bit_or(best, B::template shl<16>(best)));
+          VU16 second = B::bit_or(sum[0], B::cmplt(B::sub(near_index[0], best16), three));
+          for (int k = 1; k < vectors; ++k) {
+            second = B::min(second, B::bit_or(sum[k], B::cmplt(B::sub(near_index[k], best16), three)));
           }
-          second = sgm_detail::broadcast_min_u32<B>(second);
-          const VU32 ambiguous =
-              B::cmpgt(B::mullo(best_cost, hundred), B::mullo(B::template shr<16>(second), keep_percent));
-          disparity = B::select(ambiguous, invalid, disparity);
+          B::store_partial(second_row + x, B::as_u32(sgm_detail::broadcast_min_u16<B>(second)), 1);
         }
-        B::store_partial(result_row + x, disparity, 1);
+        if (params.subpixel) {
+          // S(best - 1) and S(best + 1) from the pixel's sums (lane j of S at sums_buffer[1 + j]).
+          for (int k = 0; k < vectors; ++k) B::store(sums_buffer + 1 + k * L16, sum[k]);
+          B::store_partial(minus_row + x, B::gather_u16(sums_buffer, B::as_s32(B::sub(gather_minus, best))), 1);
+          B::store_partial(plus_row + x, B::gather_u16(sums_buffer, B::as_s32(B::sub(gather_plus, best))), 1);
+        }
         if (lr_check) {
-          B::store_partial(best_row + x, best, 1);
           // Right view: key of right pixel x - d kept at right_keys[x - d + d0 + D - 1] = right_keys[x + j].
           for (int m = 0; m < 2 * vectors; ++m) {
             uint32_t* slot = right_keys + x + m * L32;
@@ -477,7 +439,8 @@ void sgm_tile_for(const TileArgs& args) {
       }
     }
     if constexpr (kSelect) {
-      // Finish the row: left-right check, narrow to s16.
+      // Finish the row, L32 pixels per vector: integer disparity, sub-pixel step, uniqueness,
+      // left-right check, narrow to s16.
       int16_t* out = plane_row<int16_t>(args.outputs[0], row);
       VU32 position = lr_check ? B::sub(lane_numbers32, B::set1_u32(static_cast<uint32_t>(params.min_disparity))) : zero32;
       const VU32 step32 = B::set1_u32(static_cast<uint32_t>(L32));
@@ -485,9 +448,43 @@ void sgm_tile_for(const TileArgs& args) {
         VU32 result[2];
         for (int half = 0; half < 2; ++half) {
           const int first = x + half * L32;
-          result[half] = load_clipped<B>(result_row, first, width);
+          const VU32 best_key = load_clipped<B>(best_key_row, first, width);
+          const VU32 best = B::bit_and(best_key, low_half);
+          const VU32 best_cost = B::template shr<16>(best_key);
+          VU32 disparity = B::add(B::template shl<4>(best), disparity_base);
+          if (params.subpixel) {
+            const VU32 a = B::sub(load_clipped<B>(minus_row, first, width), best_cost);
+            const VU32 c = B::sub(load_clipped<B>(plus_row, first, width), best_cost);
+            const VU32 difference = B::sub(B::max(a, c), B::min(a, c));
+            const VU32 negative = B::cmpgt(c, a);
+            const VU32 denominator = B::add(a, c);
+            VU32 numerator = B::add(B::template shl<4>(difference), denominator);
+            const VU32 divisor = B::add(denominator, denominator);
+            // Restoring division, 4 quotient bits: q = numerator / divisor, 0 <= q <= 8.
+            const VU32 t3 = B::template shl<3>(divisor);
+            const VU32 below3 = B::cmplt(numerator, t3);
+            numerator = B::select(below3, numerator, B::sub(numerator, t3));
+            VU32 quotient = B::bit_andnot(below3, bit_values[3]);
+            const VU32 t2 = B::template shl<2>(divisor);
+            const VU32 below2 = B::cmplt(numerator, t2);
+            numerator = B::select(below2, numerator, B::sub(numerator, t2));
+            quotient = B::add(quotient, B::bit_andnot(below2, bit_values[2]));
+            const VU32 t1 = B::template shl<1>(divisor);
+            const VU32 below1 = B::cmplt(numerator, t1);
+            numerator = B::select(below1, numerator, B::sub(numerator, t1));
+            quotient = B::add(quotient, B::bit_andnot(below1, bit_values[1]));
+            const VU32 below0 = B::cmplt(numerator, divisor);
+            quotient = B::add(quotient, B::bit_andnot(below0, bit_values[0]));
+            const VU32 offset = B::select(negative, B::sub(zero32, quotient), quotient);
+            const VU32 interior = B::bit_and(B::cmpgt(best, zero32), B::cmplt(best, gather_plus));
+            disparity = B::add(disparity, B::bit_and(offset, interior));
+          }
+          if (params.uniqueness_percent > 0) {
+            const VU32 second = B::bit_and(load_clipped<B>(second_row, first, width), low_half);
+            const VU32 ambiguous = B::cmpgt(B::mullo(best_cost, hundred), B::mullo(second, keep_percent));
+            disparity = B::select(ambiguous, invalid, disparity);
+          }
           if (lr_check) {
-            const VU32 best = load_clipped<B>(best_row, first, width);
             const VU32 right_x = B::sub(position, best);  // x - (min_disparity + best)
             position = B::add(position, step32);
             const VU32 key_element = B::template shl<1>(B::add(right_x, right_key_offset));
@@ -497,8 +494,9 @@ void sgm_tile_for(const TileArgs& args) {
             const VU32 seen = B::cmplt(right_best, low_half);
             const VU32 difference = B::sub(B::max(best, right_best), B::min(best, right_best));
             const VU32 mismatch = B::bit_and(B::bit_and(B::cmpgt(difference, lr_tolerance), inside), seen);
-            result[half] = B::select(mismatch, invalid, result[half]);
+            disparity = B::select(mismatch, invalid, disparity);
           }
+          result[half] = disparity;
         }
         store_clipped<B>(out, x, width, B::narrow_sat_s16(B::as_s32(result[0]), B::as_s32(result[1])));
       }

@@ -153,8 +153,8 @@ PreparedKernel sgm_prepare(SgmPass pass, const nlohmann::json& json, const std::
   params->min_disparity = param_int(json, "min_disparity", 0, -2047, 2046);
   params->num_disparities =
       param_int(json, "num_disparities", 64, 1, std::min(kSgmMaxDisparities, 2047 - params->min_disparity));
-  params->p1 = param_int(json, "p1", 7, 0, kSgmMaxPenalty);
-  params->p2 = param_int(json, "p2", std::max(86, params->p1), params->p1, kSgmMaxPenalty);
+  params->p1 = param_int(json, "p1", 5, 0, kSgmMaxPenalty);
+  params->p2 = param_int(json, "p2", std::max(45, params->p1), params->p1, kSgmMaxPenalty);
   params->uniqueness_percent = param_int(json, "uniqueness_percent", 0, 0, kSgmMaxUniquenessPercent);
   params->subpixel = param_int(json, "subpixel", 1, 0, 1);
   params->lr_max_diff = param_int(json, "lr_max_diff", -1, -1, 2047);

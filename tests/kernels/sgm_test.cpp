@@ -341,8 +341,8 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
   add(per_tile, OpClass::arith, 2 * V);
   add(per_tile, OpClass::logic, V);
   if (unique) {
-    add(per_tile, OpClass::permute, 1 + 2 * V + 3);
-    add(per_tile, OpClass::arith, 2 * V);
+    add(per_tile, OpClass::permute, 4);
+    add(per_tile, OpClass::arith, V);
   }
   if (sub) add(per_tile, OpClass::permute, 6);
   if (lr) {
@@ -359,20 +359,34 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
     add(per_row, OpClass::load, (width + word_lanes - 1) / word_lanes);
   }
   if (lr) add(per_row, OpClass::store, (width + Dp + L + L32 - 1) / L32);
-  if (select) {
-    const int64_t chunks = (width + L - 1) / L;
+  if (select) {  // the row's final pass, two halves of L32 pixels per chunk of L
+    const int64_t chunks = (width + L - 1) / L, halves = 2 * chunks;
     add(per_row, OpClass::permute, 1 + chunks);  // the u32 step; one narrow per chunk
-    add(per_row, OpClass::load, 2 * chunks);
     add(per_row, OpClass::store, chunks);
+    add(per_row, OpClass::load, halves);
+    add(per_row, OpClass::logic, halves);
+    add(per_row, OpClass::shift, 2 * halves);
+    add(per_row, OpClass::arith, halves);
+    if (sub) {
+      add(per_row, OpClass::load, 2 * halves);
+      add(per_row, OpClass::arith, 16 * halves);
+      add(per_row, OpClass::shift, 4 * halves);
+      add(per_row, OpClass::compare, 7 * halves);
+      add(per_row, OpClass::logic, 10 * halves);
+    }
+    if (unique) {
+      add(per_row, OpClass::load, halves);
+      add(per_row, OpClass::logic, 2 * halves);
+      add(per_row, OpClass::multiply, 2 * halves);
+      add(per_row, OpClass::compare, halves);
+    }
     if (lr) {
       add(per_row, OpClass::permute, 1);
-      add(per_row, OpClass::arith, 1);
-      add(per_row, OpClass::load, 2 * chunks);
-      add(per_row, OpClass::arith, 2 * chunks * 6);
-      add(per_row, OpClass::shift, 2 * chunks);
-      add(per_row, OpClass::gather, 2 * chunks);
-      add(per_row, OpClass::compare, 2 * chunks * 4);
-      add(per_row, OpClass::logic, 2 * chunks * 4);
+      add(per_row, OpClass::arith, 1 + 6 * halves);
+      add(per_row, OpClass::shift, halves);
+      add(per_row, OpClass::gather, halves);
+      add(per_row, OpClass::compare, 4 * halves);
+      add(per_row, OpClass::logic, 4 * halves);
     }
   }
   // Per pixel: census costs.
@@ -390,31 +404,27 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
     add(per_pixel, OpClass::load, V);
     add(per_pixel, OpClass::arith, V);
   }
-  if (select) {
+  if (select) {  // keys, best key
     add(per_pixel, OpClass::permute, 2 * V + 2 * t);
-    add(per_pixel, OpClass::arith, (2 * V - 1) + t + 1);
+    add(per_pixel, OpClass::arith, (2 * V - 1) + t);
     add(per_pixel, OpClass::logic, 1);
-    add(per_pixel, OpClass::shift, 2);
     add(per_pixel, OpClass::store, 1);
   }
-  if (sub) {
-    add(per_pixel, OpClass::store, V);
-    add(per_pixel, OpClass::gather, 2);
-    add(per_pixel, OpClass::arith, 18);
-    add(per_pixel, OpClass::shift, 4);
-    add(per_pixel, OpClass::compare, 7);
-    add(per_pixel, OpClass::logic, 10);
-  }
-  if (unique) {
-    add(per_pixel, OpClass::arith, 2 * V * 2 + t);
-    add(per_pixel, OpClass::compare, 2 * V + 1);
-    add(per_pixel, OpClass::logic, 2 * V + 1);
-    add(per_pixel, OpClass::permute, 2 * t);
+  if (unique) {  // the second-best sum: mask |d - best| <= 1, u16 lane minimum
     add(per_pixel, OpClass::shift, 1);
-    add(per_pixel, OpClass::multiply, 2);
+    add(per_pixel, OpClass::logic, 1 + V);
+    add(per_pixel, OpClass::arith, V + (V - 1) + s);
+    add(per_pixel, OpClass::compare, V);
+    add(per_pixel, OpClass::permute, 2 * s);
+    add(per_pixel, OpClass::store, 1);
   }
-  if (lr) {
-    add(per_pixel, OpClass::store, 1 + 2 * V);
+  if (sub) {  // S(best - 1), S(best + 1) gathered from the pixel's sums
+    add(per_pixel, OpClass::store, V + 2);
+    add(per_pixel, OpClass::arith, 2);
+    add(per_pixel, OpClass::gather, 2);
+  }
+  if (lr) {  // the right view's running minimum of keys
+    add(per_pixel, OpClass::store, 2 * V);
     add(per_pixel, OpClass::load, 2 * V);
     add(per_pixel, OpClass::arith, 2 * V);
   }
