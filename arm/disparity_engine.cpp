@@ -9,6 +9,17 @@
 namespace lpstereo::arm {
 
 namespace {
+// A matcher node reading both views' census signatures.
+NodeSpec census_pair_node(const std::string& name, const std::string& kernel, const nlohmann::json& params) {
+  NodeSpec node;
+  node.name = name;
+  node.kernel = kernel;
+  node.inputs["left"] = {"left_census", false};
+  node.inputs["right"] = {"right_census", false};
+  node.params = params;
+  return node;
+}
+
 void check_range(const char* name, int value, int min_value, int max_value) {
   if (value < min_value || value > max_value) {
     throw std::invalid_argument(std::string("disparity parameter '") + name + "': expected [" + std::to_string(min_value) +
@@ -43,15 +54,11 @@ GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
   if (parameters.paths == 0) {
     check_range("census_width", parameters.census_width, 5, 5);
     spec.description = "census 5x5 of both views, winner-takes-all on Hamming costs";
-    NodeSpec match;
-    match.name = "match";
-    match.kernel = "census_wta_disparity";
-    match.inputs["left"] = {"left_census", false};
-    match.inputs["right"] = {"right_census", false};
+    NodeSpec match = census_pair_node("match", "census_wta_disparity",
+                                      {{"min_disparity", parameters.min_disparity},
+                                       {"num_disparities", parameters.num_disparities},
+                                       {"max_cost_bits", parameters.max_cost_bits}});
     match.outputs["disparity"] = "disparity";
-    match.params = {{"min_disparity", parameters.min_disparity},
-                    {"num_disparities", parameters.num_disparities},
-                    {"max_cost_bits", parameters.max_cost_bits}};
     spec.nodes.push_back(match);
     return spec;
   }
@@ -68,31 +75,16 @@ GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
   spec.description = std::string("census ") + (census64 ? "9x7" : "5x5") + " of both views, semi-global matching over " +
                      std::to_string(parameters.paths) + " paths, winner takes all with uniqueness, sub-pixel and LR check";
   if (parameters.paths == 4) {
-    NodeSpec sgm;
-    sgm.name = "sgm";
-    sgm.kernel = "sgm_4path" + suffix;
-    sgm.inputs["left"] = {"left_census", false};
-    sgm.inputs["right"] = {"right_census", false};
+    NodeSpec sgm = census_pair_node("sgm", "sgm_4path" + suffix, selection);
     sgm.outputs["disparity"] = "disparity";
-    sgm.params = selection;
     spec.nodes.push_back(sgm);
     return spec;
   }
-  NodeSpec forward;
-  forward.name = "sgm_forward";
-  forward.kernel = "sgm_8path_forward" + suffix;
-  forward.inputs["left"] = {"left_census", false};
-  forward.inputs["right"] = {"right_census", false};
+  NodeSpec forward = census_pair_node("sgm_forward", "sgm_8path_forward" + suffix, penalties);
   forward.outputs["sums"] = "forward_sums";
-  forward.params = penalties;
-  NodeSpec backward;
-  backward.name = "sgm_backward";
-  backward.kernel = "sgm_8path_backward" + suffix;
-  backward.inputs["left"] = {"left_census", false};
-  backward.inputs["right"] = {"right_census", false};
+  NodeSpec backward = census_pair_node("sgm_backward", "sgm_8path_backward" + suffix, selection);
   backward.inputs["forward"] = {"forward_sums", false};
   backward.outputs["disparity"] = "disparity";
-  backward.params = selection;
   spec.nodes.push_back(forward);
   spec.nodes.push_back(backward);
   return spec;

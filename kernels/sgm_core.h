@@ -51,6 +51,7 @@
 #include <cstdint>
 #include <type_traits>
 
+#include "kernels/census_cost.h"
 #include "kernels/kernel.h"
 #include "kernels/row_access.h"
 #include "kernels/simd/emulated.h"
@@ -166,13 +167,13 @@ LPSTEREO_SGM_INLINE typename B::VU32 broadcast_min_u32(typename B::VU32 v) {
 template <class B, class Word, class VWord>
 LPSTEREO_SGM_INLINE typename B::VU16 census_costs(const VWord& left, const Word* right_row, int column, int readable_end) {
   if constexpr (sizeof(Word) == 4) {
-    const auto c0 = B::popcount(B::bit_xor(left, load_clipped<B>(right_row, column, readable_end)));
-    const auto c1 = B::popcount(B::bit_xor(left, load_clipped<B>(right_row, column + B::kLanesU32, readable_end)));
+    const auto c0 = census_hamming<B>(left, load_clipped<B>(right_row, column, readable_end));
+    const auto c1 = census_hamming<B>(left, load_clipped<B>(right_row, column + B::kLanesU32, readable_end));
     return B::narrow_sat_u16(B::as_s32(c0), B::as_s32(c1));
   } else {
     typename B::VU64 c[4];
     for (int i = 0; i < 4; ++i) {
-      c[i] = B::popcount(B::bit_xor(left, load_clipped<B>(right_row, column + i * B::kLanesU64, readable_end)));
+      c[i] = census_hamming<B>(left, load_clipped<B>(right_row, column + i * B::kLanesU64, readable_end));
     }
     // Each u64 count is < 65 in its low 32 bits: two narrows give the counts as u32 lanes, a third as u16.
     const auto low = B::narrow_sat_u16(B::as_s32(c[0]), B::as_s32(c[1]));

@@ -2,6 +2,8 @@
 // per ISA level.
 #include "kernels/sgm_reference.h"
 
+#include "kernels/census_cost.h"
+
 #include <algorithm>
 #include <cstdlib>
 #include <limits>
@@ -19,14 +21,7 @@ SgmVolume sgm_reference_costs(const PlaneView& left, const PlaneView& right, int
   for (int y = 0; y < left.height; ++y) {
     for (int x = 0; x < left.width; ++x) {
       for (int i = 0; i < num_disparities; ++i) {
-        const int right_x = std::clamp(x - (min_disparity + i), 0, left.width - 1);  // replicate border
-        uint64_t difference = 0;
-        if (word_bytes == 4) {
-          difference = plane_row<const uint32_t>(left, y)[x] ^ plane_row<const uint32_t>(right, y)[right_x];
-        } else {
-          difference = plane_row<const uint64_t>(left, y)[x] ^ plane_row<const uint64_t>(right, y)[right_x];
-        }
-        cost.at(x, y, i) = __builtin_popcountll(difference);
+        cost.at(x, y, i) = census_cost_reference(left, right, word_bytes, x, y, min_disparity + i);
       }
     }
   }
