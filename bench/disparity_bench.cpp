@@ -8,7 +8,8 @@
 // against the scene's ground truth as a sanity figure (accuracy is measured by `lpstereo eval`).
 // OpenCV settings: blockSize 5, P1 = 8 * 25, P2 = 32 * 25, uniquenessRatio 10, speckle window 100
 // range 2, disp12MaxDiff 1, preFilterCap 63 (the comparison settings).
-// Usage: disparity_bench [--runs N] [--threads T] [--sizes 640x480,1242x375] [--disparities D] [--no-opencv]
+// Usage: disparity_bench [--runs N] [--threads T] [--sizes 640x480,1242x375] [--disparities D] [--census 5|9]
+//                        [--no-opencv]
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/core/utility.hpp>
@@ -87,10 +88,12 @@ void print_row(const char* method, int width, int height, int count, const Timin
 int main(int argc, char** argv) {
   int runs = 7, threads = 2, count = 128;
   bool opencv = true;
+  int census = 5;
   std::vector<std::pair<int, int>> sizes = {{640, 480}, {1242, 375}};
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--no-opencv") opencv = false;
+    else if (arg == "--census" && i + 1 < argc) census = std::atoi(argv[++i]) == 9 ? 9 : 5;
     else if (arg == "--runs" && i + 1 < argc) runs = std::max(1, std::atoi(argv[++i]));
     else if (arg == "--threads" && i + 1 < argc) threads = std::max(1, std::atoi(argv[++i]));
     else if (arg == "--disparities" && i + 1 < argc) count = std::max(16, std::atoi(argv[++i]));
@@ -104,7 +107,7 @@ int main(int argc, char** argv) {
         start = comma + 1;
       }
     } else {
-      std::fprintf(stderr, "usage: disparity_bench [--runs N] [--threads T] [--sizes WxH,...] [--disparities D] [--no-opencv]\n");
+      std::fprintf(stderr, "usage: disparity_bench [--runs N] [--threads T] [--sizes WxH,...] [--disparities D] [--census 5|9] [--no-opencv]\n");
       return 2;
     }
   }
@@ -112,8 +115,9 @@ int main(int argc, char** argv) {
   std::printf("settings: threads %d (lpstereo workers and cv::setNumThreads), median of %d runs after 1 warm-up, "
               "ISA %s, OpenCV %s, synthetic scene (io/synthetic_scene.h)\n",
               threads, runs, std::string(lpstereo::simd::isa_name(lpstereo::simd::active_isa())).c_str(), CV_VERSION);
-  std::printf("lpstereo: census 5x5, SGM P1 5, P2 45, uniqueness 5 %%, LR check 1 px, sub-pixel; "
-              "OpenCV: blockSize 5, P1 200, P2 800, uniqueness 10, speckle 100/2, disp12MaxDiff 1\n");
+  std::printf("lpstereo: census %s, SGM P1/P2 %s, uniqueness 5 %%, LR check 1 px, sub-pixel; "
+              "OpenCV: blockSize 5, P1 200, P2 800, uniqueness 10, speckle 100/2, disp12MaxDiff 1\n",
+              census == 9 ? "9x7" : "5x5", census == 9 ? "7/50" : "5/45");
   for (const auto& [width, height] : sizes) {
     lpstereo::io::SyntheticSceneOptions options;
     options.width = width;
@@ -125,6 +129,7 @@ int main(int argc, char** argv) {
       parameters.num_disparities = count;
       parameters.paths = paths;
       parameters.threads = threads;
+      parameters.census_width = census;
       lpstereo::arm::DisparityEngine engine(width, height, parameters);
       const lpstereo::Plane* result = nullptr;
       const Timing ms = median_ms(runs, [&] { result = &engine.compute(scene.left, scene.right); });

@@ -39,7 +39,8 @@
 // L_r = C (min(0, ...) - 0), the path start Hirschmueller prescribes. The minima are not stored:
 // each is recomputed from the slot it is consumed from. Closed form (bytes), sized for the widest
 // back end: state = 3 x 2 x (W (Dp32 + 1) + 1), Dp32 = ceil(D / 32) x 32.
-// At W = 3840, D = 128: 2,972,166 bytes. No W x H x D volume exists anywhere.
+// At W = 3840, D = 128: 2,972,166 bytes. The single pass holds no W x H x D volume; the 8-path
+// pair holds one summed volume (the forward sums in DRAM, 2 W H D bytes), never one per path.
 //
 // MINIMUM OVER THE LANES without a horizontal op: a butterfly of zips. zip_lo(v, v) / zip_hi(v, v)
 // of u16 lanes give the low and the high half of v with every lane doubled, so min of the two folds
