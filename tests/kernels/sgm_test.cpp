@@ -70,6 +70,9 @@ nlohmann::json sgm_params(int min_disparity, int num_disparities, int p1, int p2
           {"uniqueness_percent", uniqueness}, {"subpixel", subpixel}, {"lr_max_diff", lr_max_diff}};
 }
 
+Plane reference_forward_sums(const Plane& left, const Plane& right, const nlohmann::json& params, int word_bytes);
+nlohmann::json forward_params(const nlohmann::json& params);
+
 struct RangeCase {
   int min_disparity, num_disparities, uniqueness, subpixel, lr_max_diff;
 };
@@ -90,6 +93,18 @@ TEST(Sgm4Path, MatchesReferenceAtOddSizesInPaddedBuffersAcrossTileHeights) {
     test_case.inputs.push_back(std::move(pair.right));
     SCOPED_TRACE("min_disparity " + std::to_string(range.min_disparity) + " D " + std::to_string(range.num_disparities));
     expect_all_back_ends_match_reference(test_case, {{53, 23}, {53, 5}, {53, 1}});
+  }
+}
+
+TEST(Sgm4Path, TinyImages) {
+  for (auto [width, height] : std::vector<std::pair<int, int>>{{1, 1}, {2, 3}, {3, 1}, {5, 2}}) {
+    const nlohmann::json params = sgm_params(-2, 7, 3, 20, 10, 1, 1);
+    KernelCase single{"sgm_4path", params, {random_census(width, height, ElementType::census32, width * 4 + 8, 4),
+                                            random_census(width, height, ElementType::census32, width * 4, 5)}, 6};
+    expect_all_back_ends_match_reference(single, {{width, height}, {width, 1}});
+    KernelCase backward{"sgm_8path_backward", params, {single.inputs[0], single.inputs[1],
+                                                       reference_forward_sums(single.inputs[0], single.inputs[1], forward_params(params), 4)}, 2};
+    expect_all_back_ends_match_reference(backward, {{width, height}, {width, 1}});
   }
 }
 
