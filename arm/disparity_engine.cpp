@@ -2,11 +2,24 @@
 
 #include <stdexcept>
 
+#include <nlohmann/json.hpp>
+
 #include "arm/scheduler.h"
 
 namespace lpstereo::arm {
 
 namespace {
+// A matcher node reading both views' census signatures.
+NodeSpec census_pair_node(const std::string& name, const std::string& kernel, const nlohmann::json& params) {
+  NodeSpec node;
+  node.name = name;
+  node.kernel = kernel;
+  node.inputs["left"] = {"left_census", false};
+  node.inputs["right"] = {"right_census", false};
+  node.params = params;
+  return node;
+}
+
 void check_range(const char* name, int value, int min_value, int max_value) {
   if (value < min_value || value > max_value) {
     throw std::invalid_argument(std::string("disparity parameter '") + name + "': expected [" + std::to_string(min_value) +
@@ -16,31 +29,64 @@ void check_range(const char* name, int value, int min_value, int max_value) {
 }  // namespace
 
 GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
-  check_range("census_width", parameters.census_width, 5, 5);
+  if (parameters.census_width != 5 && parameters.census_width != 9) {
+    throw std::invalid_argument("disparity parameter 'census_width': expected 5 or 9, got " +
+                                std::to_string(parameters.census_width));
+  }
+  if (parameters.paths != 0 && parameters.paths != 4 && parameters.paths != 8) {
+    throw std::invalid_argument("disparity parameter 'paths': expected 0, 4 or 8, got " + std::to_string(parameters.paths));
+  }
+  const bool census64 = parameters.census_width == 9;
   GraphSpec spec;
   spec.name = "disparity-engine";
-  spec.description = "census 5x5 of both views, winner-takes-all on Hamming costs";
   spec.inputs = {{"left", {ElementType::u8, 0}}, {"right", {ElementType::u8, 0}}};
   NodeSpec census_left;
   census_left.name = "census_left";
-  census_left.kernel = "census5x5";
+  census_left.kernel = census64 ? "census9x7" : "census5x5";
   census_left.inputs["input"] = {"left", false};
   census_left.outputs["output"] = "left_census";
   NodeSpec census_right = census_left;
   census_right.name = "census_right";
   census_right.inputs["input"] = {"right", false};
   census_right.outputs["output"] = "right_census";
-  NodeSpec match;
-  match.name = "match";
-  match.kernel = "census_wta_disparity";
-  match.inputs["left"] = {"left_census", false};
-  match.inputs["right"] = {"right_census", false};
-  match.outputs["disparity"] = "disparity";
-  match.params = {{"min_disparity", parameters.min_disparity},
-                  {"num_disparities", parameters.num_disparities},
-                  {"max_cost_bits", parameters.max_cost_bits}};
-  spec.nodes = {census_left, census_right, match};
+  spec.nodes = {census_left, census_right};
   spec.outputs = {"disparity"};
+  if (parameters.paths == 0) {
+    check_range("census_width", parameters.census_width, 5, 5);
+    spec.description = "census 5x5 of both views, winner-takes-all on Hamming costs";
+    NodeSpec match = census_pair_node("match", "census_wta_disparity",
+                                      {{"min_disparity", parameters.min_disparity},
+                                       {"num_disparities", parameters.num_disparities},
+                                       {"max_cost_bits", parameters.max_cost_bits}});
+    match.outputs["disparity"] = "disparity";
+    spec.nodes.push_back(match);
+    return spec;
+  }
+  const std::string suffix = census64 ? "_census64" : "";
+  const nlohmann::json penalties = {
+      {"min_disparity", parameters.min_disparity},
+      {"num_disparities", parameters.num_disparities},
+      {"p1", parameters.p1 >= 0 ? parameters.p1 : (census64 ? 7 : 5)},
+      {"p2", parameters.p2 >= 0 ? parameters.p2 : (census64 ? 50 : 45)}};
+  nlohmann::json selection = penalties;
+  selection["uniqueness_percent"] = parameters.uniqueness_percent;
+  selection["subpixel"] = parameters.subpixel ? 1 : 0;
+  selection["lr_max_diff"] = parameters.lr_max_diff;
+  spec.description = std::string("census ") + (census64 ? "9x7" : "5x5") + " of both views, semi-global matching over " +
+                     std::to_string(parameters.paths) + " paths, winner takes all with uniqueness, sub-pixel and LR check";
+  if (parameters.paths == 4) {
+    NodeSpec sgm = census_pair_node("sgm", "sgm_4path" + suffix, selection);
+    sgm.outputs["disparity"] = "disparity";
+    spec.nodes.push_back(sgm);
+    return spec;
+  }
+  NodeSpec forward = census_pair_node("sgm_forward", "sgm_8path_forward" + suffix, penalties);
+  forward.outputs["sums"] = "forward_sums";
+  NodeSpec backward = census_pair_node("sgm_backward", "sgm_8path_backward" + suffix, selection);
+  backward.inputs["forward"] = {"forward_sums", false};
+  backward.outputs["disparity"] = "disparity";
+  spec.nodes.push_back(forward);
+  spec.nodes.push_back(backward);
   return spec;
 }
 

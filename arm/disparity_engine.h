@@ -3,6 +3,14 @@
 // census, matching and refinement; see graphs/ for the same graphs as files), verifies it against a
 // target's memory, and runs it frame after frame with the ARM-side scheduler.
 //
+// The default is semi-global matching on census Hamming costs: census of both views, then
+//   paths = 4: sgm_4path, one row-streaming pass (left, top-left, top, top-right);
+//   paths = 8: sgm_8path_forward (those 4 paths, per-pixel sums to a W*D x H u16 buffer) then
+//              sgm_8path_backward (right, bottom-right, bottom, bottom-left, rows bottom up);
+//   paths = 0: census_wta_disparity, no aggregation (the baseline; census 5x5 only).
+// Both SGM graphs end in winner takes all with the uniqueness ratio, the parabola sub-pixel step
+// and the left-right check (kernels/sgm_core.h, kernels/sgm_reference.h).
+//
 // Output: s16 Q4 disparity of the left view (value / 16 = pixels); invalid pixels hold
 // invalid_disparity_q4() = (min_disparity - 1) * 16, never 0-overloaded (DESIGN.md §4).
 #pragma once
@@ -18,10 +26,17 @@ namespace lpstereo::arm {
 class FrameRunner;
 
 struct DisparityParameters {
-  int min_disparity = 0;     // pixels; may be negative
-  int num_disparities = 64;  // pixels searched: [min_disparity, min_disparity + num_disparities)
-  int census_width = 5;      // census window: 5x5 (census32 signatures)
-  int max_cost_bits = 6;     // winner-takes-all: a best Hamming cost above this is invalid
+  int min_disparity = 0;       // pixels; may be negative
+  int num_disparities = 64;    // pixels searched: [min_disparity, min_disparity + num_disparities), 1..512 with SGM
+  int census_width = 5;        // census window: 5 (5x5, census32 signatures) or 9 (9x7, census64)
+  int paths = 4;               // SGM paths: 4 (one pass) or 8 (two passes); 0 = census winner takes all
+  int p1 = -1;                 // SGM penalty for a 1 px disparity change, Hamming bits; -1 = 5 (5x5) or 7 (9x7)
+  int p2 = -1;                 // SGM penalty for larger changes, Hamming bits (>= p1, <= 4000); -1 = 45 (5x5) or 50 (9x7)
+                               // (the defaults: lowest mean bad-2 over the 8 Middlebury pairs of ../shared/data)
+  int uniqueness_percent = 5;  // SGM: the best cost must beat the others (|d - best| > 1) by this %; 0 = off, <= 50
+  bool subpixel = true;        // SGM: parabola sub-pixel step (Q4); false = whole pixels
+  int lr_max_diff = 1;         // SGM: left-right check tolerance in px; -1 = off
+  int max_cost_bits = 6;       // paths = 0 only: a best Hamming cost above this is invalid
 };
 
 class DisparityEngine {

@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "kernels/census_cost.h"
 #include "kernels/kernel.h"
 #include "kernels/simd/native.h"
 
@@ -73,7 +74,7 @@ void census_wta_disparity_body(const TileArgs& args) {
           const int readable = readable_end - (first - d);
           const VU32 candidate = readable >= kHalf ? B::load(right_row + first - d)
                                                    : B::load_partial(right_row + first - d, readable > 0 ? readable : 0);
-          const VU32 cost = B::popcount(B::bit_xor(signature, candidate));
+          const VU32 cost = census_hamming<B>(signature, candidate);
           const VU32 better = B::cmplt(cost, best_cost);
           best_cost = B::min(best_cost, cost);
           best_disparity = B::select(better, disparity, best_disparity);
@@ -114,12 +115,10 @@ void census_wta_disparity_reference(const std::vector<PlaneView>& inputs, const 
   const PlaneView& output = outputs[0];
   for (int y = 0; y < output.height; ++y) {
     for (int x = 0; x < output.width; ++x) {
-      const uint32_t signature = plane_row<const uint32_t>(left, y)[x];
       int best_cost = 1 << 30;
       int best_disparity = params.min_disparity;
       for (int d = params.min_disparity; d < params.min_disparity + params.num_disparities; ++d) {
-        const int right_x = x - d < 0 ? 0 : (x - d >= output.width ? output.width - 1 : x - d);  // replicate border
-        const int cost = __builtin_popcount(signature ^ plane_row<const uint32_t>(right, y)[right_x]);
+        const int cost = census_cost_reference(left, right, 4, x, y, d);
         if (cost < best_cost) {
           best_cost = cost;
           best_disparity = d;

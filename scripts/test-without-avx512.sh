@@ -25,7 +25,7 @@ if ! command -v qemu-x86_64 >/dev/null 2>&1; then
   exit 2
 fi
 
-binaries=(tests/census_test tests/census_wta_disparity_test tests/median3x3_test tests/remap_bilinear_test
+binaries=(tests/census_test tests/census_wta_disparity_test tests/median3x3_test tests/remap_bilinear_test tests/sgm_test
           tests/simd_ops_test tests/scheduler_test tests/simulator_test)
 for binary in "${binaries[@]}"; do
   if [ ! -x "$build_dir/$binary" ]; then

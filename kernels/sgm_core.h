@@ -1,0 +1,533 @@
+// Semi-global matching on census Hamming costs, row streaming, written once against the simd
+// contract (kernels/simd/emulated.h). Shared by the kernels sgm_4path (single pass, 4 paths) and
+// sgm_8path_forward / sgm_8path_backward (two passes, 8 paths). The algorithm, bit for bit, is the
+// scalar reference's (kernels/sgm_reference.h).
+//
+// LANES ARE DISPARITIES. One pixel's costs for all D disparities sit in V = ceil(D / L) u16 vectors
+// (L = u16 lanes of the back end; Dp = V L), in REVERSED order: lane j holds d = min_disparity +
+// D - 1 - j, so that the right-view census words x - d of consecutive lanes are consecutive in
+// memory (one load, no gather, no reversal). Lanes j >= D are padding: their cost is forced to
+// 0xFFFF and saturating adds keep every path cost and sum there at 0xFFFF, so they never win a min.
+// Pixels are walked one by one along the row (the left-to-right path needs its left neighbour), so
+// nothing is vectorised across x and no transposes are needed.
+//
+// FIXED-POINT FORMATS AND THE OVERFLOW BOUND (tests/kernels/sgm_test.cpp, NoOverflowAtLargestRangeAndPenalties):
+//   C      u16, the Hamming distance, unscaled: 0..Cmax, Cmax = 24 (census 5x5) or 62 (census 9x7).
+//   P1, P2 u16 penalties in the same unit (Hamming bits), 0 <= P1 <= P2 <= 4000 (kSgmMaxPenalty).
+//   L_r    u16 path cost, normalised by subtracting the previous pixel's minimum m (Hirschmueller):
+//          L_r = C + min(L(d), L(d-1) + P1, L(d+1) + P1, m + P2) - m, and every term is >= m, so
+//          0 <= L_r <= Cmax + P2 <= 4062. Intermediates: m + P2 <= 8062; L(d+-1) + P1 saturates
+//          (adds) only for the 0xFFFF sentinels and padding lanes.
+//   S      u16 sum of the path costs: <= 8 (Cmax + P2) <= 32496 < 2^15 for 8 paths (4 paths:
+//          <= 16248), so sums never saturate and stay below the padding value 0xFFFF.
+//   keys   u32 S << 16 | (d - min_disparity), min gives the lowest cost, ties to the smallest d.
+//   output s16 Q4 (value / 16 = px): (min_disparity + best) * 16 + sub-pixel offset in [-8, 8];
+//          invalid = (min_disparity - 1) * 16. |disparity| <= 2047 keeps it in s16.
+//   Uniqueness: S2 * (100 - U) < S * 100 in u32 (S2 <= 0xFFFF, U <= 50: no overflow; a pixel with
+//          no disparity farther than 1 from the best gets S2 = 0xFFFF, and 0xFFFF * 50 > 32496 * 100,
+//          so it is never invalidated; that is why U is limited to 50).
+//   Sub-pixel: a = S(b-1) - S(b) > 0, c = S(b+1) - S(b) >= 0, q = (16 |a - c| + a + c) / (2 (a + c))
+//          by a 4-step restoring division (compare, subtract, select, shift; no divide op):
+//          numerator <= 17 (a + c) < 2^21 in u32 lanes; 0 <= q <= 8, so |offset| <= 0.5 px.
+//
+// ROW STATE (KernelDescriptor::state_bytes): the previous row's path costs of the three paths that
+// come from the previous row (top-left, top, top-right; bottom-right, bottom, bottom-left in the
+// backward pass), one slot of Dp + 1 u16 per pixel (a 0xFFFF sentinel, then Dp lanes) per path.
+// Each path updates its slots in place: the top path reads and writes slot x, the top-left path
+// slot (x - y) mod W, the top-right path slot (x + y) mod W, so the value a pixel reads is exactly
+// the one it overwrites and no second row buffer is needed. Zeroed state gives the first row
+// L_r = C (min(0, ...) - 0), the path start Hirschmueller prescribes. The minima are not stored:
+// each is recomputed from the slot it is consumed from. Closed form (bytes), sized for the widest
+// back end: state = 3 x 2 x (W (Dp32 + 1) + 1), Dp32 = ceil(D / 32) x 32.
+// At W = 3840, D = 128: 2,972,166 bytes. The single pass holds no W x H x D volume; the 8-path
+// pair holds one summed volume (the forward sums in DRAM, 2 W H D bytes), never one per path.
+//
+// MINIMUM OVER THE LANES without a horizontal op: a butterfly of zips. zip_lo(v, v) / zip_hi(v, v)
+// of u16 lanes give the low and the high half of v with every lane doubled, so min of the two folds
+// v in half and keeps each result duplicated; repeated with u32 zips on the duplicated lanes,
+// log2(L) stages leave the minimum in every lane (2 permutes + 1 min per stage).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <type_traits>
+
+#include "kernels/census_cost.h"
+#include "kernels/kernel.h"
+#include "kernels/row_access.h"
+#include "kernels/simd/emulated.h"
+
+namespace lpstereo::kernels {
+
+struct SgmParams {
+  int min_disparity = 0;       // pixels, may be negative
+  int num_disparities = 64;    // D: the search covers [min_disparity, min_disparity + D)
+  int p1 = 5;                  // penalty for a disparity change of 1 px, Hamming bits
+  int p2 = 45;                 // penalty for a larger change, Hamming bits (>= p1)
+  int uniqueness_percent = 0;  // 0..50, 0 = off
+  int subpixel = 1;            // 1: parabola sub-pixel step; 0: integer disparities (x 16)
+  int lr_max_diff = -1;        // left-right check tolerance in px; -1 = off
+};
+
+inline constexpr int kSgmMaxDisparities = 512;
+inline constexpr int kSgmMaxPenalty = 4000;
+inline constexpr int kSgmMaxUniquenessPercent = 50;
+inline constexpr int kSgmWidestLanesU16 = 32;  // 512-bit vectors (AVX-512, counting)
+
+enum class SgmPass {
+  single,    // 4 paths, then winner takes all: sgm_4path
+  forward,   // 4 paths, writes the per-pixel sums S (u16, W*D per row): sgm_8path_forward
+  backward,  // the other 4 paths (rows bottom up), adds the forward sums, winner takes all: sgm_8path_backward
+};
+
+inline constexpr int sgm_padded(int disparities, int lanes) { return (disparities + lanes - 1) / lanes * lanes; }
+
+// Row state bytes (see above): three paths x (W slots of Dp32 + 1 u16, plus the last sentinel).
+inline size_t sgm_state_bytes(int width, int disparities) {
+  const size_t slot = static_cast<size_t>(sgm_padded(disparities, kSgmWidestLanesU16)) + 1;
+  return 3 * 2 * (static_cast<size_t>(width) * slot + 1);
+}
+
+// Scratch layout (bytes, sized for the widest back end): three u16 buffers of Dp32 + 2 (a zero
+// "previous pixel" for path starts, the left-to-right path's previous pixel, the current pixel's
+// sums for the sub-pixel gathers), then u32 rows: the right-view keys (W + 2 Dp32 + 64) and four
+// per-pixel records (W + 64 each: best key, second-best cost, S(best - 1), S(best + 1)) that the
+// row's final pass turns into disparities 16 pixels per vector; the forward pass adds the staged
+// right census row.
+struct SgmScratchLayout {
+  size_t u16_buffer = 0;    // elements per u16 buffer
+  size_t keys_offset = 0;   // bytes
+  size_t keys_count = 0;
+  size_t rows_offset = 0;    // four u32 rows: best key, second-best cost, S(best - 1), S(best + 1)
+  size_t row_count = 0;
+  size_t staged_offset = 0;  // forward pass: the right census row with its border
+  size_t staged_count = 0;   // words
+  size_t total = 0;
+};
+
+inline constexpr int sgm_left_halo(const SgmParams& params) {
+  const int max_disparity = params.min_disparity + params.num_disparities - 1;
+  return max_disparity > 0 ? max_disparity : 0;
+}
+inline constexpr int sgm_right_halo(const SgmParams& params) {
+  return params.min_disparity < 0 ? -params.min_disparity : 0;
+}
+
+inline SgmScratchLayout sgm_scratch_layout(int width, const SgmParams& params, SgmPass pass, int word_bytes) {
+  SgmScratchLayout layout;
+  const size_t dp32 = static_cast<size_t>(sgm_padded(params.num_disparities, kSgmWidestLanesU16));
+  auto align = [](size_t bytes) { return (bytes + 63) / 64 * 64; };
+  layout.u16_buffer = dp32 + 2;
+  layout.keys_offset = align(3 * layout.u16_buffer * 2);
+  layout.keys_count = static_cast<size_t>(width) + 2 * dp32 + 64;
+  layout.rows_offset = align(layout.keys_offset + 4 * layout.keys_count);
+  layout.row_count = static_cast<size_t>(width) + 64;
+  layout.staged_offset = align(layout.rows_offset + 4 * 4 * layout.row_count);
+  layout.staged_count = pass == SgmPass::forward ? static_cast<size_t>(width) + sgm_left_halo(params) +
+                                                       sgm_right_halo(params) + 64
+                                                 : 0;
+  layout.total = align(layout.staged_offset + static_cast<size_t>(word_bytes) * layout.staged_count);
+  return layout;
+}
+
+namespace sgm_detail {
+
+// The per-pixel helpers are inlined into the row loop (a call per path and pixel costs as much as
+// the path step on the host).
+#define LPSTEREO_SGM_INLINE [[gnu::always_inline]] inline
+
+// 0, 1, 2, ...: lane numbers for building constant vectors (one load).
+alignas(64) inline constexpr uint16_t kLaneNumbersU16[64] = {
+    0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21,
+    22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43,
+    44, 45, 46, 47, 48, 49, 50, 51, 52, 53, 54, 55, 56, 57, 58, 59, 60, 61, 62, 63};
+alignas(64) inline constexpr uint32_t kLaneNumbersU32[32] = {0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  10,
+                                                             11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21,
+                                                             22, 23, 24, 25, 26, 27, 28, 29, 30, 31};
+
+// Every lane = the minimum of v's lanes: log2(L16) stages of 2 zips + 1 min.
+template <class B>
+LPSTEREO_SGM_INLINE typename B::VU16 broadcast_min_u16(typename B::VU16 v) {
+  v = B::min(B::as_u16(B::zip_lo(v, v)), B::as_u16(B::zip_hi(v, v)));
+  for (int lanes = B::kLanesU16 / 2; lanes > 1; lanes /= 2) {
+    const typename B::VU32 w = B::as_u32(v);
+    v = B::min(B::as_u16(B::zip_lo(w, w)), B::as_u16(B::zip_hi(w, w)));
+  }
+  return v;
+}
+
+// Every lane = the minimum of v's lanes: log2(L32) stages of 2 zips + 1 min.
+template <class B>
+LPSTEREO_SGM_INLINE typename B::VU32 broadcast_min_u32(typename B::VU32 v) {
+  for (int lanes = B::kLanesU32; lanes > 1; lanes /= 2) v = B::min(B::as_u32(B::zip_lo(v, v)), B::as_u32(B::zip_hi(v, v)));
+  return v;
+}
+
+// The census Hamming costs of one u16 vector of disparity lanes: lane i is
+// popcount(left XOR right_row[column + i]); right words at or past readable_end read as 0.
+template <class B, class Word, class VWord>
+LPSTEREO_SGM_INLINE typename B::VU16 census_costs(const VWord& left, const Word* right_row, int column, int readable_end) {
+  if constexpr (sizeof(Word) == 4) {
+    const auto c0 = census_hamming<B>(left, load_clipped<B>(right_row, column, readable_end));
+    const auto c1 = census_hamming<B>(left, load_clipped<B>(right_row, column + B::kLanesU32, readable_end));
+    return B::narrow_sat_u16(B::as_s32(c0), B::as_s32(c1));
+  } else {
+    typename B::VU64 c[4];
+    for (int i = 0; i < 4; ++i) {
+      c[i] = census_hamming<B>(left, load_clipped<B>(right_row, column + i * B::kLanesU64, readable_end));
+    }
+    // Each u64 count is < 65 in its low 32 bits: two narrows give the counts as u32 lanes, a third as u16.
+    const auto low = B::narrow_sat_u16(B::as_s32(c[0]), B::as_s32(c[1]));
+    const auto high = B::narrow_sat_u16(B::as_s32(c[2]), B::as_s32(c[3]));
+    return B::narrow_sat_u16(B::as_s32(low), B::as_s32(high));
+  }
+}
+
+template <class B>
+struct PathConstants {
+  typename B::VU16 p1, p2;
+};
+
+// One step of one path for one pixel. `previous` points at lane 0 of the previous pixel's path
+// costs on this path (previous[-1] and previous[Dp] are 0xFFFF sentinels, or everything is 0 for
+// a path start); the new costs go to `out` (which may be `previous`: everything is loaded before
+// anything is stored). sum[k] gets the costs added (or set, for the first path).
+template <class B, int kMaxVectors>
+LPSTEREO_SGM_INLINE void path_step(const uint16_t* previous, uint16_t* out, const typename B::VU16* cost, typename B::VU16* sum, bool first,
+               int vectors, const PathConstants<B>& constants) {
+  using VU16 = typename B::VU16;
+  constexpr int L = B::kLanesU16;
+  VU16 last[kMaxVectors];
+  VU16 neighbours[kMaxVectors];
+  last[0] = B::load(previous);
+  VU16 minimum = last[0];
+  for (int k = 1; k < vectors; ++k) {
+    last[k] = B::load(previous + k * L);
+    minimum = B::min(minimum, last[k]);
+  }
+  minimum = broadcast_min_u16<B>(minimum);
+  const VU16 minimum_p2 = B::adds(minimum, constants.p2);
+  // min(L(d - 1), L(d + 1)) + P1: lanes shifted by one through unaligned loads (0xFFFF sentinels at
+  // both ends saturate).
+  for (int k = 0; k < vectors; ++k) {
+    neighbours[k] = B::adds(B::min(B::load(previous + k * L - 1), B::load(previous + k * L + 1)), constants.p1);
+  }
+  for (int k = 0; k < vectors; ++k) {
+    const VU16 best = B::min(neighbours[k], B::min(last[k], minimum_p2));
+    const VU16 value = B::adds(cost[k], B::sub(best, minimum));
+    B::store(out + k * L, value);
+    sum[k] = first ? value : B::adds(sum[k], value);
+  }
+}
+
+}  // namespace sgm_detail
+
+// The tile body. Inputs: 0 = left census (Word), 1 = right census (Word), for the backward pass
+// 2 = the forward sums (u16, whole). The single and backward passes get census tiles with the
+// right view's halo; the forward pass gets the census planes whole and stages each right row with
+// its replicate border itself (its output is W*D wide, so the executor cannot cut census windows
+// for it). Output 0: s16 Q4 disparity (single, backward) or the sums (forward).
+namespace sgm_detail {
+
+// kFixedVectors > 0: the body compiled for exactly that many disparity vectors (loops unrolled,
+// per-pixel vectors kept in registers); 0: any count.
+template <class B, class Word, SgmPass kPass, int kFixedVectors>
+void sgm_tile_for(const TileArgs& args) {
+  using VU16 = typename B::VU16;
+  using VU32 = typename B::VU32;
+  constexpr int L16 = B::kLanesU16;
+  constexpr int L32 = B::kLanesU32;
+  constexpr int kMaxVectors = kSgmMaxDisparities / L16;
+  constexpr bool kBackward = kPass == SgmPass::backward;
+  constexpr bool kSelect = kPass != SgmPass::forward;
+
+  const SgmParams& params = *static_cast<const SgmParams*>(args.params);
+  const int count = params.num_disparities;
+  const int vectors = kFixedVectors > 0 ? kFixedVectors : (count + L16 - 1) / L16;
+  const int padded = vectors * L16;
+  const int width = kPass == SgmPass::forward ? args.inputs[0].width : args.outputs[0].width;
+  const int height = kPass == SgmPass::forward ? args.inputs[0].height : args.image_height;
+  const int tile_rows = args.outputs[0].height;
+  const bool lr_check = kSelect && params.lr_max_diff >= 0;
+
+  // Row state: three path regions of W slots (stride Dp + 1, this back end's Dp) plus a sentinel.
+  const ptrdiff_t slot_stride = padded + 1;
+  const ptrdiff_t region_size = static_cast<ptrdiff_t>(width) * slot_stride + 1;
+  uint16_t* regions[3];
+  for (int path = 0; path < 3; ++path) regions[path] = reinterpret_cast<uint16_t*>(args.state) + path * region_size;
+  const bool first_tile = kBackward ? args.tile_y + tile_rows == height : args.tile_y == 0;
+  if (first_tile) {
+    // Once per frame (not counted: W + 1 scalar writes per path): the slot sentinels.
+    for (int path = 0; path < 3; ++path) {
+      for (ptrdiff_t slot = 0; slot <= width; ++slot) regions[path][slot * slot_stride] = 0xFFFF;
+    }
+  }
+
+  const SgmScratchLayout layout = sgm_scratch_layout(width, params, kPass, static_cast<int>(sizeof(Word)));
+  uint16_t* const zero_buffer = reinterpret_cast<uint16_t*>(args.scratch);
+  uint16_t* const left_path = zero_buffer + layout.u16_buffer;
+  uint16_t* const sums_buffer = left_path + layout.u16_buffer;
+  uint32_t* const right_keys = reinterpret_cast<uint32_t*>(args.scratch + layout.keys_offset);
+  uint32_t* const best_key_row = reinterpret_cast<uint32_t*>(args.scratch + layout.rows_offset);
+  uint32_t* const second_row = best_key_row + layout.row_count;
+  uint32_t* const minus_row = second_row + layout.row_count;
+  uint32_t* const plus_row = minus_row + layout.row_count;
+  Word* const staged = reinterpret_cast<Word*>(args.scratch + layout.staged_offset);
+
+  // Per-tile constants.
+  const VU16 zero16 = B::set1_u16(0);
+  const VU16 ones16 = B::set1_u16(0xFFFF);
+  const sgm_detail::PathConstants<B> path_constants{B::set1_u16(static_cast<uint16_t>(params.p1)),
+                                                    B::set1_u16(static_cast<uint16_t>(params.p2))};
+  for (int i = 0; i < padded + 2; i += L16) store_clipped<B>(zero_buffer, i, padded + 2, zero16);
+  B::store_partial(left_path, ones16, 1);
+  B::store_partial(left_path + padded + 1, ones16, 1);
+  // d - min_disparity per lane (0xFFFF on padding lanes), and the padding mask of the last vector.
+  VU16 best_index[kMaxVectors];
+  VU16 padding_mask = zero16;
+  {
+    const VU16 step = B::set1_u16(static_cast<uint16_t>(L16));
+    const VU16 last_index = B::set1_u16(static_cast<uint16_t>(count - 1));
+    VU16 lane = B::load(sgm_detail::kLaneNumbersU16);
+    for (int k = 0; k < vectors; ++k) {
+      const VU16 padding = B::cmpgt(lane, last_index);
+      best_index[k] = B::select(padding, ones16, B::sub(last_index, lane));
+      if (k == vectors - 1) padding_mask = padding;
+      lane = B::add(lane, step);
+    }
+  }
+  const bool has_padding = padded != count;
+  const VU32 low_half = B::set1_u32(0xFFFFu);
+  const VU32 zero32 = B::set1_u32(0);
+  const VU32 ones32 = B::set1_u32(0xFFFFFFFFu);
+  const VU32 disparity_base = B::set1_u32(static_cast<uint32_t>(params.min_disparity * 16));
+  const VU32 invalid = B::set1_u32(static_cast<uint32_t>((params.min_disparity - 1) * 16));
+  VU16 near_index[kMaxVectors];  // (d - min_disparity) + 1 per lane, for |d - best| <= 1
+  for (VU16& lane_index : near_index) lane_index = zero16;
+  VU16 three = zero16;
+  VU32 hundred = zero32, keep_percent = zero32;
+  if (kSelect && params.uniqueness_percent > 0) {
+    const VU16 one = B::set1_u16(1);
+    for (int k = 0; k < vectors; ++k) near_index[k] = B::add(best_index[k], one);
+    three = B::set1_u16(3);
+    hundred = B::set1_u32(100);
+    keep_percent = B::set1_u32(static_cast<uint32_t>(100 - params.uniqueness_percent));
+  }
+  VU32 gather_minus = zero32, gather_plus = zero32, bit_values[4] = {zero32, zero32, zero32, zero32};
+  if (kSelect && params.subpixel) {
+    gather_minus = B::set1_u32(static_cast<uint32_t>(count + 1));  // element of S(best - 1): 1 + (D - best)
+    gather_plus = B::set1_u32(static_cast<uint32_t>(count - 1));   // element of S(best + 1): 1 + (D - 2 - best); also D - 1
+    for (int bit = 0; bit < 4; ++bit) bit_values[bit] = B::set1_u32(1u << bit);
+  }
+  VU32 lane_numbers32 = zero32, right_key_offset = zero32, lr_tolerance = zero32, width32 = zero32, minus_one32 = zero32;
+  if (lr_check) {
+    lane_numbers32 = B::load(sgm_detail::kLaneNumbersU32);
+    right_key_offset = B::set1_u32(static_cast<uint32_t>(count - 1 + params.min_disparity));
+    lr_tolerance = B::set1_u32(static_cast<uint32_t>(params.lr_max_diff));
+    width32 = B::set1_u32(static_cast<uint32_t>(width));
+    minus_one32 = B::set1_u32(0xFFFFFFFFu);
+  }
+
+  // Right-view words are readable up to the right halo (the forward pass stages the same border).
+  const int right_end = width + sgm_right_halo(params);
+  for (int step = 0; step < tile_rows; ++step) {
+    const int row = kBackward ? tile_rows - 1 - step : step;
+    const int y = args.tile_y + row;
+    const int mirrored_y = kBackward ? height - 1 - y : y;
+    const Word* left_row;
+    const Word* right_row;
+    if constexpr (kPass == SgmPass::forward) {
+      // Stage the right row with its replicate border: [-left halo, W + right halo).
+      left_row = plane_row<const Word>(args.inputs[0], y);
+      const Word* source = plane_row<const Word>(args.inputs[1], y);
+      const int left_halo = sgm_left_halo(params);
+      const int right_halo = sgm_right_halo(params);
+      auto fill = [&](int begin, int end, Word value) {
+        const auto broadcast = [&] {
+          if constexpr (sizeof(Word) == 4) return B::set1_u32(value);
+          else return B::set1_u64(value);
+        }();
+        constexpr int kWordLanes = B::kBytes / static_cast<int>(sizeof(Word));
+        for (int i = begin; i < end; i += kWordLanes) store_clipped<B>(staged, i, end, broadcast);
+      };
+      fill(0, left_halo, source[0]);
+      constexpr int kWordLanes = B::kBytes / static_cast<int>(sizeof(Word));
+      for (int i = 0; i < width; i += kWordLanes) store_clipped<B>(staged + left_halo, i, width, load_clipped<B>(source, i, width));
+      fill(left_halo + width, left_halo + width + right_halo, source[width - 1]);
+      right_row = staged + left_halo;
+    } else {
+      left_row = plane_row<const Word>(args.inputs[0], row);
+      right_row = plane_row<const Word>(args.inputs[1], row);
+    }
+    if (lr_check) {
+      const int keys = width + padded + L16;
+      for (int i = 0; i < keys; i += L32) B::store(right_keys + i, ones32);
+    }
+    int diagonal_down = ((0 - mirrored_y) % width + width) % width;   // slot of (x - y) mod W at x = 0
+    int diagonal_up = (mirrored_y % width);                            // slot of (x + y) mod W at x = 0
+    for (int mirrored_x = 0; mirrored_x < width; ++mirrored_x) {
+      const int x = kBackward ? width - 1 - mirrored_x : mirrored_x;
+      // Matching costs, lanes j = 0 .. Dp-1 <-> d = min_disparity + D - 1 - j <-> right word x - d.
+      VU16 cost[kMaxVectors];
+      VU16 sum[kMaxVectors];
+      {
+        const auto left_word = [&] {
+          if constexpr (sizeof(Word) == 4) return B::set1_u32(left_row[x]);
+          else return B::set1_u64(left_row[x]);
+        }();
+        const int first_column = x - params.min_disparity - count + 1;
+        for (int k = 0; k < vectors; ++k) {
+          cost[k] = sgm_detail::census_costs<B, Word>(left_word, right_row, first_column + k * L16, right_end);
+        }
+        if (has_padding) cost[vectors - 1] = B::bit_or(cost[vectors - 1], padding_mask);
+      }
+      // The four paths: along the row, then the three from the previous row.
+      const uint16_t* start = zero_buffer + 1;
+      sgm_detail::path_step<B, kMaxVectors>(mirrored_x == 0 ? start : left_path + 1, left_path + 1, cost, sum, true,
+                                            vectors, path_constants);
+      uint16_t* down_slot = regions[0] + diagonal_down * slot_stride + 1;
+      sgm_detail::path_step<B, kMaxVectors>(mirrored_x == 0 ? start : down_slot, down_slot, cost, sum, false, vectors,
+                                            path_constants);
+      uint16_t* straight_slot = regions[1] + static_cast<ptrdiff_t>(mirrored_x) * slot_stride + 1;
+      sgm_detail::path_step<B, kMaxVectors>(straight_slot, straight_slot, cost, sum, false, vectors, path_constants);
+      uint16_t* up_slot = regions[2] + diagonal_up * slot_stride + 1;
+      sgm_detail::path_step<B, kMaxVectors>(mirrored_x == width - 1 ? start : up_slot, up_slot, cost, sum, false,
+                                            vectors, path_constants);
+      diagonal_down = diagonal_down + 1 == width ? 0 : diagonal_down + 1;
+      diagonal_up = diagonal_up + 1 == width ? 0 : diagonal_up + 1;
+
+      if constexpr (kPass == SgmPass::forward) {
+        uint16_t* out = plane_row<uint16_t>(args.outputs[0], row) + static_cast<ptrdiff_t>(x) * count;
+        for (int k = 0; k < vectors; ++k) store_clipped<B>(out, k * L16, count, sum[k]);
+        continue;
+      } else {
+        if constexpr (kBackward) {
+          const uint16_t* forward = plane_row<const uint16_t>(args.inputs[2], y) + static_cast<ptrdiff_t>(x) * count;
+          for (int k = 0; k < vectors; ++k) sum[k] = B::adds(sum[k], load_clipped<B>(forward, k * L16, count));
+        }
+        // Winner takes all on keys S << 16 | (d - min_disparity).
+        VU32 keys[2 * kMaxVectors];
+        for (int k = 0; k < vectors; ++k) {
+          keys[2 * k] = B::zip_lo(best_index[k], sum[k]);
+          keys[2 * k + 1] = B::zip_hi(best_index[k], sum[k]);
+        }
+        VU32 best_key = keys[0];
+        for (int m = 1; m < 2 * vectors; ++m) best_key = B::min(best_key, keys[m]);
+        best_key = sgm_detail::broadcast_min_u32<B>(best_key);
+        B::store_partial(best_key_row + x, best_key, 1);
+        const VU32 best = B::bit_and(best_key, low_half);
+        if (params.uniqueness_percent > 0) {
+          // The lowest sum farther than 1 px from the best: lanes d - best in {-1, 0, 1} masked to 0xFFFF.
+          const VU16 best16 = B::as_u16(B::bit_or(best, B::template shl<16>(best)));
+          VU16 second = B::bit_or(sum[0], B::cmplt(B::sub(near_index[0], best16), three));
+          for (int k = 1; k < vectors; ++k) {
+            second = B::min(second, B::bit_or(sum[k], B::cmplt(B::sub(near_index[k], best16), three)));
+          }
+          B::store_partial(second_row + x, B::as_u32(sgm_detail::broadcast_min_u16<B>(second)), 1);
+        }
+        if (params.subpixel) {
+          // S(best - 1) and S(best + 1) from the pixel's sums (lane j of S at sums_buffer[1 + j]).
+          for (int k = 0; k < vectors; ++k) B::store(sums_buffer + 1 + k * L16, sum[k]);
+          B::store_partial(minus_row + x, B::gather_u16(sums_buffer, B::as_s32(B::sub(gather_minus, best))), 1);
+          B::store_partial(plus_row + x, B::gather_u16(sums_buffer, B::as_s32(B::sub(gather_plus, best))), 1);
+        }
+        if (lr_check) {
+          // Right view: key of right pixel x - d kept at right_keys[x - d + d0 + D - 1] = right_keys[x + j].
+          for (int m = 0; m < 2 * vectors; ++m) {
+            uint32_t* slot = right_keys + x + m * L32;
+            B::store(slot, B::min(B::load(slot), keys[m]));
+          }
+        }
+      }
+    }
+    if constexpr (kSelect) {
+      // Finish the row, L32 pixels per vector: integer disparity, sub-pixel step, uniqueness,
+      // left-right check, narrow to s16.
+      int16_t* out = plane_row<int16_t>(args.outputs[0], row);
+      VU32 position = lr_check ? B::sub(lane_numbers32, B::set1_u32(static_cast<uint32_t>(params.min_disparity))) : zero32;
+      const VU32 step32 = B::set1_u32(static_cast<uint32_t>(L32));
+      for (int x = 0; x < width; x += L16) {
+        VU32 result[2];
+        for (int half = 0; half < 2; ++half) {
+          const int first = x + half * L32;
+          const VU32 best_key = load_clipped<B>(best_key_row, first, width);
+          const VU32 best = B::bit_and(best_key, low_half);
+          const VU32 best_cost = B::template shr<16>(best_key);
+          VU32 disparity = B::add(B::template shl<4>(best), disparity_base);
+          if (params.subpixel) {
+            const VU32 a = B::sub(load_clipped<B>(minus_row, first, width), best_cost);
+            const VU32 c = B::sub(load_clipped<B>(plus_row, first, width), best_cost);
+            const VU32 difference = B::sub(B::max(a, c), B::min(a, c));
+            const VU32 negative = B::cmpgt(c, a);
+            const VU32 denominator = B::add(a, c);
+            VU32 numerator = B::add(B::template shl<4>(difference), denominator);
+            const VU32 divisor = B::add(denominator, denominator);
+            // Restoring division, 4 quotient bits: q = numerator / divisor, 0 <= q <= 8.
+            const VU32 t3 = B::template shl<3>(divisor);
+            const VU32 below3 = B::cmplt(numerator, t3);
+            numerator = B::select(below3, numerator, B::sub(numerator, t3));
+            VU32 quotient = B::bit_andnot(below3, bit_values[3]);
+            const VU32 t2 = B::template shl<2>(divisor);
+            const VU32 below2 = B::cmplt(numerator, t2);
+            numerator = B::select(below2, numerator, B::sub(numerator, t2));
+            quotient = B::add(quotient, B::bit_andnot(below2, bit_values[2]));
+            const VU32 t1 = B::template shl<1>(divisor);
+            const VU32 below1 = B::cmplt(numerator, t1);
+            numerator = B::select(below1, numerator, B::sub(numerator, t1));
+            quotient = B::add(quotient, B::bit_andnot(below1, bit_values[1]));
+            const VU32 below0 = B::cmplt(numerator, divisor);
+            quotient = B::add(quotient, B::bit_andnot(below0, bit_values[0]));
+            const VU32 offset = B::select(negative, B::sub(zero32, quotient), quotient);
+            const VU32 interior = B::bit_and(B::cmpgt(best, zero32), B::cmplt(best, gather_plus));
+            disparity = B::add(disparity, B::bit_and(offset, interior));
+          }
+          if (params.uniqueness_percent > 0) {
+            const VU32 second = B::bit_and(load_clipped<B>(second_row, first, width), low_half);
+            const VU32 ambiguous = B::cmpgt(B::mullo(best_cost, hundred), B::mullo(second, keep_percent));
+            disparity = B::select(ambiguous, invalid, disparity);
+          }
+          if (lr_check) {
+            const VU32 right_x = B::sub(position, best);  // x - (min_disparity + best)
+            position = B::add(position, step32);
+            const VU32 key_element = B::template shl<1>(B::add(right_x, right_key_offset));
+            const VU32 right_best = B::gather_u16(reinterpret_cast<const uint16_t*>(right_keys), B::as_s32(key_element));
+            const VU32 inside = B::as_u32(B::bit_and(B::cmpgt(B::as_s32(right_x), B::as_s32(minus_one32)),
+                                                     B::cmplt(B::as_s32(right_x), B::as_s32(width32))));
+            const VU32 seen = B::cmplt(right_best, low_half);
+            const VU32 difference = B::sub(B::max(best, right_best), B::min(best, right_best));
+            const VU32 mismatch = B::bit_and(B::bit_and(B::cmpgt(difference, lr_tolerance), inside), seen);
+            disparity = B::select(mismatch, invalid, disparity);
+          }
+          result[half] = disparity;
+        }
+        store_clipped<B>(out, x, width, B::narrow_sat_s16(B::as_s32(result[0]), B::as_s32(result[1])));
+      }
+    }
+  }
+}
+
+template <class B>
+struct IsEmulated : std::false_type {};
+template <int kBytes, bool kCounting, int kTag>
+struct IsEmulated<simd::Emulated<kBytes, kCounting, kTag>> : std::true_type {};
+
+}  // namespace sgm_detail
+
+// The tile body (see sgm_tile_for). Native vector back ends get bodies specialised for 2, 4 and 8
+// disparity vectors (64, 128, 256 disparities on AVX-512): same ops, same bits, faster on the host.
+// The emulated back ends (counting, scalar fallback) run the general body.
+template <class B, class Word, SgmPass kPass>
+void sgm_tile(const TileArgs& args) {
+  if constexpr (!sgm_detail::IsEmulated<B>::value) {
+    const int vectors = (static_cast<const SgmParams*>(args.params)->num_disparities + B::kLanesU16 - 1) / B::kLanesU16;
+    switch (vectors) {
+      case 2: return sgm_detail::sgm_tile_for<B, Word, kPass, 2>(args);
+      case 4: return sgm_detail::sgm_tile_for<B, Word, kPass, 4>(args);
+      case 8: return sgm_detail::sgm_tile_for<B, Word, kPass, 8>(args);
+      default: break;
+    }
+  }
+  sgm_detail::sgm_tile_for<B, Word, kPass, 0>(args);
+}
+
+}  // namespace lpstereo::kernels

@@ -1,0 +1,238 @@
+// Scalar SGM reference (definitions in kernels/sgm_reference.h). Baseline build only: not compiled
+// per ISA level.
+#include "kernels/sgm_reference.h"
+
+#include "kernels/census_cost.h"
+
+#include <algorithm>
+#include <cstdlib>
+#include <limits>
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace lpstereo::kernels {
+
+SgmVolume sgm_reference_costs(const PlaneView& left, const PlaneView& right, int word_bytes, int min_disparity,
+                              int num_disparities) {
+  SgmVolume cost{left.width, left.height, num_disparities, {}};
+  cost.values.resize(static_cast<size_t>(left.width) * left.height * num_disparities);
+  for (int y = 0; y < left.height; ++y) {
+    for (int x = 0; x < left.width; ++x) {
+      for (int i = 0; i < num_disparities; ++i) {
+        cost.at(x, y, i) = census_cost_reference(left, right, word_bytes, x, y, min_disparity + i);
+      }
+    }
+  }
+  return cost;
+}
+
+int32_t sgm_reference_add_path(const SgmVolume& cost, int p1, int p2, SgmPathDirection direction, SgmVolume& sum) {
+  const int width = cost.width, height = cost.height, count = cost.disparities;
+  SgmVolume path{width, height, count, std::vector<int32_t>(cost.values.size(), 0)};
+  int32_t largest = 0;
+  // Visit every pixel after its predecessor (x + dx, y + dy) on the path.
+  for (int row = 0; row < height; ++row) {
+    const int y = direction.dy > 0 ? height - 1 - row : row;
+    for (int column = 0; column < width; ++column) {
+      const int x = direction.dx > 0 ? width - 1 - column : column;
+      const int previous_x = x + direction.dx, previous_y = y + direction.dy;
+      const bool has_previous = previous_x >= 0 && previous_x < width && previous_y >= 0 && previous_y < height;
+      int32_t previous_min = 0;
+      if (has_previous) {
+        previous_min = std::numeric_limits<int32_t>::max();
+        for (int i = 0; i < count; ++i) previous_min = std::min(previous_min, path.at(previous_x, previous_y, i));
+      }
+      for (int i = 0; i < count; ++i) {
+        int32_t value = cost.at(x, y, i);
+        if (has_previous) {
+          int32_t best = std::min(path.at(previous_x, previous_y, i), previous_min + p2);
+          if (i > 0) best = std::min(best, path.at(previous_x, previous_y, i - 1) + p1);
+          if (i + 1 < count) best = std::min(best, path.at(previous_x, previous_y, i + 1) + p1);
+          value += best - previous_min;
+        }
+        path.at(x, y, i) = value;
+        largest = std::max(largest, value);
+      }
+    }
+  }
+  for (size_t i = 0; i < sum.values.size(); ++i) sum.values[i] += path.values[i];
+  return largest;
+}
+
+void sgm_reference_select(const SgmVolume& sum, const SgmParams& settings, const PlaneView& output) {
+  const int width = sum.width, count = sum.disparities;
+  const int invalid = (settings.min_disparity - 1) * 16;
+  std::vector<int> right_best(static_cast<size_t>(width));
+  std::vector<int> left_best(static_cast<size_t>(width));
+  for (int y = 0; y < sum.height; ++y) {
+    int16_t* out = plane_row<int16_t>(output, y);
+    for (int x = 0; x < width; ++x) {
+      int best = 0;
+      for (int i = 1; i < count; ++i) {
+        if (sum.at(x, y, i) < sum.at(x, y, best)) best = i;
+      }
+      left_best[static_cast<size_t>(x)] = best;
+      const int64_t best_cost = sum.at(x, y, best);
+      bool valid = true;
+      for (int i = 0; i < count && settings.uniqueness_percent > 0; ++i) {
+        if (std::abs(i - best) > 1 && int64_t{sum.at(x, y, i)} * (100 - settings.uniqueness_percent) < best_cost * 100) {
+          valid = false;
+        }
+      }
+      int value = (settings.min_disparity + best) * 16;
+      if (settings.subpixel && best > 0 && best < count - 1) {
+        const int a = sum.at(x, y, best - 1) - sum.at(x, y, best);
+        const int c = sum.at(x, y, best + 1) - sum.at(x, y, best);
+        const int q = (16 * std::abs(a - c) + (a + c)) / (2 * (a + c));  // a > 0: best is the first minimum
+        value += a >= c ? q : -q;
+      }
+      out[x] = static_cast<int16_t>(valid ? value : invalid);
+    }
+    if (settings.lr_max_diff < 0) continue;
+    // Right view: D_R(xr) = argmin over d of S(xr + d, d), ties to the smallest d.
+    for (int xr = 0; xr < width; ++xr) {
+      int best = -1;
+      for (int i = 0; i < count; ++i) {
+        const int x = xr + settings.min_disparity + i;
+        if (x < 0 || x >= width) continue;
+        if (best < 0 || sum.at(x, y, i) < sum.at(xr + settings.min_disparity + best, y, best)) best = i;
+      }
+      right_best[static_cast<size_t>(xr)] = best;
+    }
+    for (int x = 0; x < width; ++x) {
+      const int best = left_best[static_cast<size_t>(x)];
+      const int xr = x - (settings.min_disparity + best);
+      if (xr < 0 || xr >= width || right_best[static_cast<size_t>(xr)] < 0) continue;
+      if (std::abs(best - right_best[static_cast<size_t>(xr)]) > settings.lr_max_diff) out[x] = static_cast<int16_t>(invalid);
+    }
+  }
+}
+
+void sgm_reference(SgmPass pass, int word_bytes, const std::vector<PlaneView>& inputs,
+                   const std::vector<PlaneView>& outputs, const SgmParams& params) {
+  const SgmVolume cost = sgm_reference_costs(inputs[0], inputs[1], word_bytes, params.min_disparity, params.num_disparities);
+  const int count = params.num_disparities;
+  SgmVolume sum{cost.width, cost.height, count, std::vector<int32_t>(cost.values.size(), 0)};
+  if (pass == SgmPass::backward) {
+    for (int y = 0; y < cost.height; ++y) {
+      const uint16_t* forward = plane_row<const uint16_t>(inputs[2], y);
+      for (int x = 0; x < cost.width; ++x) {
+        for (int i = 0; i < count; ++i) sum.at(x, y, i) = forward[static_cast<size_t>(x) * count + (count - 1 - i)];
+      }
+    }
+  }
+  for (const SgmPathDirection& direction : pass == SgmPass::backward ? kSgmBackwardPaths : kSgmForwardPaths) {
+    sgm_reference_add_path(cost, params.p1, params.p2, direction, sum);
+  }
+  if (pass != SgmPass::forward) {
+    sgm_reference_select(sum, params, outputs[0]);
+    return;
+  }
+  for (int y = 0; y < cost.height; ++y) {
+    uint16_t* out = plane_row<uint16_t>(outputs[0], y);
+    for (int x = 0; x < cost.width; ++x) {
+      for (int i = 0; i < count; ++i) out[static_cast<size_t>(x) * count + (count - 1 - i)] = static_cast<uint16_t>(sum.at(x, y, i));
+    }
+  }
+}
+
+namespace {
+
+std::string shape_text(const PlaneShape& shape) { return std::to_string(shape.width) + "x" + std::to_string(shape.height); }
+
+PreparedKernel sgm_prepare(SgmPass pass, const nlohmann::json& json, const std::vector<PlaneShape>& input_shapes) {
+  check_param_names(json, {"min_disparity", "num_disparities", "p1", "p2", "uniqueness_percent", "subpixel", "lr_max_diff"});
+  auto params = std::make_shared<SgmParams>();
+  params->min_disparity = param_int(json, "min_disparity", 0, -2047, 2046);
+  params->num_disparities =
+      param_int(json, "num_disparities", 64, 1, std::min(kSgmMaxDisparities, 2047 - params->min_disparity));
+  params->p1 = param_int(json, "p1", 5, 0, kSgmMaxPenalty);
+  params->p2 = param_int(json, "p2", std::max(45, params->p1), params->p1, kSgmMaxPenalty);
+  params->uniqueness_percent = param_int(json, "uniqueness_percent", 0, 0, kSgmMaxUniquenessPercent);
+  params->subpixel = param_int(json, "subpixel", 1, 0, 1);
+  params->lr_max_diff = param_int(json, "lr_max_diff", -1, -1, 2047);
+  if (pass == SgmPass::forward &&
+      (json.contains("uniqueness_percent") || json.contains("subpixel") || json.contains("lr_max_diff"))) {
+    throw KernelError("sgm_8path_forward selects no disparity: parameters uniqueness_percent, subpixel and lr_max_diff "
+                      "belong to sgm_8path_backward");
+  }
+  const PlaneShape left = input_shapes.at(0);
+  if (!(input_shapes.at(1) == left)) {
+    throw KernelError("port 'right': expected the left view's size " + shape_text(left) + ", got " + shape_text(input_shapes[1]));
+  }
+  const PlaneShape sums{left.width * params->num_disparities, left.height};
+  if (pass == SgmPass::backward && !(input_shapes.at(2) == sums)) {
+    throw KernelError("port 'forward': expected the forward sums of " + shape_text(left) + " x " +
+                      std::to_string(params->num_disparities) + " disparities, " + shape_text(sums) + ", got " +
+                      shape_text(input_shapes[2]));
+  }
+  PreparedKernel prepared{params, {pass == SgmPass::forward ? sums : left}, {}, {}};
+  if (pass != SgmPass::forward) {
+    prepared.input_halos = {Halo{}, Halo{sgm_left_halo(*params), sgm_right_halo(*params), 0, 0}};
+    if (pass == SgmPass::backward) prepared.input_halos.push_back(Halo{});
+  }
+  return prepared;
+}
+
+}  // namespace
+
+KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, TileFunction counting) {
+  KernelDescriptor descriptor;
+  descriptor.name = name;
+  const BufferFormat census{word_bytes == 4 ? ElementType::census32 : ElementType::census64, 0};
+  const std::string census_name = word_bytes == 4 ? "census32" : "census64";
+  const PortAccess census_access = pass == SgmPass::forward ? PortAccess::whole : PortAccess::window;
+  descriptor.ports = {{"left", PortDirection::input, census, census_access},
+                      {"right", PortDirection::input, census, census_access}};
+  switch (pass) {
+    case SgmPass::single:
+      descriptor.summary = "semi-global matching, 4 paths in one row-streaming pass, on " + census_name +
+                           " Hamming costs: s16 Q4 disparity with uniqueness, sub-pixel and LR check";
+      break;
+    case SgmPass::forward:
+      descriptor.summary = "8-path SGM, forward pass (left, top-left, top, top-right) on " + census_name +
+                           " Hamming costs: per-pixel path sums, u16 W*D per row";
+      break;
+    case SgmPass::backward:
+      descriptor.summary = "8-path SGM, backward pass (right, bottom-right, bottom, bottom-left, rows bottom up) on " +
+                           census_name + " costs plus the forward sums: s16 Q4 disparity";
+      descriptor.ports.push_back({"forward", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole});
+      descriptor.rows_bottom_up = true;
+      break;
+  }
+  if (pass == SgmPass::forward) {
+    descriptor.ports.push_back({"sums", PortDirection::output, {ElementType::u16, 0}, PortAccess::window});
+  } else {
+    descriptor.ports.push_back({"disparity", PortDirection::output, {ElementType::s16, 4}, PortAccess::window});
+  }
+  descriptor.border_modes = {BorderMode::replicate};
+  descriptor.prepare = [pass](const nlohmann::json& json, const std::vector<PlaneShape>& shapes) {
+    return sgm_prepare(pass, json, shapes);
+  };
+  // The forward pass's output is W*D wide: the image width is that over D.
+  auto image_width = [pass](int output_width, const SgmParams& params) {
+    return pass == SgmPass::forward ? output_width / params.num_disparities : output_width;
+  };
+  descriptor.state_bytes = [image_width](int width, int, const void* params_pointer) {
+    const auto& params = *static_cast<const SgmParams*>(params_pointer);
+    return sgm_state_bytes(image_width(width, params), params.num_disparities);
+  };
+  descriptor.scratch_bytes = [pass, word_bytes, image_width](int tile_width, int, const void* params_pointer) {
+    const auto& params = *static_cast<const SgmParams*>(params_pointer);
+    return sgm_scratch_layout(image_width(tile_width, params), params, pass, word_bytes).total;
+  };
+  // Whole inputs (the forward pass's census rows, the backward pass's forward sums): the tile's rows.
+  descriptor.source_rect = [](int, const PixelRect& tile, const PlaneShape& shape, const void*) {
+    return PixelRect{0, tile.y0, shape.width, tile.y1};
+  };
+  descriptor.counting = counting;
+  descriptor.reference = [pass, word_bytes](const std::vector<PlaneView>& inputs, const std::vector<PlaneView>& outputs,
+                                            const void* params, BorderMode, uint32_t) {
+    sgm_reference(pass, word_bytes, inputs, outputs, *static_cast<const SgmParams*>(params));
+  };
+  return descriptor;
+}
+
+}  // namespace lpstereo::kernels

@@ -1,0 +1,486 @@
+// SGM kernels (sgm_4path, sgm_8path_forward / _backward, census64 variants): bit-exact against the
+// scalar reference on every back end at odd sizes in padded buffers with several tile heights (the
+// row state carried across tiles), golden disparities of shifted patterns, the overflow bound at the
+// largest range and penalties, closed-form op counts, and parameter errors.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "dag/tile_executor.h"
+#include "kernels/sgm_core.h"
+#include "kernels/sgm_reference.h"
+#include "tests/kernels/kernel_check.h"
+
+namespace lpstereo {
+namespace {
+
+using testing::expect_all_back_ends_match_reference;
+using testing::KernelCase;
+using testing::random_plane;
+
+// A u8 texture and a right view that sees it shifted by `disparity` px (x_right = x - disparity),
+// plus noise: census of both gives plausible, structured costs (not white noise).
+struct CensusPair {
+  Plane left, right;
+};
+
+Plane random_census(int width, int height, ElementType type, ptrdiff_t stride, uint32_t seed) {
+  Plane plane = random_plane(width, height, {type, 0}, stride, seed);
+  // Keep the signatures to the census widths (24 / 62 bits) so costs stay in range.
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      if (type == ElementType::census32) plane.at<uint32_t>(x, y) &= 0x00FFFFFFu;
+      else plane.at<uint64_t>(x, y) &= 0x3FFFFFFFFFFFFFFFull;
+    }
+  }
+  return plane;
+}
+
+// Right census = left census shifted by a smooth disparity field (0.. max_shift), with a few
+// flipped bits: aggregation has real structure to find.
+CensusPair shifted_census(int width, int height, ElementType type, ptrdiff_t stride, int min_shift, int max_shift,
+                          uint32_t seed) {
+  CensusPair pair{random_census(width, height, type, stride, seed), Plane(width, height, {type, 0}, stride)};
+  std::mt19937 generator(seed + 1);
+  std::uniform_int_distribution<int> bit(0, type == ElementType::census32 ? 23 : 61);
+  std::uniform_int_distribution<int> chance(0, 9);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const int shift = min_shift + (max_shift - min_shift) * ((x / 17 + y / 11) % 4) / 3;
+      const int source = std::clamp(x + shift, 0, width - 1);
+      if (type == ElementType::census32) {
+        uint32_t word = pair.left.at<uint32_t>(source, y);
+        if (chance(generator) == 0) word ^= 1u << bit(generator);
+        pair.right.at<uint32_t>(x, y) = word;
+      } else {
+        uint64_t word = pair.left.at<uint64_t>(source, y);
+        if (chance(generator) == 0) word ^= 1ull << bit(generator);
+        pair.right.at<uint64_t>(x, y) = word;
+      }
+    }
+  }
+  return pair;
+}
+
+nlohmann::json sgm_params(int min_disparity, int num_disparities, int p1, int p2, int uniqueness, int subpixel,
+                          int lr_max_diff) {
+  return {{"min_disparity", min_disparity}, {"num_disparities", num_disparities}, {"p1", p1}, {"p2", p2},
+          {"uniqueness_percent", uniqueness}, {"subpixel", subpixel}, {"lr_max_diff", lr_max_diff}};
+}
+
+Plane reference_forward_sums(const Plane& left, const Plane& right, const nlohmann::json& params, int word_bytes);
+nlohmann::json forward_params(const nlohmann::json& params);
+
+struct RangeCase {
+  int min_disparity, num_disparities, uniqueness, subpixel, lr_max_diff;
+};
+
+// Ranges: a full and a partial last vector on every back end, negative ranges, one disparity, and
+// 64 / 128 disparities, which run the bodies specialised for 2, 4 and 8 vectors on the native levels.
+const std::vector<RangeCase> kRanges = {{0, 32, 10, 1, 1}, {0, 17, 0, 1, -1}, {-9, 20, 15, 1, 0}, {-30, 10, 5, 0, 2},
+                                        {3, 1, 0, 1, 1},   {0, 40, 50, 1, 3}, {0, 64, 10, 1, 1}, {-7, 128, 5, 1, 2}};
+
+TEST(Sgm4Path, MatchesReferenceAtOddSizesInPaddedBuffersAcrossTileHeights) {
+  for (const RangeCase& range : kRanges) {
+    KernelCase test_case{"sgm_4path", sgm_params(range.min_disparity, range.num_disparities, 5, 60, range.uniqueness,
+                                                 range.subpixel, range.lr_max_diff),
+                         {}, 10};
+    CensusPair pair = shifted_census(53, 23, ElementType::census32, 64 * 4, std::max(range.min_disparity, -5),
+                                     range.min_disparity + range.num_disparities - 1, 7);
+    test_case.inputs.push_back(std::move(pair.left));
+    test_case.inputs.push_back(std::move(pair.right));
+    SCOPED_TRACE("min_disparity " + std::to_string(range.min_disparity) + " D " + std::to_string(range.num_disparities));
+    expect_all_back_ends_match_reference(test_case, {{53, 23}, {53, 5}, {53, 1}});
+  }
+}
+
+TEST(Sgm4Path, TinyImages) {
+  for (auto [width, height] : std::vector<std::pair<int, int>>{{1, 1}, {2, 3}, {3, 1}, {5, 2}}) {
+    const nlohmann::json params = sgm_params(-2, 7, 3, 20, 10, 1, 1);
+    KernelCase single{"sgm_4path", params, {random_census(width, height, ElementType::census32, width * 4 + 8, 4),
+                                            random_census(width, height, ElementType::census32, width * 4, 5)}, 6};
+    expect_all_back_ends_match_reference(single, {{width, height}, {width, 1}});
+    KernelCase backward{"sgm_8path_backward", params, {single.inputs[0], single.inputs[1],
+                                                       reference_forward_sums(single.inputs[0], single.inputs[1], forward_params(params), 4)}, 2};
+    expect_all_back_ends_match_reference(backward, {{width, height}, {width, 1}});
+  }
+}
+
+TEST(Sgm4Path, Census64MatchesReference) {
+  KernelCase test_case{"sgm_4path_census64", sgm_params(-3, 35, 9, 110, 10, 1, 1), {}, 6};
+  CensusPair pair = shifted_census(41, 13, ElementType::census64, 48 * 8, 0, 20, 9);
+  test_case.inputs.push_back(std::move(pair.left));
+  test_case.inputs.push_back(std::move(pair.right));
+  expect_all_back_ends_match_reference(test_case, {{41, 13}, {41, 4}});
+}
+
+// The forward sums the reference gives for a census pair (u16, W*D per row), as the backward
+// kernel's third input.
+Plane reference_forward_sums(const Plane& left, const Plane& right, const nlohmann::json& params, int word_bytes) {
+  const KernelDescriptor& forward = testing::kernel_named(word_bytes == 4 ? "sgm_8path_forward" : "sgm_8path_forward_census64");
+  const PreparedKernel prepared = forward.prepare(params, {{left.width(), left.height()}, {right.width(), right.height()}});
+  const PlaneShape shape = prepared.output_shapes.at(0);
+  Plane sums(shape.width, shape.height, {ElementType::u16, 0}, shape.width * 2 + 6);
+  forward.reference({left.view(), right.view()}, {sums.view()}, prepared.params.get(), BorderMode::replicate, 0);
+  return sums;
+}
+
+nlohmann::json forward_params(const nlohmann::json& params) {
+  nlohmann::json result = params;
+  result.erase("uniqueness_percent");
+  result.erase("subpixel");
+  result.erase("lr_max_diff");
+  return result;
+}
+
+TEST(Sgm8Path, ForwardAndBackwardMatchReferenceAcrossTileHeights) {
+  for (const RangeCase& range : kRanges) {
+    const nlohmann::json params = sgm_params(range.min_disparity, range.num_disparities, 6, 70, range.uniqueness,
+                                             range.subpixel, range.lr_max_diff);
+    CensusPair pair = shifted_census(47, 19, ElementType::census32, 56 * 4, std::max(range.min_disparity, -5),
+                                     range.min_disparity + range.num_disparities - 1, 21);
+    SCOPED_TRACE("min_disparity " + std::to_string(range.min_disparity) + " D " + std::to_string(range.num_disparities));
+    KernelCase forward{"sgm_8path_forward", forward_params(params), {}, 4};
+    forward.inputs = {pair.left, pair.right};
+    expect_all_back_ends_match_reference(forward, {{47 * range.num_disparities, 19}, {47 * range.num_disparities, 4}});
+    KernelCase backward{"sgm_8path_backward", params, {}, 8};
+    backward.inputs = {pair.left, pair.right, reference_forward_sums(pair.left, pair.right, forward_params(params), 4)};
+    expect_all_back_ends_match_reference(backward, {{47, 19}, {47, 6}, {47, 1}});
+  }
+}
+
+TEST(Sgm8Path, Census64MatchesReference) {
+  const nlohmann::json params = sgm_params(-4, 33, 10, 120, 10, 1, 1);
+  CensusPair pair = shifted_census(29, 11, ElementType::census64, 32 * 8, 0, 25, 5);
+  KernelCase forward{"sgm_8path_forward_census64", forward_params(params), {}, 4};
+  forward.inputs = {pair.left, pair.right};
+  expect_all_back_ends_match_reference(forward, {{29 * 33, 11}, {29 * 33, 3}});
+  KernelCase backward{"sgm_8path_backward_census64", params, {}, 8};
+  backward.inputs = {pair.left, pair.right, reference_forward_sums(pair.left, pair.right, forward_params(params), 8)};
+  expect_all_back_ends_match_reference(backward, {{29, 11}, {29, 4}});
+}
+
+// A smooth texture f(x, y) (sum of oriented sines) seen by the right camera shifted by `shift` px:
+// right(x, y) = f(x + shift, y), so the true left disparity is `shift` everywhere.
+Plane texture(int width, int height, double shift) {
+  Plane plane(width, height, {ElementType::u8, 0});
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const double u = x + shift;
+      const double value = 128 + 45 * std::sin(0.9 * u + 0.4 * y) + 35 * std::sin(2.3 * u - 1.1 * y + 1.0) +
+                           25 * std::sin(0.31 * u + 1.7 * y + 2.0) + 15 * std::sin(3.7 * u + 0.2 * y);
+      plane.at<uint8_t>(x, y) = static_cast<uint8_t>(std::clamp(std::lround(value), 0L, 255L));
+    }
+  }
+  return plane;
+}
+
+Plane census_of(const Plane& image, const char* kernel_name) {
+  const KernelDescriptor& census = testing::kernel_named(kernel_name);
+  Plane out(image.width(), image.height(), census.ports[1].format);
+  census.reference({image.view()}, {out.view()}, nullptr, BorderMode::replicate, 0);
+  return out;
+}
+
+// Disparity maps of an 8-path run (forward then backward kernel) through the tile executor.
+Plane run_8path(const Plane& left, const Plane& right, const nlohmann::json& params, KernelBackend backend, simd::Isa isa,
+                int tile_height, bool census64 = false) {
+  const KernelDescriptor& forward = testing::kernel_named(census64 ? "sgm_8path_forward_census64" : "sgm_8path_forward");
+  const KernelDescriptor& backward = testing::kernel_named(census64 ? "sgm_8path_backward_census64" : "sgm_8path_backward");
+  const std::vector<PlaneShape> shapes = {{left.width(), left.height()}, {right.width(), right.height()}};
+  const PreparedKernel forward_prepared = forward.prepare(forward_params(params), shapes);
+  Plane sums(forward_prepared.output_shapes[0].width, left.height(), {ElementType::u16, 0});
+  VectorNodeBinding forward_binding{&forward, forward_prepared.params.get(), BorderMode::replicate, 0,
+                                    {left.view(), right.view()}, {sums.view()}, forward_prepared.input_halos};
+  run_vector_node(forward_binding, sums.width(), tile_height, backend, isa);
+  const PreparedKernel prepared = backward.prepare(params, {shapes[0], shapes[1], {sums.width(), sums.height()}});
+  Plane disparity(left.width(), left.height(), {ElementType::s16, 4});
+  VectorNodeBinding binding{&backward, prepared.params.get(), BorderMode::replicate, 0,
+                            {left.view(), right.view(), sums.view()}, {disparity.view()}, prepared.input_halos};
+  run_vector_node(binding, left.width(), tile_height, backend, isa);
+  return disparity;
+}
+
+Plane run_4path(const Plane& left, const Plane& right, const nlohmann::json& params, KernelBackend backend, simd::Isa isa,
+                int tile_height) {
+  const KernelDescriptor& kernel = testing::kernel_named("sgm_4path");
+  const PreparedKernel prepared = kernel.prepare(params, {{left.width(), left.height()}, {right.width(), right.height()}});
+  Plane disparity(left.width(), left.height(), {ElementType::s16, 4});
+  VectorNodeBinding binding{&kernel, prepared.params.get(), BorderMode::replicate, 0, {left.view(), right.view()},
+                            {disparity.view()}, prepared.input_halos};
+  run_vector_node(binding, left.width(), tile_height, backend, isa);
+  return disparity;
+}
+
+TEST(SgmGolden, IntegerShiftGivesTheShiftOnEveryBackEnd) {
+  const int width = 96, height = 24, shift = 11;
+  const Plane left = census_of(texture(width, height, 0), "census5x5");
+  const Plane right = census_of(texture(width, height, shift), "census5x5");
+  const nlohmann::json params = sgm_params(0, 32, 5, 60, 10, 0, 1);
+  for (simd::Isa isa : simd::available_isas()) {
+    for (KernelBackend backend : {KernelBackend::native, KernelBackend::counting}) {
+      for (int paths : {4, 8}) {
+        const Plane disparity = paths == 4 ? run_4path(left, right, params, backend, isa, 5)
+                                           : run_8path(left, right, params, backend, isa, 7);
+        for (int y = 0; y < height; ++y) {
+          for (int x = 2 * shift; x < width - 2; ++x) {  // the band past the left border may fail the LR check
+            ASSERT_EQ(disparity.at<int16_t>(x, y), shift * 16)
+                << paths << " paths, x=" << x << " y=" << y << " " << simd::isa_name(isa);
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(SgmGolden, NegativeRangeFindsANegativeShift) {
+  const int width = 80, height = 12, shift = -7;
+  const Plane left = census_of(texture(width, height, 0), "census9x7");
+  const Plane right = census_of(texture(width, height, shift), "census9x7");
+  const nlohmann::json params = sgm_params(-12, 16, 9, 110, 0, 0, -1);
+  const Plane disparity = run_8path(left, right, params, KernelBackend::native, simd::available_isas().back(), 4, true);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 4; x < width + shift - 4; ++x) ASSERT_EQ(disparity.at<int16_t>(x, y), shift * 16) << "x=" << x << " y=" << y;
+  }
+}
+
+TEST(SgmGolden, HalfPixelShiftGivesAHalfPixelSubPixelDisparity) {
+  const int width = 120, height = 20;
+  const double shift = 9.5;
+  const Plane left = census_of(texture(width, height, 0), "census5x5");
+  const Plane right = census_of(texture(width, height, shift), "census5x5");
+  const nlohmann::json params = sgm_params(0, 24, 5, 60, 0, 1, -1);
+  const Plane disparity = run_4path(left, right, params, KernelBackend::native, simd::available_isas().back(), 8);
+  double error_sum = 0;
+  int pixels = 0, far = 0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 25; x < width - 4; ++x) {  // past the occluded band the border replicate creates
+      const double value = disparity.at<int16_t>(x, y) / 16.0;
+      if (std::abs(value - shift) > 0.75) ++far;
+      error_sum += value - shift;
+      ++pixels;
+    }
+  }
+  // Integer-only selection would be off by 0.5 px on average; the parabola brings it near 0.
+  EXPECT_LT(std::abs(error_sum / pixels), 0.15) << "mean sub-pixel error over " << pixels << " pixels";
+  EXPECT_LT(far, pixels / 50) << "pixels off by more than 0.75 px";
+}
+
+TEST(SgmOverflow, NoOverflowAtLargestRangeAndPenalties) {
+  // The largest supported range (512) and penalties (p1 = p2 = 4000) with census64 costs that swing
+  // between 0 and 62 (the word or its complement), so path costs reach C + P2. The 16-bit sums of
+  // every back end must equal the reference's 32-bit sums exactly, and the reference's largest path
+  // cost and 8-path sum must respect the documented bound (kernels/sgm_core.h).
+  // Random 62-bit words seen shifted by 10 px: d = 10 costs 0 everywhere, every other disparity
+  // about 31 (at least ~18), so along the row the other disparities climb until P2 caps them and
+  // L reaches Cmax + P2 = 4062 (P1 = P2: no cheap way to follow a neighbouring disparity).
+  const int width = 301, height = 2, count = kernels::kSgmMaxDisparities, penalty = kernels::kSgmMaxPenalty;
+  const Plane left = random_census(width, height, ElementType::census64, 0, 3);
+  Plane right(width, height, {ElementType::census64, 0});
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) right.at<uint64_t>(x, y) = left.at<uint64_t>(std::min(x + 10, width - 1), y);
+  }
+  for (int p1 : {0, penalty}) {
+    const nlohmann::json params = sgm_params(-5, count, p1, penalty, 10, 1, 2);
+    KernelCase forward{"sgm_8path_forward_census64", forward_params(params), {left, right}, 2};
+    expect_all_back_ends_match_reference(forward, {{width * count, height}, {width * count, 2}});
+    KernelCase backward{"sgm_8path_backward_census64", params, {left, right, reference_forward_sums(left, right, forward_params(params), 8)}, 2};
+    expect_all_back_ends_match_reference(backward, {{width, height}, {width, 3}});
+    const kernels::SgmVolume cost = kernels::sgm_reference_costs(left.view(), right.view(), 8, -5, count);
+    kernels::SgmVolume sum{width, height, count, std::vector<int32_t>(cost.values.size(), 0)};
+    int32_t largest_path = 0;
+    for (const auto& direction : kernels::kSgmForwardPaths) {
+      largest_path = std::max(largest_path, kernels::sgm_reference_add_path(cost, p1, penalty, direction, sum));
+    }
+    for (const auto& direction : kernels::kSgmBackwardPaths) {
+      largest_path = std::max(largest_path, kernels::sgm_reference_add_path(cost, p1, penalty, direction, sum));
+    }
+    const int32_t largest_cost = *std::max_element(cost.values.begin(), cost.values.end());
+    const int32_t largest_sum = *std::max_element(sum.values.begin(), sum.values.end());
+    EXPECT_LE(largest_cost, 62);
+    EXPECT_LE(largest_path, 62 + penalty);
+    if (p1 == penalty) {
+      EXPECT_GT(largest_path, penalty) << "the case climbs to the P2 cap";
+    }
+    EXPECT_LE(largest_sum, 8 * (62 + penalty));
+    EXPECT_LT(largest_sum, 32768);
+  }
+}
+
+TEST(SgmMustFail, RefusesBadParametersAndShapes) {
+  const KernelDescriptor& kernel = testing::kernel_named("sgm_4path");
+  auto expect_error = [&](const nlohmann::json& params, const std::vector<PlaneShape>& shapes, const std::string& text) {
+    try {
+      kernel.prepare(params, shapes);
+      ADD_FAILURE() << "expected KernelError for " << params.dump();
+    } catch (const KernelError& error) {
+      EXPECT_NE(std::string(error.what()).find(text), std::string::npos) << error.what();
+    }
+  };
+  const std::vector<PlaneShape> shapes = {{64, 8}, {64, 8}};
+  expect_error({{"num_disparities", 0}}, shapes, "num_disparities");
+  expect_error({{"num_disparities", 513}}, shapes, "num_disparities");
+  expect_error({{"p1", 50}, {"p2", 10}}, shapes, "p2");
+  expect_error({{"p2", 4001}}, shapes, "p2");
+  expect_error({{"uniqueness_percent", 51}}, shapes, "uniqueness_percent");
+  expect_error({{"lr_max_diff", -2}}, shapes, "lr_max_diff");
+  expect_error({{"penalty", 3}}, shapes, "penalty");
+  expect_error({}, {{64, 8}, {65, 8}}, "port 'right'");
+  const KernelDescriptor& backward = testing::kernel_named("sgm_8path_backward");
+  EXPECT_THROW(backward.prepare({{"num_disparities", 16}}, {{64, 8}, {64, 8}, {64 * 15, 8}}), KernelError);
+  const KernelDescriptor& forward = testing::kernel_named("sgm_8path_forward");
+  EXPECT_THROW(forward.prepare({{"subpixel", 1}}, shapes), KernelError);
+}
+
+// The closed-form op count of an SGM kernel on the counting back end (L = 32 u16 lanes, 16 u32,
+// 8 u64; V = ceil(D / 32); s = log2 32 = 5 stages of the u16 lane minimum, t = log2 16 = 4 of the
+// u32 one). The same figures are listed in kernels/sgm_core.h.
+simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const kernels::SgmParams& p, int width, int height,
+                                int tile_height) {
+  using simd::OpClass;
+  const int64_t L = 32, L32 = 16, s = 5, t = 4;
+  const int64_t V = (p.num_disparities + L - 1) / L, Dp = V * L;
+  const bool select = pass != kernels::SgmPass::forward;
+  const bool lr = select && p.lr_max_diff >= 0, unique = select && p.uniqueness_percent > 0, sub = select && p.subpixel;
+  const int64_t tiles = (height + tile_height - 1) / tile_height;
+  const int64_t rows = height, pixels = int64_t{width} * height;
+  simd::OpCounts per_tile, per_row, per_pixel;
+  auto add = [](simd::OpCounts& counts, OpClass op, int64_t n) { counts[op] += static_cast<uint64_t>(n); };
+  // Per tile: broadcasts, the zero "previous pixel", the left path's sentinels, lane indices.
+  add(per_tile, OpClass::permute, 4 + 2 + 5);
+  add(per_tile, OpClass::store, (Dp + 2 + L - 1) / L + 2);
+  add(per_tile, OpClass::load, 1);
+  add(per_tile, OpClass::compare, V);
+  add(per_tile, OpClass::arith, 2 * V);
+  add(per_tile, OpClass::logic, V);
+  if (unique) {
+    add(per_tile, OpClass::permute, 4);
+    add(per_tile, OpClass::arith, V);
+  }
+  if (sub) add(per_tile, OpClass::permute, 6);
+  if (lr) {
+    add(per_tile, OpClass::load, 1);
+    add(per_tile, OpClass::permute, 4);
+  }
+  // Per row.
+  if (pass == kernels::SgmPass::forward) {  // staging the right row with its border
+    const int64_t word_lanes = 64 / word_bytes;
+    const int64_t left_halo = kernels::sgm_left_halo(p), right_halo = kernels::sgm_right_halo(p);
+    add(per_row, OpClass::permute, 2);
+    add(per_row, OpClass::store, (left_halo + word_lanes - 1) / word_lanes + (width + word_lanes - 1) / word_lanes +
+                                     (right_halo + word_lanes - 1) / word_lanes);
+    add(per_row, OpClass::load, (width + word_lanes - 1) / word_lanes);
+  }
+  if (lr) add(per_row, OpClass::store, (width + Dp + L + L32 - 1) / L32);
+  if (select) {  // the row's final pass, two halves of L32 pixels per chunk of L
+    const int64_t chunks = (width + L - 1) / L, halves = 2 * chunks;
+    add(per_row, OpClass::permute, 1 + chunks);  // the u32 step; one narrow per chunk
+    add(per_row, OpClass::store, chunks);
+    add(per_row, OpClass::load, halves);
+    add(per_row, OpClass::logic, halves);
+    add(per_row, OpClass::shift, 2 * halves);
+    add(per_row, OpClass::arith, halves);
+    if (sub) {
+      add(per_row, OpClass::load, 2 * halves);
+      add(per_row, OpClass::arith, 16 * halves);
+      add(per_row, OpClass::shift, 4 * halves);
+      add(per_row, OpClass::compare, 7 * halves);
+      add(per_row, OpClass::logic, 10 * halves);
+    }
+    if (unique) {
+      add(per_row, OpClass::load, halves);
+      add(per_row, OpClass::logic, 2 * halves);
+      add(per_row, OpClass::multiply, 2 * halves);
+      add(per_row, OpClass::compare, halves);
+    }
+    if (lr) {
+      add(per_row, OpClass::permute, 1);
+      add(per_row, OpClass::arith, 1 + 6 * halves);
+      add(per_row, OpClass::shift, halves);
+      add(per_row, OpClass::gather, halves);
+      add(per_row, OpClass::compare, 4 * halves);
+      add(per_row, OpClass::logic, 4 * halves);
+    }
+  }
+  // Per pixel: census costs.
+  add(per_pixel, OpClass::permute, 1 + V * (word_bytes == 4 ? 1 : 3));
+  add(per_pixel, OpClass::load, V * (word_bytes == 4 ? 2 : 4));
+  add(per_pixel, OpClass::logic, V * (word_bytes == 4 ? 2 : 4) + (Dp != p.num_disparities ? 1 : 0));
+  add(per_pixel, OpClass::popcount, V * (word_bytes == 4 ? 2 : 4));
+  // Four path steps: 3V loads, V stores, (V - 1) + s + 1 + 6V arith, 2s permutes; sums 3V.
+  add(per_pixel, OpClass::load, 4 * 3 * V);
+  add(per_pixel, OpClass::store, 4 * V);
+  add(per_pixel, OpClass::arith, 4 * ((V - 1) + s + 1 + 6 * V) + 3 * V);
+  add(per_pixel, OpClass::permute, 4 * 2 * s);
+  if (pass == kernels::SgmPass::forward) add(per_pixel, OpClass::store, V);
+  if (pass == kernels::SgmPass::backward) {
+    add(per_pixel, OpClass::load, V);
+    add(per_pixel, OpClass::arith, V);
+  }
+  if (select) {  // keys, best key
+    add(per_pixel, OpClass::permute, 2 * V + 2 * t);
+    add(per_pixel, OpClass::arith, (2 * V - 1) + t);
+    add(per_pixel, OpClass::logic, 1);
+    add(per_pixel, OpClass::store, 1);
+  }
+  if (unique) {  // the second-best sum: mask |d - best| <= 1, u16 lane minimum
+    add(per_pixel, OpClass::shift, 1);
+    add(per_pixel, OpClass::logic, 1 + V);
+    add(per_pixel, OpClass::arith, V + (V - 1) + s);
+    add(per_pixel, OpClass::compare, V);
+    add(per_pixel, OpClass::permute, 2 * s);
+    add(per_pixel, OpClass::store, 1);
+  }
+  if (sub) {  // S(best - 1), S(best + 1) gathered from the pixel's sums
+    add(per_pixel, OpClass::store, V + 2);
+    add(per_pixel, OpClass::arith, 2);
+    add(per_pixel, OpClass::gather, 2);
+  }
+  if (lr) {  // the right view's running minimum of keys
+    add(per_pixel, OpClass::store, 2 * V);
+    add(per_pixel, OpClass::load, 2 * V);
+    add(per_pixel, OpClass::arith, 2 * V);
+  }
+  simd::OpCounts total;
+  for (int op = 0; op < simd::kOpClassCount; ++op) {
+    total.by_class[op] = per_tile.by_class[op] * static_cast<uint64_t>(tiles) + per_row.by_class[op] * static_cast<uint64_t>(rows) +
+                         per_pixel.by_class[op] * static_cast<uint64_t>(pixels);
+  }
+  return total;
+}
+
+TEST(SgmOps, CountedOpsEqualClosedForm) {
+  struct OpCase {
+    kernels::SgmPass pass;
+    int word_bytes, width, height, tile_height, min_disparity, count, uniqueness, subpixel, lr;
+  };
+  const std::vector<OpCase> cases = {
+      {kernels::SgmPass::single, 4, 45, 7, 3, 0, 64, 10, 1, 1},   {kernels::SgmPass::single, 4, 33, 5, 5, -3, 20, 0, 0, -1},
+      {kernels::SgmPass::single, 8, 21, 4, 2, 2, 40, 5, 1, -1},   {kernels::SgmPass::forward, 4, 30, 5, 2, -4, 33, 0, 1, -1},
+      {kernels::SgmPass::forward, 8, 19, 3, 3, 0, 16, 0, 1, -1},  {kernels::SgmPass::backward, 4, 37, 6, 4, 1, 96, 15, 1, 2},
+      {kernels::SgmPass::backward, 8, 17, 3, 1, 0, 32, 0, 0, 0}};
+  const char* names[2][3] = {{"sgm_4path", "sgm_8path_forward", "sgm_8path_backward"},
+                             {"sgm_4path_census64", "sgm_8path_forward_census64", "sgm_8path_backward_census64"}};
+  for (const OpCase& c : cases) {
+    const std::string name = names[c.word_bytes == 4 ? 0 : 1][static_cast<int>(c.pass)];
+    nlohmann::json params = sgm_params(c.min_disparity, c.count, 4, 50, c.uniqueness, c.subpixel, c.lr);
+    if (c.pass == kernels::SgmPass::forward) params = forward_params(params);
+    const ElementType type = c.word_bytes == 4 ? ElementType::census32 : ElementType::census64;
+    KernelCase test_case{name, params, {random_census(c.width, c.height, type, 0, 1), random_census(c.width, c.height, type, 0, 2)}, 0};
+    if (c.pass == kernels::SgmPass::backward) {
+      test_case.inputs.push_back(reference_forward_sums(test_case.inputs[0], test_case.inputs[1], forward_params(params), c.word_bytes));
+    }
+    const KernelDescriptor& kernel = testing::kernel_named(name);
+    const PreparedKernel prepared = testing::prepare_case(kernel, test_case);
+    const auto& p = *static_cast<const kernels::SgmParams*>(prepared.params.get());
+    const int output_width = c.pass == kernels::SgmPass::forward ? c.width * c.count : c.width;
+    EXPECT_TRUE(testing::op_counts_equal(expected_sgm_ops(c.pass, c.word_bytes, p, c.width, c.height, c.tile_height),
+                                         testing::count_ops(test_case, output_width, c.tile_height)))
+        << name << " " << c.width << "x" << c.height << " tile height " << c.tile_height << " D " << c.count;
+  }
+}
+
+}  // namespace
+}  // namespace lpstereo
