@@ -142,6 +142,14 @@ struct DisparityOptions {
   std::string target_name;  // empty: cv1-class for --synthetic, no profile otherwise
   std::optional<int> min_disparity_px, num_disparities;
   int threads = 0;
+  // the matcher (arm::DisparityParameters)
+  int paths = 4;
+  std::optional<int> p1, p2;
+  std::string census = "5x5";
+  std::string subpixel = "on";
+  std::string lr_check = "1";
+  int uniqueness_percent = 5;
+  std::string backend = "native";
 };
 
 std::string lowercase(std::string text) {
@@ -172,6 +180,23 @@ std::string output_format(const DisparityOptions& options) {
 // The search range for a width-pixel image, checked: one line naming the flag, expected and actual.
 arm::DisparityParameters disparity_parameters(const DisparityOptions& options, int width, int default_num_disparities) {
   arm::DisparityParameters parameters;
+  parameters.paths = options.paths;
+  parameters.census_width = options.census == "9x7" ? 9 : 5;
+  if (options.p1) parameters.p1 = *options.p1;
+  if (options.p2) parameters.p2 = *options.p2;
+  parameters.subpixel = options.subpixel == "on";
+  parameters.uniqueness_percent = options.uniqueness_percent;
+  if (options.lr_check == "off") {
+    parameters.lr_max_diff = -1;
+  } else {
+    try {
+      size_t used = 0;
+      parameters.lr_max_diff = std::stoi(options.lr_check, &used);
+      if (used != options.lr_check.size() || parameters.lr_max_diff < 0) throw std::invalid_argument("not a count");
+    } catch (const std::exception&) {
+      throw CommandError(kExitUsage, "--lr-check: expected a tolerance in px (0, 1, 2, ...) or off, got '" + options.lr_check + "'");
+    }
+  }
   parameters.min_disparity = options.min_disparity_px.value_or(0);
   parameters.num_disparities = options.num_disparities.value_or(default_num_disparities);
   const std::string w = std::to_string(width);
@@ -193,6 +218,10 @@ arm::DisparityParameters disparity_parameters(const DisparityOptions& options, i
                                        std::to_string(parameters.min_disparity + parameters.num_disparities));
   }
   return parameters;
+}
+
+KernelBackend kernel_backend(const DisparityOptions& options) {
+  return options.backend == "counting" ? KernelBackend::counting : KernelBackend::native;
 }
 
 double density_pct(const Plane& disparity_q4, int16_t invalid_q4) {
@@ -231,7 +260,8 @@ int run_disparity_synthetic(const DisparityOptions& options) {
   const int scene_num_disparities = std::min(options.size.width, (scene.max_disparity_px + 1 + 15) / 16 * 16);
   const arm::DisparityParameters parameters = disparity_parameters(options, options.size.width, scene_num_disparities);
   const host_sim::Target target = host_sim::load_target(options.target_name.empty() ? "cv1-class" : options.target_name);
-  arm::DisparityEngine engine(options.size.width, options.size.height, parameters, target.memory_budget(), options.threads);
+  arm::DisparityEngine engine(options.size.width, options.size.height, parameters, target.memory_budget(), options.threads,
+                              kernel_backend(options));
   const Plane& disparity = engine.compute(scene.left, scene.right);
   const std::map<std::string, const Plane*> inputs = {{"left", &scene.left}, {"right", &scene.right}};
   host_sim::ProfileOptions profile_options;
@@ -299,7 +329,7 @@ int run_disparity_files(const DisparityOptions& options) {
   std::optional<host_sim::Target> target;
   if (!options.target_name.empty()) target = host_sim::load_target(options.target_name);
   arm::DisparityEngine engine(left.width(), left.height(), parameters, target ? target->memory_budget() : MemoryBudget{},
-                              options.threads);
+                              options.threads, kernel_backend(options));
   Plane disparity = copy_plane(engine.compute(left, right));
   const double produced_pct = density_pct(disparity, engine.invalid_disparity_q4());
   if (options.fill) io::fill_invalid_kitti(disparity, engine.invalid_disparity_q4());
@@ -392,6 +422,21 @@ int main(int argc, char** argv) {
   disparity->add_option("--min-disp", disparity_options.min_disparity_px, "smallest disparity searched, px (may be negative; default 0)");
   disparity->add_option("--num-disp", disparity_options.num_disparities,
                         "disparities searched: [min-disp, min-disp + num-disp) (default 64; --synthetic: the scene's range)");
+  disparity->add_option("--paths", disparity_options.paths, "SGM paths: 4 (one pass), 8 (two passes), 0 (census winner takes all)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({0, 4, 8}));
+  disparity->add_option("--p1", disparity_options.p1, "SGM penalty for a 1 px change, Hamming bits (default 5 for 5x5, 7 for 9x7)");
+  disparity->add_option("--p2", disparity_options.p2, "SGM penalty for larger changes, Hamming bits, >= p1, <= 4000 (default 45 / 50)");
+  disparity->add_option("--census", disparity_options.census, "census window")->capture_default_str()->check(CLI::IsMember({"5x5", "9x7"}));
+  disparity->add_option("--subpixel", disparity_options.subpixel, "parabola sub-pixel step (Q4)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"on", "off"}));
+  disparity->add_option("--lr-check", disparity_options.lr_check, "left-right check tolerance in px, or off")->capture_default_str();
+  disparity->add_option("--uniqueness", disparity_options.uniqueness_percent, "SGM uniqueness ratio in % (0 = off, <= 50)")
+      ->capture_default_str();
+  disparity->add_option("--backend", disparity_options.backend, "native (this CPU's best ISA level) or counting (same bits, slower)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"native", "counting"}));
   disparity->add_flag("--fill", disparity_options.fill,
                       "fill invalid pixels as the KITTI development kit does (along the row, from the lower neighbour)");
   disparity->add_option("--color", disparity_options.color_path, "also write a colour view (PNG)");

@@ -193,7 +193,7 @@ TEST_F(Cli, DisparityWritesTheSameMapInEveryFormat) {
       invalid += from_s16.at<int16_t>(x, y) == -16 ? 1 : 0;
     }
   }
-  EXPECT_GT(invalid, 0);  // winner-takes-all leaves holes (at least the left border) ...
+  EXPECT_GT(invalid, 0);  // the matcher leaves holes (occlusions, the left border) ...
   ASSERT_EQ(run("disparity " + pair + " -o " + path("f.s16") + " --num-disp 32 --fill").exit_code, 0);
   const Plane filled = io::read_s16_raw(path("f.s16"), 96, 64);
   for (int y = 0; y < 64; ++y) {
@@ -203,6 +203,42 @@ TEST_F(Cli, DisparityWritesTheSameMapInEveryFormat) {
   std::ifstream report(path("r.json"));
   EXPECT_EQ(nlohmann::json::parse(report)["target"], "cv1-class");
   EXPECT_TRUE(no_temporaries());
+}
+
+TEST_F(Cli, DisparityMatcherOptionsReachTheEngine) {
+  ASSERT_EQ(run("disparity --synthetic --width 96 --height 64 --out-dir " + path("pair")).exit_code, 0);
+  const std::string pair = path("pair/left.png") + " " + path("pair/right.png");
+  auto map = [&](const std::string& name, const std::string& options) {
+    const Result result = run("disparity " + pair + " -o " + path(name) + " --num-disp 32 " + options);
+    EXPECT_EQ(result.exit_code, 0) << options << ": " << result.err;
+    return io::read_s16_raw(path(name), 96, 64);
+  };
+  const Plane four_paths = map("4.s16", "--paths 4");
+  const Plane counting = map("4c.s16", "--paths 4 --backend counting");
+  const Plane eight_paths = map("8.s16", "--paths 8 --census 9x7");
+  const Plane whole_pixels = map("w.s16", "--subpixel off --lr-check off --uniqueness 0");
+  int eight_differs = 0, fractional = 0, whole_fractional = 0;
+  for (int y = 0; y < 64; ++y) {
+    for (int x = 0; x < 96; ++x) {
+      ASSERT_EQ(four_paths.at<int16_t>(x, y), counting.at<int16_t>(x, y)) << "counting back end differs at " << x << "," << y;
+      eight_differs += four_paths.at<int16_t>(x, y) != eight_paths.at<int16_t>(x, y) ? 1 : 0;
+      fractional += (four_paths.at<int16_t>(x, y) & 15) != 0 ? 1 : 0;
+      whole_fractional += (whole_pixels.at<int16_t>(x, y) & 15) != 0 ? 1 : 0;
+    }
+  }
+  EXPECT_GT(eight_differs, 0) << "--paths 8 --census 9x7 gave the 4-path 5x5 map";
+  EXPECT_GT(fractional, 0) << "sub-pixel on gave whole pixels only";
+  EXPECT_EQ(whole_fractional, 0) << "--subpixel off gave fractions";
+  for (const auto& [options, error_start] : std::vector<std::pair<std::string, std::string>>{
+           {"--lr-check maybe", "lpstereo: --lr-check: expected a tolerance in px"},
+           {"--paths 5", "lpstereo: --paths: 5 not in {0,4,8}"},
+           {"--census 7x7", "lpstereo: --census: 7x7 not in {5x5,9x7}"}}) {
+    const Result bad = run("disparity " + pair + " -o " + path("bad.s16") + " " + options);
+    EXPECT_EQ(bad.exit_code, 2) << options << ": " << bad.err;
+    EXPECT_EQ(lines(bad.err), 1) << bad.err;
+    EXPECT_EQ(bad.err.rfind(error_start, 0), 0u) << bad.err;
+    EXPECT_FALSE(fs::exists(path("bad.s16")));
+  }
 }
 
 TEST_F(Cli, EvalRunsTheEngineAndOpenCvOnAKittiLayoutAndWritesEveryNumber) {
