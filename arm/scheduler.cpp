@@ -86,13 +86,7 @@ FrameRunner::FrameRunner(const Graph& graph, int worker_threads, KernelBackend b
   }
   arm_work_.assign(graph.nodes().size(), ArmWork{});
   node_state_.resize(graph.nodes().size());
-  for (size_t n = 0; n < graph.nodes().size(); ++n) {
-    const NodeInfo& node = graph.nodes()[n];
-    if (node.is_vector() && node.kernel->state_bytes) {
-      const PlaneShape output = buffers[node.output_buffers.at(0)].shape;
-      node_state_[n].assign(node.kernel->state_bytes(output.width, output.height, node.prepared.params.get()), 0);
-    }
-  }
+  for (size_t n = 0; n < graph.nodes().size(); ++n) node_state_[n].assign(row_state_bytes(graph.nodes()[n], buffers), 0);
   if (worker_threads <= 0) worker_threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   pool_ = std::make_unique<Pool>();
   for (int t = 0; t < worker_threads; ++t) {

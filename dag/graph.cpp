@@ -615,11 +615,13 @@ size_t tile_working_set_bytes(const NodeInfo& node, const std::vector<BufferInfo
     ++input;
   }
   if (kernel.scratch_bytes) bytes += kernel.scratch_bytes(tile_width, tile_height, node.prepared.params.get());
-  if (kernel.state_bytes) {
-    const PlaneShape image = buffers[node.output_buffers.at(0)].shape;
-    bytes += kernel.state_bytes(image.width, image.height, node.prepared.params.get());
-  }
-  return bytes;
+  return bytes + row_state_bytes(node, buffers);
+}
+
+size_t row_state_bytes(const NodeInfo& node, const std::vector<BufferInfo>& buffers) {
+  if (!node.is_vector() || !node.kernel->state_bytes) return 0;
+  const PlaneShape image = buffers[node.output_buffers.at(0)].shape;
+  return node.kernel->state_bytes(image.width, image.height, node.prepared.params.get());
 }
 
 VectorNodeBinding vector_node_binding(const NodeInfo& node) {

@@ -180,6 +180,10 @@ class Graph {
   size_t dram_peak_bytes_ = 0;
 };
 
+// Bytes of row state a vector node keeps across the tiles of a frame (KernelDescriptor::state_bytes
+// for its output size); 0 for nodes without row state and for ARM tasks.
+size_t row_state_bytes(const NodeInfo& node, const std::vector<BufferInfo>& buffers);
+
 // A vector node's kernel, prepared parameters, border and halos, ready for its planes to be added.
 VectorNodeBinding vector_node_binding(const NodeInfo& node);
 

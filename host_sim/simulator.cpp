@@ -103,7 +103,7 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
     return runner.buffer(buffers[buffer].name);
   };
 
-  // 2. Costs per node: counted ops per tile (once per distinct tile shape), DMA bytes per tile.
+  // 2. Costs per node: counted ops per tile (once per tile shape and edge position), DMA bytes per tile.
   std::vector<NodeCosts> costs(plan.dispatches.size());
   for (size_t d = 0; d < plan.dispatches.size(); ++d) {
     const arm::Dispatch& dispatch = plan.dispatches[d];
@@ -124,9 +124,8 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
       scratch_outputs.emplace_back(buffers[output].shape.width, buffers[output].shape.height, buffers[output].format);
       binding.outputs.push_back(scratch_outputs.back().view());
     }
-    std::vector<uint8_t> state;
-    if (node.kernel->state_bytes) {
-      state.assign(node.kernel->state_bytes(scratch_outputs[0].width(), scratch_outputs[0].height(), binding.params), 0);
+    std::vector<uint8_t> state(row_state_bytes(node, buffers), 0);
+    if (!state.empty()) {
       binding.state = state.data();
       binding.state_bytes = state.size();
     }

@@ -7,8 +7,9 @@
 //     input slot is free again when the tile two before it has finished computing;
 //   - compute cycles of a tile = sum over op classes of counted ops x ceil(512 / vector_bits) x
 //     op_cycles[class], plus tile_overhead_cycles; the ops are counted by running the kernel's
-//     counting back end on the real tile data (once per distinct tile shape: the kernels are
-//     data-oblivious, which a test checks; --count-every-tile counts them all);
+//     counting back end on the real tile data (once per distinct tile shape, first row and first
+//     column of tiles keyed apart: the kernels are data-oblivious, which a test checks;
+//     --count-every-tile counts them all);
 //   - DMA time of a transfer = setup_ns + bytes / bandwidth; one DMA engine, requests in order;
 //   - ARM task: counted ArmWork x the target's cycles per unit, on the earliest free ARM core;
 //   - frames run back to back (the camera is never the bottleneck), in plan order on each engine;
