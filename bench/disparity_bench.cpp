@@ -95,13 +95,14 @@ void set_counters(benchmark::State& state, int width, int height, std::chrono::s
   state.counters["MDE/s"] = Counter(static_cast<double>(width) * height * kDisparities * 1e-6, Counter::kIsIterationInvariantRate);
 }
 
-void BM_lpstereo_engine(benchmark::State& state) {
+void run_lpstereo(benchmark::State& state, int paths) {
   const int width = static_cast<int>(state.range(0));
   const int height = static_cast<int>(state.range(1));
   const Pair& pair = pair_of_size(width, height);
   arm::DisparityParameters parameters;
   parameters.min_disparity = 0;
   parameters.num_disparities = kDisparities;
+  parameters.paths = paths;
   arm::DisparityEngine engine(width, height, parameters, {}, kThreads);
   const auto start = std::chrono::steady_clock::now();
   for (auto _ : state) {
@@ -111,6 +112,9 @@ void BM_lpstereo_engine(benchmark::State& state) {
   }
   set_counters(state, width, height, std::chrono::steady_clock::now() - start);
 }
+
+void BM_lpstereo_4path(benchmark::State& state) { run_lpstereo(state, 4); }
+void BM_lpstereo_8path(benchmark::State& state) { run_lpstereo(state, 8); }
 
 void run_opencv(benchmark::State& state, io::SgbmMode mode) {
   const int width = static_cast<int>(state.range(0));
@@ -142,7 +146,8 @@ void sizes(benchmark::internal::Benchmark* benchmark) {
       ->ReportAggregatesOnly(true);
 }
 
-BENCHMARK(BM_lpstereo_engine)->Apply(sizes);
+BENCHMARK(BM_lpstereo_4path)->Apply(sizes);
+BENCHMARK(BM_lpstereo_8path)->Apply(sizes);
 BENCHMARK(BM_opencv_MODE_SGBM)->Apply(sizes);
 BENCHMARK(BM_opencv_MODE_SGBM_3WAY)->Apply(sizes);
 BENCHMARK(BM_opencv_MODE_HH)->Apply(sizes);

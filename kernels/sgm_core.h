@@ -42,10 +42,8 @@
 // At W = 3840, D = 128: 2,972,166 bytes. The single pass holds no W x H x D volume; the 8-path
 // pair holds one summed volume (the forward sums in DRAM, 2 W H D bytes), never one per path.
 //
-// MINIMUM OVER THE LANES without a horizontal op: a butterfly of zips. zip_lo(v, v) / zip_hi(v, v)
-// of u16 lanes give the low and the high half of v with every lane doubled, so min of the two folds
-// v in half and keeps each result duplicated; repeated with u32 zips on the duplicated lanes,
-// log2(L) stages leave the minimum in every lane (2 permutes + 1 min per stage).
+// MINIMUM OVER THE LANES: the contract's min_across (log2(L) stages of one permute and one min on
+// the target; phminposuw on x86, vminvq on NEON).
 #pragma once
 
 #include <cstddef>
@@ -90,7 +88,7 @@ inline size_t sgm_state_bytes(int width, int disparities) {
 
 // Scratch layout (bytes, sized for the widest back end): three u16 buffers of Dp32 + 2 (a zero
 // "previous pixel" for path starts, the left-to-right path's previous pixel, the current pixel's
-// sums for the sub-pixel gathers), then u32 rows: the right-view keys (W + 2 Dp32 + 64) and four
+// sums for the sub-pixel reads of S(best - 1) and S(best + 1)), then u32 rows: the right-view keys (W + 2 Dp32 + 64) and four
 // per-pixel records (W + 64 each: best key, second-best cost, S(best - 1), S(best + 1)) that the
 // row's final pass turns into disparities 16 pixels per vector; the forward pass adds the staged
 // right census row.
@@ -145,24 +143,6 @@ alignas(64) inline constexpr uint32_t kLaneNumbersU32[32] = {0,  1,  2,  3,  4, 
                                                              11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21,
                                                              22, 23, 24, 25, 26, 27, 28, 29, 30, 31};
 
-// Every lane = the minimum of v's lanes: log2(L16) stages of 2 zips + 1 min.
-template <class B>
-LPSTEREO_SGM_INLINE typename B::VU16 broadcast_min_u16(typename B::VU16 v) {
-  v = B::min(B::as_u16(B::zip_lo(v, v)), B::as_u16(B::zip_hi(v, v)));
-  for (int lanes = B::kLanesU16 / 2; lanes > 1; lanes /= 2) {
-    const typename B::VU32 w = B::as_u32(v);
-    v = B::min(B::as_u16(B::zip_lo(w, w)), B::as_u16(B::zip_hi(w, w)));
-  }
-  return v;
-}
-
-// Every lane = the minimum of v's lanes: log2(L32) stages of 2 zips + 1 min.
-template <class B>
-LPSTEREO_SGM_INLINE typename B::VU32 broadcast_min_u32(typename B::VU32 v) {
-  for (int lanes = B::kLanesU32; lanes > 1; lanes /= 2) v = B::min(B::as_u32(B::zip_lo(v, v)), B::as_u32(B::zip_hi(v, v)));
-  return v;
-}
-
 // The census Hamming costs of one u16 vector of disparity lanes: lane i is
 // popcount(left XOR right_row[column + i]); right words at or past readable_end read as 0.
 template <class B, class Word, class VWord>
@@ -205,7 +185,7 @@ LPSTEREO_SGM_INLINE void path_step(const uint16_t* previous, uint16_t* out, cons
     last[k] = B::load(previous + k * L);
     minimum = B::min(minimum, last[k]);
   }
-  minimum = broadcast_min_u16<B>(minimum);
+  minimum = B::min_across(minimum);
   const VU16 minimum_p2 = B::adds(minimum, constants.p2);
   // min(L(d - 1), L(d + 1)) + P1: lanes shifted by one through unaligned loads (0xFFFF sentinels at
   // both ends saturate).
@@ -313,10 +293,9 @@ void sgm_tile_for(const TileArgs& args) {
     hundred = B::set1_u32(100);
     keep_percent = B::set1_u32(static_cast<uint32_t>(100 - params.uniqueness_percent));
   }
-  VU32 gather_minus = zero32, gather_plus = zero32, bit_values[4] = {zero32, zero32, zero32, zero32};
+  VU32 last_index32 = zero32, bit_values[4] = {zero32, zero32, zero32, zero32};
   if (kSelect && params.subpixel) {
-    gather_minus = B::set1_u32(static_cast<uint32_t>(count + 1));  // element of S(best - 1): 1 + (D - best)
-    gather_plus = B::set1_u32(static_cast<uint32_t>(count - 1));   // element of S(best + 1): 1 + (D - 2 - best); also D - 1
+    last_index32 = B::set1_u32(static_cast<uint32_t>(count - 1));  // D - 1: the sub-pixel step needs best < D - 1
     for (int bit = 0; bit < 4; ++bit) bit_values[bit] = B::set1_u32(1u << bit);
   }
   VU32 lane_numbers32 = zero32, right_key_offset = zero32, lr_tolerance = zero32, width32 = zero32, minus_one32 = zero32;
@@ -413,7 +392,7 @@ void sgm_tile_for(const TileArgs& args) {
         }
         VU32 best_key = keys[0];
         for (int m = 1; m < 2 * vectors; ++m) best_key = B::min(best_key, keys[m]);
-        best_key = sgm_detail::broadcast_min_u32<B>(best_key);
+        best_key = B::min_across(best_key);
         B::store_partial(best_key_row + x, best_key, 1);
         const VU32 best = B::bit_and(best_key, low_half);
         if (params.uniqueness_percent > 0) {
@@ -423,13 +402,18 @@ void sgm_tile_for(const TileArgs& args) {
           for (int k = 1; k < vectors; ++k) {
             second = B::min(second, B::bit_or(sum[k], B::cmplt(B::sub(near_index[k], best16), three)));
           }
-          B::store_partial(second_row + x, B::as_u32(sgm_detail::broadcast_min_u16<B>(second)), 1);
+          B::store_partial(second_row + x, B::as_u32(B::min_across(second)), 1);
         }
         if (params.subpixel) {
           // S(best - 1) and S(best + 1) from the pixel's sums (lane j of S at sums_buffer[1 + j]).
           for (int k = 0; k < vectors; ++k) B::store(sums_buffer + 1 + k * L16, sum[k]);
-          B::store_partial(minus_row + x, B::gather_u16(sums_buffer, B::as_s32(B::sub(gather_minus, best))), 1);
-          B::store_partial(plus_row + x, B::gather_u16(sums_buffer, B::as_s32(B::sub(gather_plus, best))), 1);
+          // One element each, read at an index taken from lane 0 of `best` (a lane move, then a
+          // one-lane load and store): a 16-lane gather of the same address would cost a gather's
+          // worth of loads on every back end for one useful lane. S < 2^15 and the u16 lane after
+          // it is loaded as 0, so the u32 lane 0 of the pair is S itself.
+          const ptrdiff_t best_element = static_cast<ptrdiff_t>(B::first_lane(best));
+          B::store_partial(minus_row + x, B::as_u32(B::load_partial(sums_buffer + (count + 1 - best_element), 1)), 1);
+          B::store_partial(plus_row + x, B::as_u32(B::load_partial(sums_buffer + (count - 1 - best_element), 1)), 1);
         }
         if (lr_check) {
           // Right view: key of right pixel x - d kept at right_keys[x - d + d0 + D - 1] = right_keys[x + j].
@@ -478,7 +462,7 @@ void sgm_tile_for(const TileArgs& args) {
             const VU32 below0 = B::cmplt(numerator, divisor);
             quotient = B::add(quotient, B::bit_andnot(below0, bit_values[0]));
             const VU32 offset = B::select(negative, B::sub(zero32, quotient), quotient);
-            const VU32 interior = B::bit_and(B::cmpgt(best, zero32), B::cmplt(best, gather_plus));
+            const VU32 interior = B::bit_and(B::cmpgt(best, zero32), B::cmplt(best, last_index32));
             disparity = B::add(disparity, B::bit_and(offset, interior));
           }
           if (params.uniqueness_percent > 0) {

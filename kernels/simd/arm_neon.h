@@ -126,7 +126,16 @@ struct Neon {
     Lane lanes[Vec<Lane>::kLanes];
     store(lanes, v);
     return lanes[index];
+  }  template <class Lane>
+  static Lane first_lane(const Vec<Lane>& v) {
+    if constexpr (std::is_same_v<Lane, uint8_t>) return vgetq_lane_u8(v.v, 0);
+    else if constexpr (std::is_same_v<Lane, uint16_t>) return vgetq_lane_u16(v.v, 0);
+    else if constexpr (std::is_same_v<Lane, int16_t>) return vgetq_lane_s16(v.v, 0);
+    else if constexpr (std::is_same_v<Lane, uint32_t>) return vgetq_lane_u32(v.v, 0);
+    else if constexpr (std::is_same_v<Lane, int32_t>) return vgetq_lane_s32(v.v, 0);
+    else return vgetq_lane_u64(v.v, 0);
   }
+
 
   // ---- arithmetic ----
   template <class Lane>
@@ -168,7 +177,14 @@ struct Neon {
     else if constexpr (std::is_same_v<Lane, uint32_t>) return {vmaxq_u32(a.v, b.v)};
     else if constexpr (std::is_same_v<Lane, int32_t>) return {vmaxq_s32(a.v, b.v)};
     else return {vbslq_u64(vcgtq_u64(a.v, b.v), a.v, b.v)};  // emulated: compare + bit select
+  }  // Across-vector minimum (vminvq), broadcast back to every lane.
+  template <class Lane>
+  static Vec<Lane> min_across(const Vec<Lane>& a) {
+    static_assert(std::is_same_v<Lane, uint16_t> || std::is_same_v<Lane, uint32_t>, "min_across exists for u16 and u32 lanes");
+    if constexpr (std::is_same_v<Lane, uint16_t>) return {vdupq_n_u16(vminvq_u16(a.v))};
+    else return {vdupq_n_u32(vminvq_u32(a.v))};
   }
+
   template <class Lane>
   static Vec<Lane> absdiff(const Vec<Lane>& a, const Vec<Lane>& b) {
     static_assert(std::is_unsigned_v<Lane> && sizeof(Lane) <= 2, "absdiff exists for u8 and u16 lanes");

@@ -145,7 +145,15 @@ struct Emulated {
   template <class Lane>
   static Vec<Lane> add(const Vec<Lane>& a, const Vec<Lane>& b) {
     return lanewise<Lane>(OpClass::arith, a, b, [](Lane x, Lane y) { return static_cast<Lane>(modular(x) + modular(y)); });
+  }  // Lane 0 as a scalar, for an address computed in the vector unit (a kernel reads one element
+  // there instead of gathering the same address in every lane). Counted as one permute: the lane
+  // move into a scalar register. extract() above is for tests and is not counted.
+  template <class Lane>
+  static Lane first_lane(const Vec<Lane>& v) {
+    count(OpClass::permute);
+    return v.lane[0];
   }
+
   template <class Lane>
   static Vec<Lane> sub(const Vec<Lane>& a, const Vec<Lane>& b) {
     return lanewise<Lane>(OpClass::arith, a, b, [](Lane x, Lane y) { return static_cast<Lane>(modular(x) - modular(y)); });
@@ -167,7 +175,24 @@ struct Emulated {
   template <class Lane>
   static Vec<Lane> max(const Vec<Lane>& a, const Vec<Lane>& b) {
     return lanewise<Lane>(OpClass::arith, a, b, [](Lane x, Lane y) { return x < y ? y : x; });
+  }  // Every lane = the minimum of a's lanes (u16 and u32 lanes): the per-pixel minimum over a vector
+  // of disparity costs, without leaving the vector unit. Counted as the reduction a vector engine
+  // runs: log2(lanes) stages of one permute (swap halves, lanes duplicated) and one min, which
+  // leaves the minimum in every lane.
+  template <class Lane>
+  static Vec<Lane> min_across(const Vec<Lane>& a) {
+    static_assert(std::is_same_v<Lane, uint16_t> || std::is_same_v<Lane, uint32_t>, "min_across exists for u16 and u32 lanes");
+    for (int lanes = Vec<Lane>::kLanes; lanes > 1; lanes /= 2) {
+      count(OpClass::permute);
+      count(OpClass::arith);
+    }
+    Lane minimum = a.lane[0];
+    for (int i = 1; i < Vec<Lane>::kLanes; ++i) minimum = a.lane[i] < minimum ? a.lane[i] : minimum;
+    Vec<Lane> result;
+    for (int i = 0; i < Vec<Lane>::kLanes; ++i) result.lane[i] = minimum;
+    return result;
   }
+
   template <class Lane>
   static Vec<Lane> absdiff(const Vec<Lane>& a, const Vec<Lane>& b) {
     static_assert(std::is_unsigned_v<Lane> && sizeof(Lane) <= 2, "absdiff exists for u8 and u16 lanes");

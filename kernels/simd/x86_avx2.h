@@ -95,7 +95,11 @@ struct Avx2 {
     Lane lanes[Vec<Lane>::kLanes];
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(lanes), v.v);
     return lanes[index];
+  }  template <class Lane>
+  static Lane first_lane(const Vec<Lane>& v) {
+    return static_cast<Lane>(_mm_cvtsi128_si64(_mm256_castsi256_si128(v.v)));  // the low 64 bits, truncated to lane 0
   }
+
 
   // ---- arithmetic ----
   template <class Lane>
@@ -143,7 +147,21 @@ struct Avx2 {
     else if constexpr (std::is_same_v<Lane, uint32_t>) return {_mm256_max_epu32(a.v, b.v)};
     else if constexpr (std::is_same_v<Lane, int32_t>) return {_mm256_max_epi32(a.v, b.v)};
     else return {_mm256_blendv_epi8(b.v, a.v, greater_u64(a.v, b.v))};  // emulated: compare + blend
+  }  // Fold the two 128-bit halves, then u16: phminposuw + broadcast; u32: two shuffle + min folds + broadcast.
+  template <class Lane>
+  static Vec<Lane> min_across(const Vec<Lane>& a) {
+    static_assert(std::is_same_v<Lane, uint16_t> || std::is_same_v<Lane, uint32_t>, "min_across exists for u16 and u32 lanes");
+    const __m128i low = _mm256_castsi256_si128(a.v);
+    const __m128i high = _mm256_extracti128_si256(a.v, 1);
+    if constexpr (std::is_same_v<Lane, uint16_t>) {
+      return {_mm256_broadcastw_epi16(_mm_minpos_epu16(_mm_min_epu16(low, high)))};
+    } else {
+      const __m128i quarter = _mm_min_epu32(low, high);
+      const __m128i halves = _mm_min_epu32(quarter, _mm_shuffle_epi32(quarter, 0x4E));
+      return {_mm256_broadcastd_epi32(_mm_min_epu32(halves, _mm_shuffle_epi32(halves, 0xB1)))};
+    }
   }
+
   // Emulated: (a -sat b) | (b -sat a); one of the two is 0.
   template <class Lane>
   static Vec<Lane> absdiff(const Vec<Lane>& a, const Vec<Lane>& b) {

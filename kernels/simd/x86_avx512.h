@@ -96,7 +96,11 @@ struct Avx512 {
     Lane lanes[Vec<Lane>::kLanes];
     _mm512_storeu_si512(lanes, v.v);
     return lanes[index];
+  }  template <class Lane>
+  static Lane first_lane(const Vec<Lane>& v) {
+    return static_cast<Lane>(_mm_cvtsi128_si64(_mm512_castsi512_si128(v.v)));  // the low 64 bits, truncated to lane 0
   }
+
 
   // ---- arithmetic ----
   template <class Lane>
@@ -144,7 +148,24 @@ struct Avx512 {
     else if constexpr (std::is_same_v<Lane, uint32_t>) return {_mm512_max_epu32(a.v, b.v)};
     else if constexpr (std::is_same_v<Lane, int32_t>) return {_mm512_max_epi32(a.v, b.v)};
     else return {_mm512_max_epu64(a.v, b.v)};
+  }  // Fold 512 -> 256 -> 128 bits, then u16: phminposuw + broadcast; u32: two shuffle + min folds + broadcast.
+  template <class Lane>
+  static Vec<Lane> min_across(const Vec<Lane>& a) {
+    static_assert(std::is_same_v<Lane, uint16_t> || std::is_same_v<Lane, uint32_t>, "min_across exists for u16 and u32 lanes");
+    const __m256i low256 = _mm512_castsi512_si256(a.v);
+    const __m256i high256 = _mm512_extracti64x4_epi64(a.v, 1);
+    if constexpr (std::is_same_v<Lane, uint16_t>) {
+      const __m256i half = _mm256_min_epu16(low256, high256);
+      const __m128i quarter = _mm_min_epu16(_mm256_castsi256_si128(half), _mm256_extracti128_si256(half, 1));
+      return {_mm512_broadcastw_epi16(_mm_minpos_epu16(quarter))};
+    } else {
+      const __m256i half = _mm256_min_epu32(low256, high256);
+      const __m128i quarter = _mm_min_epu32(_mm256_castsi256_si128(half), _mm256_extracti128_si256(half, 1));
+      const __m128i eighth = _mm_min_epu32(quarter, _mm_shuffle_epi32(quarter, 0x4E));
+      return {_mm512_broadcastd_epi32(_mm_min_epu32(eighth, _mm_shuffle_epi32(eighth, 0xB1)))};
+    }
   }
+
   // Emulated: (a -sat b) | (b -sat a); one of the two is 0.
   template <class Lane>
   static Vec<Lane> absdiff(const Vec<Lane>& a, const Vec<Lane>& b) {

@@ -90,7 +90,11 @@ struct Sse42 {
     Lane lanes[Vec<Lane>::kLanes];
     _mm_storeu_si128(reinterpret_cast<__m128i*>(lanes), v.v);
     return lanes[index];
+  }  template <class Lane>
+  static Lane first_lane(const Vec<Lane>& v) {
+    return static_cast<Lane>(_mm_cvtsi128_si64(v.v));  // the low 64 bits, truncated to lane 0
   }
+
 
   // ---- arithmetic ----
   template <class Lane>
@@ -138,7 +142,18 @@ struct Sse42 {
     else if constexpr (std::is_same_v<Lane, uint32_t>) return {_mm_max_epu32(a.v, b.v)};
     else if constexpr (std::is_same_v<Lane, int32_t>) return {_mm_max_epi32(a.v, b.v)};
     else return {_mm_blendv_epi8(b.v, a.v, greater_u64(a.v, b.v))};  // emulated: compare + blend
+  }  // u16: phminposuw puts the minimum in lane 0, a byte shuffle broadcasts it; u32: two shuffle + min folds.
+  template <class Lane>
+  static Vec<Lane> min_across(const Vec<Lane>& a) {
+    static_assert(std::is_same_v<Lane, uint16_t> || std::is_same_v<Lane, uint32_t>, "min_across exists for u16 and u32 lanes");
+    if constexpr (std::is_same_v<Lane, uint16_t>) {
+      return {_mm_shuffle_epi8(_mm_minpos_epu16(a.v), _mm_set1_epi16(0x0100))};
+    } else {
+      const __m128i halves = _mm_min_epu32(a.v, _mm_shuffle_epi32(a.v, 0x4E));
+      return {_mm_min_epu32(halves, _mm_shuffle_epi32(halves, 0xB1))};
+    }
   }
+
   // Emulated: (a -sat b) | (b -sat a); one of the two is 0.
   template <class Lane>
   static Vec<Lane> absdiff(const Vec<Lane>& a, const Vec<Lane>& b) {

@@ -335,8 +335,8 @@ TEST(SgmMustFail, RefusesBadParametersAndShapes) {
 }
 
 // The closed-form op count of an SGM kernel on the counting back end (L = 32 u16 lanes, 16 u32,
-// 8 u64; V = ceil(D / 32); s = log2 32 = 5 stages of the u16 lane minimum, t = log2 16 = 4 of the
-// u32 one). The same figures are listed in kernels/sgm_core.h.
+// 8 u64; V = ceil(D / 32); s = log2 32 = 5 stages (1 permute + 1 min each) of the u16 lane minimum
+// min_across, t = log2 16 = 4 of the u32 one). The same figures are listed in kernels/sgm_core.h.
 simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const kernels::SgmParams& p, int width, int height,
                                 int tile_height) {
   using simd::OpClass;
@@ -359,7 +359,7 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
     add(per_tile, OpClass::permute, 4);
     add(per_tile, OpClass::arith, V);
   }
-  if (sub) add(per_tile, OpClass::permute, 6);
+  if (sub) add(per_tile, OpClass::permute, 5);
   if (lr) {
     add(per_tile, OpClass::load, 1);
     add(per_tile, OpClass::permute, 4);
@@ -409,18 +409,18 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
   add(per_pixel, OpClass::load, V * (word_bytes == 4 ? 2 : 4));
   add(per_pixel, OpClass::logic, V * (word_bytes == 4 ? 2 : 4) + (Dp != p.num_disparities ? 1 : 0));
   add(per_pixel, OpClass::popcount, V * (word_bytes == 4 ? 2 : 4));
-  // Four path steps: 3V loads, V stores, (V - 1) + s + 1 + 6V arith, 2s permutes; sums 3V.
+  // Four path steps: 3V loads, V stores, (V - 1) + s + 1 + 6V arith, s permutes; sums 3V.
   add(per_pixel, OpClass::load, 4 * 3 * V);
   add(per_pixel, OpClass::store, 4 * V);
   add(per_pixel, OpClass::arith, 4 * ((V - 1) + s + 1 + 6 * V) + 3 * V);
-  add(per_pixel, OpClass::permute, 4 * 2 * s);
+  add(per_pixel, OpClass::permute, 4 * s);
   if (pass == kernels::SgmPass::forward) add(per_pixel, OpClass::store, V);
   if (pass == kernels::SgmPass::backward) {
     add(per_pixel, OpClass::load, V);
     add(per_pixel, OpClass::arith, V);
   }
   if (select) {  // keys, best key
-    add(per_pixel, OpClass::permute, 2 * V + 2 * t);
+    add(per_pixel, OpClass::permute, 2 * V + t);
     add(per_pixel, OpClass::arith, (2 * V - 1) + t);
     add(per_pixel, OpClass::logic, 1);
     add(per_pixel, OpClass::store, 1);
@@ -430,13 +430,13 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
     add(per_pixel, OpClass::logic, 1 + V);
     add(per_pixel, OpClass::arith, V + (V - 1) + s);
     add(per_pixel, OpClass::compare, V);
-    add(per_pixel, OpClass::permute, 2 * s);
+    add(per_pixel, OpClass::permute, s);
     add(per_pixel, OpClass::store, 1);
   }
-  if (sub) {  // S(best - 1), S(best + 1) gathered from the pixel's sums
+  if (sub) {  // S(best - 1), S(best + 1): the sums stored, lane 0 of best moved out, two one-lane loads and stores
     add(per_pixel, OpClass::store, V + 2);
-    add(per_pixel, OpClass::arith, 2);
-    add(per_pixel, OpClass::gather, 2);
+    add(per_pixel, OpClass::permute, 1);
+    add(per_pixel, OpClass::load, 2);
   }
   if (lr) {  // the right view's running minimum of keys
     add(per_pixel, OpClass::store, 2 * V);

@@ -43,6 +43,8 @@ enum class OpKind : int {
   gather_u16,      // offsets = a as s32, base = gather_base_u16
   bitcast,         // bitcast<param lane>(a)
   as_type,         // as_<param lane>(a)
+  min_across,      // every lane = the minimum of a's lanes
+  first_lane,      // out lane 0 = first_lane(a), the other lanes 0
   count_
 };
 inline constexpr int kOpKindCount = static_cast<int>(OpKind::count_);
@@ -50,7 +52,7 @@ inline constexpr const char* kOpKindNames[kOpKindCount] = {
     "load/store", "load_partial", "store_partial", "set1", "extract", "add", "sub", "adds", "subs", "min", "max",
     "absdiff", "avg", "mullo", "bit_and", "bit_or", "bit_xor", "bit_andnot", "select", "shl", "shr", "cmpeq",
     "cmpgt", "cmplt", "popcount", "widen_lo", "widen_hi", "zip_lo", "zip_hi", "narrow_sat_u8", "narrow_sat_s16",
-    "narrow_sat_u16", "gather_u8", "gather_u16", "bitcast", "as_*"};
+    "narrow_sat_u16", "gather_u8", "gather_u16", "bitcast", "as_*", "min_across", "first_lane"};
 
 // Shift counts the battery can run (each op uses those below its lane bits).
 inline constexpr int kShiftCounts[] = {0, 1, 3, 7, 8, 15, 16, 31, 32, 63};
@@ -100,6 +102,7 @@ constexpr bool op_supports(OpKind kind, LaneKind lane) {
     case OpKind::narrow_sat_u16:
     case OpKind::gather_u8:
     case OpKind::gather_u16: return lane == LaneKind::s32;
+    case OpKind::min_across: return lane == LaneKind::u16 || lane == LaneKind::u32;
     default: return true;
   }
 }
@@ -231,6 +234,15 @@ void probe_lane(const ProbeOp& op, const ProbeArgs& args) {
       break;
     case OpKind::min: probe_store<B>(args.out, B::min(a, b)); break;
     case OpKind::max: probe_store<B>(args.out, B::max(a, b)); break;
+    case OpKind::min_across:
+      if constexpr (lane_has<Lane>(OpKind::min_across)) probe_store<B>(args.out, B::min_across(a));
+      break;
+    case OpKind::first_lane: {
+      Lane lanes[Vector::kLanes] = {};
+      lanes[0] = B::first_lane(a);
+      std::memcpy(args.out, lanes, sizeof(lanes));
+      break;
+    }
     case OpKind::absdiff:
       if constexpr (lane_has<Lane>(OpKind::absdiff)) probe_store<B>(args.out, B::absdiff(a, b));
       break;
