@@ -307,6 +307,7 @@ void sgm_tile_for(const TileArgs& args) {
     minus_one32 = B::set1_u32(0xFFFFFFFFu);
   }
 
+  const bool stream_sums = kPass == SgmPass::forward && padded == count;
   // Right-view words are readable up to the right halo (the forward pass stages the same border).
   const int right_end = width + sgm_right_halo(params);
   for (int step = 0; step < tile_rows; ++step) {
@@ -377,7 +378,14 @@ void sgm_tile_for(const TileArgs& args) {
 
       if constexpr (kPass == SgmPass::forward) {
         uint16_t* out = plane_row<uint16_t>(args.outputs[0], row) + static_cast<ptrdiff_t>(x) * count;
-        for (int k = 0; k < vectors; ++k) store_clipped<B>(out, k * L16, count, sum[k]);
+        // The sums are read back by the backward pass only after the whole frame: streaming
+        // stores where the pixel's vectors are whole and aligned (D a multiple of the lanes and
+        // 64-byte aligned rows), plain clipped stores elsewhere. Same bits, same counted stores.
+        if (stream_sums && (reinterpret_cast<uintptr_t>(out) % B::kBytes) == 0) {
+          for (int k = 0; k < vectors; ++k) B::store_stream(out + k * L16, sum[k]);
+        } else {
+          for (int k = 0; k < vectors; ++k) store_clipped<B>(out, k * L16, count, sum[k]);
+        }
         continue;
       } else {
         if constexpr (kBackward) {
@@ -488,6 +496,7 @@ void sgm_tile_for(const TileArgs& args) {
       }
     }
   }
+  if (stream_sums) B::stream_fence();
 }
 
 template <class B>

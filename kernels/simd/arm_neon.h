@@ -112,7 +112,14 @@ struct Neon {
     alignas(16) uint8_t buffer[kBytes];
     vst1q_u8(buffer, bytes_of(value.v));
     if (lane_count > 0) std::memcpy(destination, buffer, sizeof(Lane) * static_cast<size_t>(lane_count));
+  }  // A plain store: NEON's streaming hint (STNP) is a pair store of scalar/64-bit registers with no
+  // intrinsic for q registers in GCC; ordinary stores are already ordered for the next node.
+  template <class Lane>
+  static void store_stream(Lane* destination, const Vec<Lane>& value) {
+    store(destination, value);
   }
+  static void stream_fence() {}
+
 
   static VU8 set1_u8(uint8_t x) { return {vdupq_n_u8(x)}; }
   static VU16 set1_u16(uint16_t x) { return {vdupq_n_u16(x)}; }

@@ -128,7 +128,17 @@ struct Emulated {
   static void store_partial(Lane* destination, const Vec<Lane>& value, int lane_count) {
     count(OpClass::store);
     std::memcpy(destination, value.lane, sizeof(Lane) * static_cast<size_t>(lane_count));
+  }  // A full-vector store of a result that is written once and read much later (by another node):
+  // it need not stay in the cache. destination must be aligned to the vector width. x86 back ends
+  // issue non-temporal streaming stores (no read-for-ownership, no eviction of the working set);
+  // stream_fence() orders them before anything a later node reads. Counted as one store.
+  template <class Lane>
+  static void store_stream(Lane* destination, const Vec<Lane>& value) {
+    count(OpClass::store);
+    std::memcpy(destination, value.lane, sizeof(value.lane));
   }
+  static void stream_fence() {}
+
 
   static VU8 set1_u8(uint8_t x) { return broadcast<uint8_t>(x); }
   static VU16 set1_u16(uint16_t x) { return broadcast<uint16_t>(x); }

@@ -82,7 +82,13 @@ struct Avx512 {
     else if constexpr (sizeof(Lane) == 2) _mm512_mask_storeu_epi16(destination, static_cast<__mmask32>(mask), value.v);
     else if constexpr (sizeof(Lane) == 4) _mm512_mask_storeu_epi32(destination, static_cast<__mmask16>(mask), value.v);
     else _mm512_mask_storeu_epi64(destination, static_cast<__mmask8>(mask), value.v);
+  }  // Non-temporal streaming store (destination aligned to the vector width); stream_fence() = sfence.
+  template <class Lane>
+  static void store_stream(Lane* destination, const Vec<Lane>& value) {
+    _mm512_stream_si512(reinterpret_cast<__m512i*>(destination), value.v);
   }
+  static void stream_fence() { _mm_sfence(); }
+
 
   static VU8 set1_u8(uint8_t x) { return {_mm512_set1_epi8(static_cast<char>(x))}; }
   static VU16 set1_u16(uint16_t x) { return {_mm512_set1_epi16(static_cast<short>(x))}; }

@@ -76,7 +76,13 @@ struct Sse42 {
     alignas(16) uint8_t buffer[kBytes];
     _mm_store_si128(reinterpret_cast<__m128i*>(buffer), value.v);
     if (lane_count > 0) std::memcpy(destination, buffer, sizeof(Lane) * static_cast<size_t>(lane_count));
+  }  // Non-temporal streaming store (destination aligned to the vector width); stream_fence() = sfence.
+  template <class Lane>
+  static void store_stream(Lane* destination, const Vec<Lane>& value) {
+    _mm_stream_si128(reinterpret_cast<__m128i*>(destination), value.v);
   }
+  static void stream_fence() { _mm_sfence(); }
+
 
   static VU8 set1_u8(uint8_t x) { return {_mm_set1_epi8(static_cast<char>(x))}; }
   static VU16 set1_u16(uint16_t x) { return {_mm_set1_epi16(static_cast<short>(x))}; }

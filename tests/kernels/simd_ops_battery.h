@@ -45,6 +45,7 @@ enum class OpKind : int {
   as_type,         // as_<param lane>(a)
   min_across,      // every lane = the minimum of a's lanes
   first_lane,      // out lane 0 = first_lane(a), the other lanes 0
+  store_stream,    // store_stream(aligned buffer, a), stream_fence(), copied to out
   count_
 };
 inline constexpr int kOpKindCount = static_cast<int>(OpKind::count_);
@@ -52,7 +53,7 @@ inline constexpr const char* kOpKindNames[kOpKindCount] = {
     "load/store", "load_partial", "store_partial", "set1", "extract", "add", "sub", "adds", "subs", "min", "max",
     "absdiff", "avg", "mullo", "bit_and", "bit_or", "bit_xor", "bit_andnot", "select", "shl", "shr", "cmpeq",
     "cmpgt", "cmplt", "popcount", "widen_lo", "widen_hi", "zip_lo", "zip_hi", "narrow_sat_u8", "narrow_sat_s16",
-    "narrow_sat_u16", "gather_u8", "gather_u16", "bitcast", "as_*", "min_across", "first_lane"};
+    "narrow_sat_u16", "gather_u8", "gather_u16", "bitcast", "as_*", "min_across", "first_lane", "store_stream"};
 
 // Shift counts the battery can run (each op uses those below its lane bits).
 inline constexpr int kShiftCounts[] = {0, 1, 3, 7, 8, 15, 16, 31, 32, 63};
@@ -237,6 +238,13 @@ void probe_lane(const ProbeOp& op, const ProbeArgs& args) {
     case OpKind::min_across:
       if constexpr (lane_has<Lane>(OpKind::min_across)) probe_store<B>(args.out, B::min_across(a));
       break;
+    case OpKind::store_stream: {
+      alignas(64) Lane lanes[Vector::kLanes];
+      B::store_stream(lanes, a);
+      B::stream_fence();
+      std::memcpy(args.out, lanes, sizeof(lanes));
+      break;
+    }
     case OpKind::first_lane: {
       Lane lanes[Vector::kLanes] = {};
       lanes[0] = B::first_lane(a);
