@@ -28,6 +28,26 @@ void check_range(const char* name, int value, int min_value, int max_value) {
 }
 }  // namespace
 
+std::string settings_text(const DisparityParameters& parameters) {
+  const std::string census = parameters.census_width == 9 ? "census 9x7" : "census 5x5";
+  if (parameters.paths == 0) {
+    return census + ", winner-takes-all (no aggregation), max cost " + std::to_string(parameters.max_cost_bits) + " bits";
+  }
+  const bool census64 = parameters.census_width == 9;
+  std::string text = std::to_string(parameters.paths) + "-path SGM, " + census;
+  text += ", P1 " + std::to_string(parameters.p1 >= 0 ? parameters.p1 : (census64 ? 7 : 5));
+  text += ", P2 " + std::to_string(parameters.p2 >= 0 ? parameters.p2 : (census64 ? 50 : 45));
+  text += ", uniqueness " + std::to_string(parameters.uniqueness_percent) + " %";
+  text += parameters.subpixel ? ", sub-pixel on" : ", sub-pixel off";
+  text += parameters.lr_max_diff >= 0 ? ", LR check " + std::to_string(parameters.lr_max_diff) + " px" : ", LR check off";
+  if (parameters.median) text += ", 3x3 median";
+  if (parameters.speckle_max_size_px > 0) {
+    text += ", speckles <= " + std::to_string(parameters.speckle_max_size_px) + " px within " +
+            std::to_string(parameters.speckle_max_difference_px) + " px removed";
+  }
+  return text;
+}
+
 GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
   if (parameters.census_width != 5 && parameters.census_width != 9) {
     throw std::invalid_argument("disparity parameter 'census_width': expected 5 or 9, got " +
@@ -74,19 +94,50 @@ GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
   selection["lr_max_diff"] = parameters.lr_max_diff;
   spec.description = std::string("census ") + (census64 ? "9x7" : "5x5") + " of both views, semi-global matching over " +
                      std::to_string(parameters.paths) + " paths, winner takes all with uniqueness, sub-pixel and LR check";
+  // The matcher writes "disparity" directly when no post-processing follows, else "sgm_disparity"
+  // (then "median_disparity"), and the last stage writes "disparity".
+  check_range("speckle_max_size_px", parameters.speckle_max_size_px, 0, 1 << 30);
+  check_range("speckle_max_difference_px", parameters.speckle_max_difference_px, 0, 4095);
+  const bool speckle = parameters.speckle_max_size_px > 0;
+  const std::string matched = parameters.median || speckle ? "sgm_disparity" : "disparity";
   if (parameters.paths == 4) {
     NodeSpec sgm = census_pair_node("sgm", "sgm_4path" + suffix, selection);
-    sgm.outputs["disparity"] = "disparity";
+    sgm.outputs["disparity"] = matched;
     spec.nodes.push_back(sgm);
-    return spec;
+  } else {
+    NodeSpec forward = census_pair_node("sgm_forward", "sgm_8path_forward" + suffix, penalties);
+    forward.outputs["sums"] = "forward_sums";
+    NodeSpec backward = census_pair_node("sgm_backward", "sgm_8path_backward" + suffix, selection);
+    backward.inputs["forward"] = {"forward_sums", false};
+    backward.outputs["disparity"] = matched;
+    spec.nodes.push_back(forward);
+    spec.nodes.push_back(backward);
   }
-  NodeSpec forward = census_pair_node("sgm_forward", "sgm_8path_forward" + suffix, penalties);
-  forward.outputs["sums"] = "forward_sums";
-  NodeSpec backward = census_pair_node("sgm_backward", "sgm_8path_backward" + suffix, selection);
-  backward.inputs["forward"] = {"forward_sums", false};
-  backward.outputs["disparity"] = "disparity";
-  spec.nodes.push_back(forward);
-  spec.nodes.push_back(backward);
+  const int invalid_q4 = (parameters.min_disparity - 1) * 16;
+  std::string last = matched;
+  if (parameters.median) {
+    NodeSpec median;
+    median.name = "median";
+    median.kernel = "median3x3_s16";
+    median.inputs["input"] = {last, false};
+    last = speckle ? "median_disparity" : "disparity";
+    median.outputs["output"] = last;
+    median.params = {{"invalid_q4", invalid_q4}};
+    spec.nodes.push_back(median);
+  }
+  if (speckle) {
+    NodeSpec filter;
+    filter.name = "speckle";
+    filter.task = "speckle_filter";
+    filter.inputs["disparity"] = {last, false};
+    filter.outputs["filtered"] = "disparity";
+    filter.params = {{"max_speckle_size", parameters.speckle_max_size_px},
+                     {"max_difference_q4", parameters.speckle_max_difference_px * 16},
+                     {"invalid_q4", invalid_q4}};
+    spec.nodes.push_back(filter);
+  }
+  if (parameters.median) spec.description += ", 3x3 median";
+  if (speckle) spec.description += ", speckle filter";
   return spec;
 }
 

@@ -29,15 +29,27 @@ struct DisparityParameters {
   int min_disparity = 0;       // pixels; may be negative
   int num_disparities = 64;    // pixels searched: [min_disparity, min_disparity + num_disparities), 1..512 with SGM
   int census_width = 5;        // census window: 5 (5x5, census32 signatures) or 9 (9x7, census64)
-  int paths = 4;               // SGM paths: 4 (one pass) or 8 (two passes); 0 = census winner takes all
+  int paths = 8;               // SGM paths: 8 (two passes, the default: the accurate one, libSGM's default too),
+                               // 4 (one row-streaming pass, what the chip graphs run); 0 = census winner takes all
   int p1 = -1;                 // SGM penalty for a 1 px disparity change, Hamming bits; -1 = 5 (5x5) or 7 (9x7)
   int p2 = -1;                 // SGM penalty for larger changes, Hamming bits (>= p1, <= 4000); -1 = 45 (5x5) or 50 (9x7)
                                // (the defaults: lowest mean bad-2 over the 8 Middlebury pairs of ../shared/data)
   int uniqueness_percent = 5;  // SGM: the best cost must beat the others (|d - best| > 1) by this %; 0 = off, <= 50
   bool subpixel = true;        // SGM: parabola sub-pixel step (Q4); false = whole pixels
-  int lr_max_diff = 1;         // SGM: left-right check tolerance in px; -1 = off
+  int lr_max_diff = 2;         // SGM: left-right check tolerance in px; -1 = off
+  // Post-processing of the SGM map (not with paths = 0), OpenCV StereoSGBM's order and semantics:
+  bool median = true;          // 3x3 median that keeps invalid pixels invalid (kernels/median3x3_s16.cpp)
+  int speckle_max_size_px = 100;  // regions of at most this many pixels become invalid; 0 = off
+                                  // (arm/tasks/speckle_filter.cpp, cv::filterSpeckles bit for bit)
+  int speckle_max_difference_px = 2;  // neighbours within this many px belong to one region (speckleRange)
+  // The defaults (8 paths, LR 2 px, median, speckles of <= 100 px within 2 px) are the setting with
+  // the lowest errors over the 8 Middlebury pairs and KITTI 2015 000046 of ../shared/data at a density
+  // no lower than OpenCV's: docs/evaluation.md has the table.
   int max_cost_bits = 6;       // paths = 0 only: a best Hamming cost above this is invalid
 };
+
+// One line naming every setting, for reports and benchmarks ("8-path SGM, census 5x5, P1 5, P2 45, ...").
+std::string settings_text(const DisparityParameters& parameters);
 
 class DisparityEngine {
  public:

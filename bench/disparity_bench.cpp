@@ -1,6 +1,6 @@
-// Dense disparity on the host: lpstereo's arm::DisparityEngine (today census 5x5 + winner-takes-all;
-// SGM comes behind the same API) next to OpenCV's StereoSGBM in MODE_SGBM, MODE_SGBM_3WAY and
-// MODE_HH, same process, same u8 luma inputs, same disparity range, 2 threads for both:
+// Dense disparity on the host: lpstereo's arm::DisparityEngine (8-path SGM, its default, and 4-path;
+// every other setting the engine's default, printed) next to OpenCV's StereoSGBM in MODE_SGBM,
+// MODE_SGBM_3WAY and MODE_HH, same process, same u8 luma inputs, same disparity range, 2 threads for both:
 //   OpenCV: cv::setNumThreads(2); lpstereo: the engine's FrameRunner with 2 worker threads.
 // Sizes 640x480 and 1242x375, 128 disparities [0, 128). Inputs: the real pairs when the shared data
 // folder exists ($LPSTEREO_SHARED_DATA or ../shared/data: KITTI 2015 000046 at 1242x375, the
@@ -164,10 +164,11 @@ int main(int argc, char** argv) {
                                              std::to_string(cv::getNumThreads()) +
                                              "; lpstereo: FrameRunner with 2 worker threads)");
   benchmark::AddCustomContext("disparities", "[0, 128): 128 for both");
-  benchmark::AddCustomContext("lpstereo", "arm::DisparityEngine: census " + std::to_string(engine_defaults.census_width) + "x" +
-                                              std::to_string(engine_defaults.census_width) +
-                                              " + winner-takes-all (no aggregation), native ISA " +
-                                              std::string(lpstereo::simd::isa_name(lpstereo::simd::active_isa())));
+  lpstereo::arm::DisparityParameters four_path = engine_defaults;
+  four_path.paths = 4;
+  benchmark::AddCustomContext("lpstereo 8path", "arm::DisparityEngine defaults: " + lpstereo::arm::settings_text(engine_defaults));
+  benchmark::AddCustomContext("lpstereo 4path", "arm::DisparityEngine: " + lpstereo::arm::settings_text(four_path));
+  benchmark::AddCustomContext("lpstereo isa", std::string(lpstereo::simd::isa_name(lpstereo::simd::active_isa())));
   benchmark::AddCustomContext("opencv", lpstereo::io::sgbm_settings_text({}));
   benchmark::AddCustomContext("input 640x480", lpstereo::pair_of_size(640, 480).source);
   benchmark::AddCustomContext("input 1242x375", lpstereo::pair_of_size(1242, 375).source);

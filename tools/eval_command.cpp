@@ -156,8 +156,7 @@ int run_eval(const EvalOptions& options) {
   std::printf("eval %s: %zu pair(s) from %s; dense = after the KITTI fill, every ground-truth pixel; valid = only the "
               "pixels the method produced\n",
               options.benchmark.c_str(), pairs.size(), data_directory.c_str());
-  std::printf("lpstereo: arm::DisparityEngine (census %dx%d, winner-takes-all, max cost %d bits)\n", defaults.census_width,
-              defaults.census_width, defaults.max_cost_bits);
+  std::printf("lpstereo: arm::DisparityEngine (%s)\n", arm::settings_text(defaults).c_str());
   if (with_opencv) std::printf("%s\n", io::sgbm_settings_text(sgbm_settings).c_str());
 
   nlohmann::json report;

@@ -187,27 +187,43 @@ TEST(Golden, KernelsAllHaveAGoldenCase) {
   }
 }
 
-// The whole disparity pipeline on the built-in synthetic scene.
+// The whole disparity pipeline on the built-in synthetic scene: the engine's defaults (8-path SGM,
+// LR check, median, speckle filter) and the chip graphs' matcher alone (4-path SGM, LR 1 px, no
+// post-processing).
 TEST(Golden, DisparityPipelineGivesItsGoldenBitsOnEveryBackEnd) {
   io::SyntheticSceneOptions scene_options;
   scene_options.width = 193;
   scene_options.height = 121;
   const io::SyntheticStereoScene scene = io::make_synthetic_stereo_scene(scene_options);
-  arm::DisparityParameters parameters;
-  parameters.num_disparities = 32;
-  const uint64_t kGolden = 0xb37777b3df61a499ull;  // census 5x5 + 4-path SGM (the engine default)
-  std::optional<Plane> scalar;
-  auto check = [&](KernelBackend backend, simd::Isa isa, const std::string& label) {
-    simd::ActiveIsaScope scope(isa);
-    arm::DisparityEngine engine(scene_options.width, scene_options.height, parameters, {}, 0, backend);
-    const Plane& disparity = engine.compute(scene.left, scene.right);
-    if (!scalar) scalar = disparity.clone();
-    EXPECT_EQ(first_difference(*scalar, disparity), "") << "disparity pipeline on " << label << " vs scalar";
-    EXPECT_EQ(hex(plane_hash(disparity)), hex(kGolden)) << "disparity pipeline on " << label;
+  struct Pipeline {
+    std::string label;
+    arm::DisparityParameters parameters;
+    uint64_t golden;
   };
-  check(KernelBackend::native, simd::Isa::scalar, "scalar");
-  for (simd::Isa isa : simd::available_isas()) check(KernelBackend::native, isa, std::string(simd::isa_name(isa)));
-  check(KernelBackend::counting, simd::Isa::scalar, "counting");
+  std::vector<Pipeline> pipelines(2);
+  pipelines[0].label = "engine defaults";
+  pipelines[0].golden = 0xfbb6652269f97a41ull;
+  pipelines[1].label = "4-path SGM alone";
+  pipelines[1].parameters.paths = 4;
+  pipelines[1].parameters.lr_max_diff = 1;
+  pipelines[1].parameters.median = false;
+  pipelines[1].parameters.speckle_max_size_px = 0;
+  pipelines[1].golden = 0xb37777b3df61a499ull;
+  for (Pipeline& pipeline : pipelines) {
+    pipeline.parameters.num_disparities = 32;
+    std::optional<Plane> scalar;
+    auto check = [&](KernelBackend backend, simd::Isa isa, const std::string& label) {
+      simd::ActiveIsaScope scope(isa);
+      arm::DisparityEngine engine(scene_options.width, scene_options.height, pipeline.parameters, {}, 0, backend);
+      const Plane& disparity = engine.compute(scene.left, scene.right);
+      if (!scalar) scalar = disparity.clone();
+      EXPECT_EQ(first_difference(*scalar, disparity), "") << pipeline.label << " on " << label << " vs scalar";
+      EXPECT_EQ(hex(plane_hash(disparity)), hex(pipeline.golden)) << pipeline.label << " on " << label;
+    };
+    check(KernelBackend::native, simd::Isa::scalar, "scalar");
+    for (simd::Isa isa : simd::available_isas()) check(KernelBackend::native, isa, std::string(simd::isa_name(isa)));
+    check(KernelBackend::counting, simd::Isa::scalar, "counting");
+  }
 }
 
 }  // namespace
