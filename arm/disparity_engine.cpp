@@ -104,6 +104,21 @@ GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
     NodeSpec sgm = census_pair_node("sgm", "sgm_4path" + suffix, selection);
     sgm.outputs["disparity"] = matched;
     spec.nodes.push_back(sgm);
+  } else if (parameters.parallel_8path_passes) {
+    NodeSpec forward = census_pair_node("sgm_forward", "sgm_8path_forward" + suffix, penalties);
+    forward.outputs["sums"] = "forward_sums";
+    NodeSpec backward = census_pair_node("sgm_backward", "sgm_8path_backward_sums" + suffix, penalties);
+    backward.outputs["sums"] = "backward_sums";
+    NodeSpec select;
+    select.name = "sgm_select";
+    select.kernel = "sgm_8path_select";
+    select.inputs["forward"] = {"forward_sums", false};
+    select.inputs["backward"] = {"backward_sums", false};
+    select.outputs["disparity"] = matched;
+    select.params = selection;
+    spec.nodes.push_back(forward);
+    spec.nodes.push_back(backward);
+    spec.nodes.push_back(select);
   } else {
     NodeSpec forward = census_pair_node("sgm_forward", "sgm_8path_forward" + suffix, penalties);
     forward.outputs["sums"] = "forward_sums";

@@ -655,14 +655,16 @@ void Graph::phase_memory_placement() {
         while (node.tile_height > 1 && tile_working_set_bytes(node, buffers_, node.tile_width, node.tile_height) > limit) {
           node.tile_height = std::max(1, node.tile_height / 2);
         }
-        while (!node.kernel->state_bytes && node.tile_width > 64 && tile_working_set_bytes(node, buffers_, node.tile_width, node.tile_height) > limit) {
+        const bool whole_rows = node.kernel->state_bytes || node.kernel->full_width_tiles;
+        while (!whole_rows && node.tile_width > 64 && tile_working_set_bytes(node, buffers_, node.tile_width, node.tile_height) > limit) {
           node.tile_width = (node.tile_width / 2 + 63) / 64 * 64;
         }
       }
     }
-    if (node.kernel->state_bytes && node.tile_width != output.width) {
+    if ((node.kernel->state_bytes || node.kernel->full_width_tiles) && node.tile_width != output.width) {
       throw VerifyError(kPhaseMemory, "node '" + node.spec.name + "': kernel '" + node.kernel->name +
-                                          "' carries row state: expected full-width tiles (" +
+                                          (node.kernel->state_bytes ? "' carries row state" : "' works along whole rows") +
+                                          ": expected full-width tiles (" +
                                           std::to_string(output.width) + "), got tile width " +
                                           std::to_string(node.tile_width));
     }

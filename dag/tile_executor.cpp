@@ -149,6 +149,7 @@ void run_vector_node(const VectorNodeBinding& binding, int tile_width, int tile_
     with_state.state_bytes = state.size();
     tile_width = output.width;
   }
+  if (binding.kernel->full_width_tiles) tile_width = output.width;  // the kernel works along whole rows
   TileRunner runner;
   simd::OpCounts local;
   simd::CountingScope scope(local);

@@ -166,6 +166,10 @@ struct KernelDescriptor {
   // Row-state kernels only: the tiles come bottom to top (the backward pass of 8-path SGM); the
   // kernel walks the rows of each tile bottom to top itself.
   bool rows_bottom_up = false;
+  // Tiles span whole output rows (the kernel works along each row, e.g. SGM's left-right check
+  // collects the right view's minima over the row) but carry nothing from one tile to the next,
+  // so they may run in parallel. Row-state kernels get full-width tiles anyway.
+  bool full_width_tiles = false;
 
   // For whole-access inputs: the source rectangle an output tile reads (clipped to the plane), so
   // the simulator charges DMA for it. Defaults to the whole plane.

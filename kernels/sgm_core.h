@@ -73,10 +73,18 @@ inline constexpr int kSgmMaxUniquenessPercent = 50;
 inline constexpr int kSgmWidestLanesU16 = 32;  // 512-bit vectors (AVX-512, counting)
 
 enum class SgmPass {
-  single,    // 4 paths, then winner takes all: sgm_4path
-  forward,   // 4 paths, writes the per-pixel sums S (u16, W*D per row): sgm_8path_forward
-  backward,  // the other 4 paths (rows bottom up), adds the forward sums, winner takes all: sgm_8path_backward
+  single,         // 4 paths, then winner takes all: sgm_4path
+  forward,        // 4 paths, writes the per-pixel sums S (u16, W*D per row): sgm_8path_forward
+  backward,       // the other 4 paths (rows bottom up), adds the forward sums, winner takes all: sgm_8path_backward
+  backward_sums,  // the other 4 paths (rows bottom up), writes their own sums: sgm_8path_backward_sums
+  select,         // no paths: adds the two sums, winner takes all: sgm_8path_select
 };
+
+// What each pass does (the tile body branches on these at compile time).
+inline constexpr bool sgm_runs_paths(SgmPass pass) { return pass != SgmPass::select; }
+inline constexpr bool sgm_rows_bottom_up(SgmPass pass) { return pass == SgmPass::backward || pass == SgmPass::backward_sums; }
+inline constexpr bool sgm_writes_sums(SgmPass pass) { return pass == SgmPass::forward || pass == SgmPass::backward_sums; }
+inline constexpr bool sgm_selects(SgmPass pass) { return !sgm_writes_sums(pass); }
 
 inline constexpr int sgm_padded(int disparities, int lanes) { return (disparities + lanes - 1) / lanes * lanes; }
 
@@ -121,7 +129,7 @@ inline SgmScratchLayout sgm_scratch_layout(int width, const SgmParams& params, S
   layout.rows_offset = align(layout.keys_offset + 4 * layout.keys_count);
   layout.row_count = static_cast<size_t>(width) + 64;
   layout.staged_offset = align(layout.rows_offset + 4 * 4 * layout.row_count);
-  layout.staged_count = pass == SgmPass::forward ? static_cast<size_t>(width) + sgm_left_halo(params) +
+  layout.staged_count = sgm_writes_sums(pass) ? static_cast<size_t>(width) + sgm_left_halo(params) +
                                                        sgm_right_halo(params) + 64
                                                  : 0;
   layout.total = align(layout.staged_offset + static_cast<size_t>(word_bytes) * layout.staged_count);
@@ -218,15 +226,18 @@ void sgm_tile_for(const TileArgs& args) {
   constexpr int L16 = B::kLanesU16;
   constexpr int L32 = B::kLanesU32;
   constexpr int kMaxVectors = kSgmMaxDisparities / L16;
-  constexpr bool kBackward = kPass == SgmPass::backward;
-  constexpr bool kSelect = kPass != SgmPass::forward;
+  constexpr bool kBackward = sgm_rows_bottom_up(kPass);
+  constexpr bool kSelect = sgm_selects(kPass);
+  constexpr bool kPaths = sgm_runs_paths(kPass);
+  constexpr bool kWritesSums = sgm_writes_sums(kPass);
 
   const SgmParams& params = *static_cast<const SgmParams*>(args.params);
   const int count = params.num_disparities;
   const int vectors = kFixedVectors > 0 ? kFixedVectors : (count + L16 - 1) / L16;
+  if (vectors < 1) __builtin_unreachable();  // prepare() guarantees num_disparities >= 1
   const int padded = vectors * L16;
-  const int width = kPass == SgmPass::forward ? args.inputs[0].width : args.outputs[0].width;
-  const int height = kPass == SgmPass::forward ? args.inputs[0].height : args.image_height;
+  const int width = kWritesSums ? args.inputs[0].width : args.outputs[0].width;
+  const int height = kWritesSums ? args.inputs[0].height : args.image_height;
   const int tile_rows = args.outputs[0].height;
   const bool lr_check = kSelect && params.lr_max_diff >= 0;
 
@@ -236,7 +247,7 @@ void sgm_tile_for(const TileArgs& args) {
   uint16_t* regions[3];
   for (int path = 0; path < 3; ++path) regions[path] = reinterpret_cast<uint16_t*>(args.state) + path * region_size;
   const bool first_tile = kBackward ? args.tile_y + tile_rows == height : args.tile_y == 0;
-  if (first_tile) {
+  if (kPaths && first_tile) {
     // Once per frame (not counted: W + 1 scalar writes per path): the slot sentinels.
     for (int path = 0; path < 3; ++path) {
       for (ptrdiff_t slot = 0; slot <= width; ++slot) regions[path][slot * slot_stride] = 0xFFFF;
@@ -259,9 +270,11 @@ void sgm_tile_for(const TileArgs& args) {
   const VU16 ones16 = B::set1_u16(0xFFFF);
   const sgm_detail::PathConstants<B> path_constants{B::set1_u16(static_cast<uint16_t>(params.p1)),
                                                     B::set1_u16(static_cast<uint16_t>(params.p2))};
-  for (int i = 0; i < padded + 2; i += L16) store_clipped<B>(zero_buffer, i, padded + 2, zero16);
-  B::store_partial(left_path, ones16, 1);
-  B::store_partial(left_path + padded + 1, ones16, 1);
+  if constexpr (kPaths) {
+    for (int i = 0; i < padded + 2; i += L16) store_clipped<B>(zero_buffer, i, padded + 2, zero16);
+    B::store_partial(left_path, ones16, 1);
+    B::store_partial(left_path + padded + 1, ones16, 1);
+  }
   // d - min_disparity per lane (0xFFFF on padding lanes), and the padding mask of the last vector.
   VU16 best_index[kMaxVectors];
   VU16 padding_mask = zero16;
@@ -307,16 +320,16 @@ void sgm_tile_for(const TileArgs& args) {
     minus_one32 = B::set1_u32(0xFFFFFFFFu);
   }
 
-  const bool stream_sums = kPass == SgmPass::forward && padded == count;
+  const bool stream_sums = kWritesSums && padded == count;
   // Right-view words are readable up to the right halo (the forward pass stages the same border).
   const int right_end = width + sgm_right_halo(params);
   for (int step = 0; step < tile_rows; ++step) {
     const int row = kBackward ? tile_rows - 1 - step : step;
     const int y = args.tile_y + row;
     const int mirrored_y = kBackward ? height - 1 - y : y;
-    const Word* left_row;
-    const Word* right_row;
-    if constexpr (kPass == SgmPass::forward) {
+    [[maybe_unused]] const Word* left_row = nullptr;
+    [[maybe_unused]] const Word* right_row = nullptr;
+    if constexpr (kWritesSums) {
       // Stage the right row with its replicate border: [-left halo, W + right halo).
       left_row = plane_row<const Word>(args.inputs[0], y);
       const Word* source = plane_row<const Word>(args.inputs[1], y);
@@ -335,7 +348,7 @@ void sgm_tile_for(const TileArgs& args) {
       for (int i = 0; i < width; i += kWordLanes) store_clipped<B>(staged + left_halo, i, width, load_clipped<B>(source, i, width));
       fill(left_halo + width, left_halo + width + right_halo, source[width - 1]);
       right_row = staged + left_halo;
-    } else {
+    } else if constexpr (kPaths) {
       left_row = plane_row<const Word>(args.inputs[0], row);
       right_row = plane_row<const Word>(args.inputs[1], row);
     }
@@ -343,14 +356,24 @@ void sgm_tile_for(const TileArgs& args) {
       const int keys = width + padded + L16;
       for (int i = 0; i < keys; i += L32) B::store(right_keys + i, ones32);
     }
-    int diagonal_down = ((0 - mirrored_y) % width + width) % width;   // slot of (x - y) mod W at x = 0
-    int diagonal_up = (mirrored_y % width);                            // slot of (x + y) mod W at x = 0
+    [[maybe_unused]] int diagonal_down = ((0 - mirrored_y) % width + width) % width;   // slot of (x - y) mod W at x = 0
+    [[maybe_unused]] int diagonal_up = (mirrored_y % width);                            // slot of (x + y) mod W at x = 0
     for (int mirrored_x = 0; mirrored_x < width; ++mirrored_x) {
       const int x = kBackward ? width - 1 - mirrored_x : mirrored_x;
       // Matching costs, lanes j = 0 .. Dp-1 <-> d = min_disparity + D - 1 - j <-> right word x - d.
-      VU16 cost[kMaxVectors];
       VU16 sum[kMaxVectors];
-      {
+      if constexpr (!kPaths) {
+        // sgm_8path_select: S = the forward sums + the backward sums (each <= 4 (Cmax + P2), so no
+        // saturation), padding lanes forced to 0xFFFF as the path passes leave them.
+        const ptrdiff_t element = static_cast<ptrdiff_t>(x) * count;
+        const uint16_t* forward = plane_row<const uint16_t>(args.inputs[0], y) + element;
+        const uint16_t* backward = plane_row<const uint16_t>(args.inputs[1], y) + element;
+        for (int k = 0; k < vectors; ++k) {
+          sum[k] = B::adds(load_clipped<B>(forward, k * L16, count), load_clipped<B>(backward, k * L16, count));
+        }
+        if (has_padding) sum[vectors - 1] = B::bit_or(sum[vectors - 1], padding_mask);
+      } else {
+        VU16 cost[kMaxVectors];
         const auto left_word = [&] {
           if constexpr (sizeof(Word) == 4) return B::set1_u32(left_row[x]);
           else return B::set1_u64(left_row[x]);
@@ -360,23 +383,23 @@ void sgm_tile_for(const TileArgs& args) {
           cost[k] = sgm_detail::census_costs<B, Word>(left_word, right_row, first_column + k * L16, right_end);
         }
         if (has_padding) cost[vectors - 1] = B::bit_or(cost[vectors - 1], padding_mask);
+        // The four paths: along the row, then the three from the previous row.
+        const uint16_t* start = zero_buffer + 1;
+        sgm_detail::path_step<B, kMaxVectors>(mirrored_x == 0 ? start : left_path + 1, left_path + 1, cost, sum, true,
+                                              vectors, path_constants);
+        uint16_t* down_slot = regions[0] + diagonal_down * slot_stride + 1;
+        sgm_detail::path_step<B, kMaxVectors>(mirrored_x == 0 ? start : down_slot, down_slot, cost, sum, false, vectors,
+                                              path_constants);
+        uint16_t* straight_slot = regions[1] + static_cast<ptrdiff_t>(mirrored_x) * slot_stride + 1;
+        sgm_detail::path_step<B, kMaxVectors>(straight_slot, straight_slot, cost, sum, false, vectors, path_constants);
+        uint16_t* up_slot = regions[2] + diagonal_up * slot_stride + 1;
+        sgm_detail::path_step<B, kMaxVectors>(mirrored_x == width - 1 ? start : up_slot, up_slot, cost, sum, false,
+                                              vectors, path_constants);
+        diagonal_down = diagonal_down + 1 == width ? 0 : diagonal_down + 1;
+        diagonal_up = diagonal_up + 1 == width ? 0 : diagonal_up + 1;
       }
-      // The four paths: along the row, then the three from the previous row.
-      const uint16_t* start = zero_buffer + 1;
-      sgm_detail::path_step<B, kMaxVectors>(mirrored_x == 0 ? start : left_path + 1, left_path + 1, cost, sum, true,
-                                            vectors, path_constants);
-      uint16_t* down_slot = regions[0] + diagonal_down * slot_stride + 1;
-      sgm_detail::path_step<B, kMaxVectors>(mirrored_x == 0 ? start : down_slot, down_slot, cost, sum, false, vectors,
-                                            path_constants);
-      uint16_t* straight_slot = regions[1] + static_cast<ptrdiff_t>(mirrored_x) * slot_stride + 1;
-      sgm_detail::path_step<B, kMaxVectors>(straight_slot, straight_slot, cost, sum, false, vectors, path_constants);
-      uint16_t* up_slot = regions[2] + diagonal_up * slot_stride + 1;
-      sgm_detail::path_step<B, kMaxVectors>(mirrored_x == width - 1 ? start : up_slot, up_slot, cost, sum, false,
-                                            vectors, path_constants);
-      diagonal_down = diagonal_down + 1 == width ? 0 : diagonal_down + 1;
-      diagonal_up = diagonal_up + 1 == width ? 0 : diagonal_up + 1;
 
-      if constexpr (kPass == SgmPass::forward) {
+      if constexpr (kWritesSums) {
         uint16_t* out = plane_row<uint16_t>(args.outputs[0], row) + static_cast<ptrdiff_t>(x) * count;
         // The sums are read back by the backward pass only after the whole frame: streaming
         // stores where the pixel's vectors are whole and aligned (D a multiple of the lanes and
@@ -388,7 +411,7 @@ void sgm_tile_for(const TileArgs& args) {
         }
         continue;
       } else {
-        if constexpr (kBackward) {
+        if constexpr (kPass == SgmPass::backward) {
           const uint16_t* forward = plane_row<const uint16_t>(args.inputs[2], y) + static_cast<ptrdiff_t>(x) * count;
           for (int k = 0; k < vectors; ++k) sum[k] = B::adds(sum[k], load_clipped<B>(forward, k * L16, count));
         }

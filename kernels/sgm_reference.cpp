@@ -110,23 +110,37 @@ void sgm_reference_select(const SgmVolume& sum, const SgmParams& settings, const
   }
 }
 
-void sgm_reference(SgmPass pass, int word_bytes, const std::vector<PlaneView>& inputs,
-                   const std::vector<PlaneView>& outputs, const SgmParams& params) {
-  const SgmVolume cost = sgm_reference_costs(inputs[0], inputs[1], word_bytes, params.min_disparity, params.num_disparities);
-  const int count = params.num_disparities;
-  SgmVolume sum{cost.width, cost.height, count, std::vector<int32_t>(cost.values.size(), 0)};
-  if (pass == SgmPass::backward) {
-    for (int y = 0; y < cost.height; ++y) {
-      const uint16_t* forward = plane_row<const uint16_t>(inputs[2], y);
-      for (int x = 0; x < cost.width; ++x) {
-        for (int i = 0; i < count; ++i) sum.at(x, y, i) = forward[static_cast<size_t>(x) * count + (count - 1 - i)];
-      }
+namespace {
+// Adds a sums plane (u16, element x * D + (D - 1 - i) for disparity index i) to the volume.
+void add_sums_plane(const PlaneView& sums, SgmVolume& sum) {
+  const int count = sum.disparities;
+  for (int y = 0; y < sum.height; ++y) {
+    const uint16_t* row = plane_row<const uint16_t>(sums, y);
+    for (int x = 0; x < sum.width; ++x) {
+      for (int i = 0; i < count; ++i) sum.at(x, y, i) += row[static_cast<size_t>(x) * count + (count - 1 - i)];
     }
   }
-  for (const SgmPathDirection& direction : pass == SgmPass::backward ? kSgmBackwardPaths : kSgmForwardPaths) {
+}
+}  // namespace
+
+void sgm_reference(SgmPass pass, int word_bytes, const std::vector<PlaneView>& inputs,
+                   const std::vector<PlaneView>& outputs, const SgmParams& params) {
+  const int count = params.num_disparities;
+  if (pass == SgmPass::select) {  // inputs: the forward and the backward sums, W*D x H each
+    SgmVolume sum{inputs[0].width / count, inputs[0].height, count,
+                  std::vector<int32_t>(static_cast<size_t>(inputs[0].width) * inputs[0].height, 0)};
+    add_sums_plane(inputs[0], sum);
+    add_sums_plane(inputs[1], sum);
+    sgm_reference_select(sum, params, outputs[0]);
+    return;
+  }
+  const SgmVolume cost = sgm_reference_costs(inputs[0], inputs[1], word_bytes, params.min_disparity, params.num_disparities);
+  SgmVolume sum{cost.width, cost.height, count, std::vector<int32_t>(cost.values.size(), 0)};
+  if (pass == SgmPass::backward) add_sums_plane(inputs[2], sum);
+  for (const SgmPathDirection& direction : sgm_rows_bottom_up(pass) ? kSgmBackwardPaths : kSgmForwardPaths) {
     sgm_reference_add_path(cost, params.p1, params.p2, direction, sum);
   }
-  if (pass != SgmPass::forward) {
+  if (sgm_selects(pass)) {
     sgm_reference_select(sum, params, outputs[0]);
     return;
   }
@@ -153,10 +167,23 @@ PreparedKernel sgm_prepare(SgmPass pass, const nlohmann::json& json, const std::
   params->uniqueness_percent = param_int(json, "uniqueness_percent", 0, 0, kSgmMaxUniquenessPercent);
   params->subpixel = param_int(json, "subpixel", 1, 0, 1);
   params->lr_max_diff = param_int(json, "lr_max_diff", -1, -1, 2047);
-  if (pass == SgmPass::forward &&
+  if (sgm_writes_sums(pass) &&
       (json.contains("uniqueness_percent") || json.contains("subpixel") || json.contains("lr_max_diff"))) {
-    throw KernelError("sgm_8path_forward selects no disparity: parameters uniqueness_percent, subpixel and lr_max_diff "
-                      "belong to sgm_8path_backward");
+    throw KernelError(std::string(pass == SgmPass::forward ? "sgm_8path_forward" : "sgm_8path_backward_sums") +
+                      " selects no disparity: parameters uniqueness_percent, subpixel and lr_max_diff belong to the "
+                      "selecting kernel");
+  }
+  if (pass == SgmPass::select) {  // the two sums planes, W*D x H each, W = their width / D
+    const PlaneShape forward = input_shapes.at(0);
+    if (forward.width % params->num_disparities != 0) {
+      throw KernelError("port 'forward': expected a width that is a multiple of num_disparities " +
+                        std::to_string(params->num_disparities) + ", got " + std::to_string(forward.width));
+    }
+    if (!(input_shapes.at(1) == forward)) {
+      throw KernelError("port 'backward': expected the forward sums' size " + shape_text(forward) + ", got " +
+                        shape_text(input_shapes[1]));
+    }
+    return PreparedKernel{params, {{forward.width / params->num_disparities, forward.height}}, {}, {}};
   }
   const PlaneShape left = input_shapes.at(0);
   if (!(input_shapes.at(1) == left)) {
@@ -168,8 +195,8 @@ PreparedKernel sgm_prepare(SgmPass pass, const nlohmann::json& json, const std::
                       std::to_string(params->num_disparities) + " disparities, " + shape_text(sums) + ", got " +
                       shape_text(input_shapes[2]));
   }
-  PreparedKernel prepared{params, {pass == SgmPass::forward ? sums : left}, {}, {}};
-  if (pass != SgmPass::forward) {
+  PreparedKernel prepared{params, {sgm_writes_sums(pass) ? sums : left}, {}, {}};
+  if (!sgm_writes_sums(pass)) {
     prepared.input_halos = {Halo{}, Halo{sgm_left_halo(*params), sgm_right_halo(*params), 0, 0}};
     if (pass == SgmPass::backward) prepared.input_halos.push_back(Halo{});
   }
@@ -183,9 +210,14 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
   descriptor.name = name;
   const BufferFormat census{word_bytes == 4 ? ElementType::census32 : ElementType::census64, 0};
   const std::string census_name = word_bytes == 4 ? "census32" : "census64";
-  const PortAccess census_access = pass == SgmPass::forward ? PortAccess::whole : PortAccess::window;
-  descriptor.ports = {{"left", PortDirection::input, census, census_access},
-                      {"right", PortDirection::input, census, census_access}};
+  const PortAccess census_access = sgm_writes_sums(pass) ? PortAccess::whole : PortAccess::window;
+  if (pass == SgmPass::select) {
+    descriptor.ports = {{"forward", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole},
+                        {"backward", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole}};
+  } else {
+    descriptor.ports = {{"left", PortDirection::input, census, census_access},
+                        {"right", PortDirection::input, census, census_access}};
+  }
   switch (pass) {
     case SgmPass::single:
       descriptor.summary = "semi-global matching, 4 paths in one row-streaming pass, on " + census_name +
@@ -201,8 +233,18 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
       descriptor.ports.push_back({"forward", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole});
       descriptor.rows_bottom_up = true;
       break;
+    case SgmPass::backward_sums:
+      descriptor.summary = "8-path SGM, backward paths (right, bottom-right, bottom, bottom-left, rows bottom up) on " +
+                           census_name + " Hamming costs: their per-pixel sums, u16 W*D per row (runs beside the forward pass)";
+      descriptor.rows_bottom_up = true;
+      break;
+    case SgmPass::select:
+      descriptor.summary = "8-path SGM, selection: forward + backward sums, winner takes all with uniqueness, sub-pixel "
+                           "and LR check: s16 Q4 disparity (no row state: row tiles run in parallel)";
+      descriptor.full_width_tiles = true;
+      break;
   }
-  if (pass == SgmPass::forward) {
+  if (sgm_writes_sums(pass)) {
     descriptor.ports.push_back({"sums", PortDirection::output, {ElementType::u16, 0}, PortAccess::window});
   } else {
     descriptor.ports.push_back({"disparity", PortDirection::output, {ElementType::s16, 4}, PortAccess::window});
@@ -213,12 +255,14 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
   };
   // The forward pass's output is W*D wide: the image width is that over D.
   auto image_width = [pass](int output_width, const SgmParams& params) {
-    return pass == SgmPass::forward ? output_width / params.num_disparities : output_width;
+    return sgm_writes_sums(pass) ? output_width / params.num_disparities : output_width;
   };
-  descriptor.state_bytes = [image_width](int width, int, const void* params_pointer) {
-    const auto& params = *static_cast<const SgmParams*>(params_pointer);
-    return sgm_state_bytes(image_width(width, params), params.num_disparities);
-  };
+  if (sgm_runs_paths(pass)) {
+    descriptor.state_bytes = [image_width](int width, int, const void* params_pointer) {
+      const auto& params = *static_cast<const SgmParams*>(params_pointer);
+      return sgm_state_bytes(image_width(width, params), params.num_disparities);
+    };
+  }
   descriptor.scratch_bytes = [pass, word_bytes, image_width](int tile_width, int, const void* params_pointer) {
     const auto& params = *static_cast<const SgmParams*>(params_pointer);
     return sgm_scratch_layout(image_width(tile_width, params), params, pass, word_bytes).total;

@@ -67,13 +67,15 @@ TEST(DisparityEngine, SgmIsDenseAndAccurateOnTheSyntheticSceneAndHalvesTheWinner
 TEST(DisparityEngine, BuildsTheGraphOfItsParameters) {
   arm::DisparityParameters parameters;
   const GraphSpec defaults = arm::DisparityEngine::graph_spec(parameters);
-  ASSERT_EQ(defaults.nodes.size(), 6u);
+  ASSERT_EQ(defaults.nodes.size(), 7u);
   EXPECT_EQ(defaults.nodes[2].kernel, "sgm_8path_forward");
-  EXPECT_EQ(defaults.nodes[3].kernel, "sgm_8path_backward");
-  EXPECT_EQ(defaults.nodes[4].kernel, "median3x3_s16");
-  EXPECT_EQ(defaults.nodes[5].task, "speckle_filter");
-  EXPECT_EQ(defaults.nodes[5].params.at("max_difference_q4"), 32);
-  EXPECT_EQ(defaults.nodes[5].outputs.at("filtered"), "disparity");
+  EXPECT_EQ(defaults.nodes[3].kernel, "sgm_8path_backward_sums");
+  EXPECT_EQ(defaults.nodes[4].kernel, "sgm_8path_select");
+  EXPECT_EQ(defaults.nodes[4].inputs.at("backward").buffer, "backward_sums");
+  EXPECT_EQ(defaults.nodes[5].kernel, "median3x3_s16");
+  EXPECT_EQ(defaults.nodes[6].task, "speckle_filter");
+  EXPECT_EQ(defaults.nodes[6].params.at("max_difference_q4"), 32);
+  EXPECT_EQ(defaults.nodes[6].outputs.at("filtered"), "disparity");
   parameters.paths = 4;
   parameters.median = false;
   parameters.speckle_max_size_px = 0;
@@ -87,6 +89,7 @@ TEST(DisparityEngine, BuildsTheGraphOfItsParameters) {
   parameters.census_width = 9;
   parameters.median = true;
   parameters.speckle_max_size_px = 0;
+  parameters.parallel_8path_passes = false;
   const GraphSpec eight = arm::DisparityEngine::graph_spec(parameters);
   ASSERT_EQ(eight.nodes.size(), 5u);
   EXPECT_EQ(eight.nodes[0].kernel, "census9x7");

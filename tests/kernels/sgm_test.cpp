@@ -127,6 +127,17 @@ Plane reference_forward_sums(const Plane& left, const Plane& right, const nlohma
   return sums;
 }
 
+// The backward paths' sums the reference gives (sgm_8path_backward_sums), as sgm_8path_select's second input.
+Plane reference_backward_sums(const Plane& left, const Plane& right, const nlohmann::json& params, int word_bytes) {
+  const KernelDescriptor& kernel =
+      testing::kernel_named(word_bytes == 4 ? "sgm_8path_backward_sums" : "sgm_8path_backward_sums_census64");
+  const PreparedKernel prepared = kernel.prepare(params, {{left.width(), left.height()}, {right.width(), right.height()}});
+  const PlaneShape shape = prepared.output_shapes.at(0);
+  Plane sums(shape.width, shape.height, {ElementType::u16, 0}, shape.width * 2 + 10);
+  kernel.reference({left.view(), right.view()}, {sums.view()}, prepared.params.get(), BorderMode::replicate, 0);
+  return sums;
+}
+
 nlohmann::json forward_params(const nlohmann::json& params) {
   nlohmann::json result = params;
   result.erase("uniqueness_percent");
@@ -149,6 +160,49 @@ TEST(Sgm8Path, ForwardAndBackwardMatchReferenceAcrossTileHeights) {
     backward.inputs = {pair.left, pair.right, reference_forward_sums(pair.left, pair.right, forward_params(params), 4)};
     expect_all_back_ends_match_reference(backward, {{47, 19}, {47, 6}, {47, 1}});
   }
+}
+
+// The host-parallel 8-path pair: the backward paths' sums on their own, and the selection from both
+// sums, against the reference at odd sizes across tile heights; and its output equals the two-pass
+// pair's (sgm_8path_forward + sgm_8path_backward) bit for bit, so the engine may pick either.
+TEST(Sgm8Path, BackwardSumsAndSelectMatchReferenceAndTheTwoPassPair) {
+  for (const RangeCase& range : kRanges) {
+    const nlohmann::json params = sgm_params(range.min_disparity, range.num_disparities, 6, 70, range.uniqueness,
+                                             range.subpixel, range.lr_max_diff);
+    CensusPair pair = shifted_census(45, 17, ElementType::census32, 52 * 4, std::max(range.min_disparity, -5),
+                                     range.min_disparity + range.num_disparities - 1, 33);
+    SCOPED_TRACE("min_disparity " + std::to_string(range.min_disparity) + " D " + std::to_string(range.num_disparities));
+    const int sums_width = 45 * range.num_disparities;
+    KernelCase backward_sums{"sgm_8path_backward_sums", forward_params(params), {pair.left, pair.right}, 6};
+    expect_all_back_ends_match_reference(backward_sums, {{sums_width, 17}, {sums_width, 5}, {sums_width, 1}});
+    const Plane forward = reference_forward_sums(pair.left, pair.right, forward_params(params), 4);
+    const Plane backward = reference_backward_sums(pair.left, pair.right, forward_params(params), 4);
+    KernelCase select{"sgm_8path_select", params, {forward, backward}, 4};
+    expect_all_back_ends_match_reference(select, {{45, 17}, {45, 4}, {45, 1}});
+
+    const KernelDescriptor& two_pass = testing::kernel_named("sgm_8path_backward");
+    const PreparedKernel two_pass_prepared =
+        two_pass.prepare(params, {{45, 17}, {45, 17}, {forward.width(), forward.height()}});
+    Plane expected(45, 17, {ElementType::s16, 4});
+    two_pass.reference({pair.left.view(), pair.right.view(), forward.view()}, {expected.view()},
+                       two_pass_prepared.params.get(), BorderMode::replicate, 0);
+    const KernelDescriptor& selector = testing::kernel_named("sgm_8path_select");
+    const PreparedKernel select_prepared = selector.prepare(params, {{forward.width(), 17}, {backward.width(), 17}});
+    Plane actual(45, 17, {ElementType::s16, 4});
+    VectorNodeBinding binding{&selector, select_prepared.params.get(), BorderMode::replicate, 0,
+                              {forward.view(), backward.view()}, {actual.view()}, select_prepared.input_halos};
+    run_vector_node(binding, 45, 5, KernelBackend::native, simd::available_isas().back());
+    for (int y = 0; y < 17; ++y) {
+      for (int x = 0; x < 45; ++x) ASSERT_EQ(actual.at<int16_t>(x, y), expected.at<int16_t>(x, y)) << "x=" << x << " y=" << y;
+    }
+  }
+}
+
+TEST(Sgm8Path, BackwardSumsCensus64MatchesReference) {
+  const nlohmann::json params = sgm_params(-4, 33, 10, 120, 10, 1, 1);
+  CensusPair pair = shifted_census(29, 11, ElementType::census64, 32 * 8, 0, 25, 5);
+  KernelCase backward_sums{"sgm_8path_backward_sums_census64", forward_params(params), {pair.left, pair.right}, 4};
+  expect_all_back_ends_match_reference(backward_sums, {{29 * 33, 11}, {29 * 33, 3}});
 }
 
 TEST(Sgm8Path, Census64MatchesReference) {
@@ -342,7 +396,8 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
   using simd::OpClass;
   const int64_t L = 32, L32 = 16, s = 5, t = 4;
   const int64_t V = (p.num_disparities + L - 1) / L, Dp = V * L;
-  const bool select = pass != kernels::SgmPass::forward;
+  const bool select = kernels::sgm_selects(pass);
+  const bool paths = kernels::sgm_runs_paths(pass);
   const bool lr = select && p.lr_max_diff >= 0, unique = select && p.uniqueness_percent > 0, sub = select && p.subpixel;
   const int64_t tiles = (height + tile_height - 1) / tile_height;
   const int64_t rows = height, pixels = int64_t{width} * height;
@@ -350,7 +405,7 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
   auto add = [](simd::OpCounts& counts, OpClass op, int64_t n) { counts[op] += static_cast<uint64_t>(n); };
   // Per tile: broadcasts, the zero "previous pixel", the left path's sentinels, lane indices.
   add(per_tile, OpClass::permute, 4 + 2 + 5);
-  add(per_tile, OpClass::store, (Dp + 2 + L - 1) / L + 2);
+  if (paths) add(per_tile, OpClass::store, (Dp + 2 + L - 1) / L + 2);
   add(per_tile, OpClass::load, 1);
   add(per_tile, OpClass::compare, V);
   add(per_tile, OpClass::arith, 2 * V);
@@ -365,7 +420,7 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
     add(per_tile, OpClass::permute, 4);
   }
   // Per row.
-  if (pass == kernels::SgmPass::forward) {  // staging the right row with its border
+  if (kernels::sgm_writes_sums(pass)) {  // staging the right row with its border
     const int64_t word_lanes = 64 / word_bytes;
     const int64_t left_halo = kernels::sgm_left_halo(p), right_halo = kernels::sgm_right_halo(p);
     add(per_row, OpClass::permute, 2);
@@ -404,17 +459,23 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
       add(per_row, OpClass::logic, 4 * halves);
     }
   }
-  // Per pixel: census costs.
-  add(per_pixel, OpClass::permute, 1 + V * (word_bytes == 4 ? 1 : 3));
-  add(per_pixel, OpClass::load, V * (word_bytes == 4 ? 2 : 4));
-  add(per_pixel, OpClass::logic, V * (word_bytes == 4 ? 2 : 4) + (Dp != p.num_disparities ? 1 : 0));
-  add(per_pixel, OpClass::popcount, V * (word_bytes == 4 ? 2 : 4));
-  // Four path steps: 3V loads, V stores, (V - 1) + s + 1 + 6V arith, s permutes; sums 3V.
-  add(per_pixel, OpClass::load, 4 * 3 * V);
-  add(per_pixel, OpClass::store, 4 * V);
-  add(per_pixel, OpClass::arith, 4 * ((V - 1) + s + 1 + 6 * V) + 3 * V);
-  add(per_pixel, OpClass::permute, 4 * s);
-  if (pass == kernels::SgmPass::forward) add(per_pixel, OpClass::store, V);
+  if (paths) {
+    // Per pixel: census costs.
+    add(per_pixel, OpClass::permute, 1 + V * (word_bytes == 4 ? 1 : 3));
+    add(per_pixel, OpClass::load, V * (word_bytes == 4 ? 2 : 4));
+    add(per_pixel, OpClass::logic, V * (word_bytes == 4 ? 2 : 4) + (Dp != p.num_disparities ? 1 : 0));
+    add(per_pixel, OpClass::popcount, V * (word_bytes == 4 ? 2 : 4));
+    // Four path steps: 3V loads, V stores, (V - 1) + s + 1 + 6V arith, s permutes; sums 3V.
+    add(per_pixel, OpClass::load, 4 * 3 * V);
+    add(per_pixel, OpClass::store, 4 * V);
+    add(per_pixel, OpClass::arith, 4 * ((V - 1) + s + 1 + 6 * V) + 3 * V);
+    add(per_pixel, OpClass::permute, 4 * s);
+  } else {  // the two sums loaded and added, the padding lanes set
+    add(per_pixel, OpClass::load, 2 * V);
+    add(per_pixel, OpClass::arith, V);
+    add(per_pixel, OpClass::logic, Dp != p.num_disparities ? 1 : 0);
+  }
+  if (kernels::sgm_writes_sums(pass)) add(per_pixel, OpClass::store, V);
   if (pass == kernels::SgmPass::backward) {
     add(per_pixel, OpClass::load, V);
     add(per_pixel, OpClass::arith, V);
@@ -460,22 +521,30 @@ TEST(SgmOps, CountedOpsEqualClosedForm) {
       {kernels::SgmPass::single, 4, 45, 7, 3, 0, 64, 10, 1, 1},   {kernels::SgmPass::single, 4, 33, 5, 5, -3, 20, 0, 0, -1},
       {kernels::SgmPass::single, 8, 21, 4, 2, 2, 40, 5, 1, -1},   {kernels::SgmPass::forward, 4, 30, 5, 2, -4, 33, 0, 1, -1},
       {kernels::SgmPass::forward, 8, 19, 3, 3, 0, 16, 0, 1, -1},  {kernels::SgmPass::backward, 4, 37, 6, 4, 1, 96, 15, 1, 2},
-      {kernels::SgmPass::backward, 8, 17, 3, 1, 0, 32, 0, 0, 0}};
-  const char* names[2][3] = {{"sgm_4path", "sgm_8path_forward", "sgm_8path_backward"},
-                             {"sgm_4path_census64", "sgm_8path_forward_census64", "sgm_8path_backward_census64"}};
+      {kernels::SgmPass::backward, 8, 17, 3, 1, 0, 32, 0, 0, 0},  {kernels::SgmPass::backward_sums, 4, 31, 5, 2, -2, 35, 0, 1, -1},
+      {kernels::SgmPass::backward_sums, 8, 18, 4, 3, 0, 32, 0, 1, -1}, {kernels::SgmPass::select, 4, 39, 6, 4, 1, 96, 15, 1, 2},
+      {kernels::SgmPass::select, 4, 23, 5, 2, -3, 20, 0, 0, -1}};
+  const char* names[2][5] = {{"sgm_4path", "sgm_8path_forward", "sgm_8path_backward", "sgm_8path_backward_sums", "sgm_8path_select"},
+                             {"sgm_4path_census64", "sgm_8path_forward_census64", "sgm_8path_backward_census64",
+                              "sgm_8path_backward_sums_census64", ""}};
   for (const OpCase& c : cases) {
     const std::string name = names[c.word_bytes == 4 ? 0 : 1][static_cast<int>(c.pass)];
     nlohmann::json params = sgm_params(c.min_disparity, c.count, 4, 50, c.uniqueness, c.subpixel, c.lr);
-    if (c.pass == kernels::SgmPass::forward) params = forward_params(params);
+    if (kernels::sgm_writes_sums(c.pass)) params = forward_params(params);
     const ElementType type = c.word_bytes == 4 ? ElementType::census32 : ElementType::census64;
     KernelCase test_case{name, params, {random_census(c.width, c.height, type, 0, 1), random_census(c.width, c.height, type, 0, 2)}, 0};
     if (c.pass == kernels::SgmPass::backward) {
       test_case.inputs.push_back(reference_forward_sums(test_case.inputs[0], test_case.inputs[1], forward_params(params), c.word_bytes));
     }
+    if (c.pass == kernels::SgmPass::select) {
+      const Plane left = test_case.inputs[0], right = test_case.inputs[1];
+      test_case.inputs = {reference_forward_sums(left, right, forward_params(params), c.word_bytes),
+                          reference_backward_sums(left, right, forward_params(params), c.word_bytes)};
+    }
     const KernelDescriptor& kernel = testing::kernel_named(name);
     const PreparedKernel prepared = testing::prepare_case(kernel, test_case);
     const auto& p = *static_cast<const kernels::SgmParams*>(prepared.params.get());
-    const int output_width = c.pass == kernels::SgmPass::forward ? c.width * c.count : c.width;
+    const int output_width = kernels::sgm_writes_sums(c.pass) ? c.width * c.count : c.width;
     EXPECT_TRUE(testing::op_counts_equal(expected_sgm_ops(c.pass, c.word_bytes, p, c.width, c.height, c.tile_height),
                                          testing::count_ops(test_case, output_width, c.tile_height)))
         << name << " " << c.width << "x" << c.height << " tile height " << c.tile_height << " D " << c.count;
