@@ -105,14 +105,27 @@ Plane remap_fixed_point(const Plane& source, const Plane& table) {
   return output;
 }
 
-void fixed_point_rectification(const std::string& data) {
+// fisheye_mynteye: the pair and its Kimera sensor files, read when all four are there.
+struct MyntEyePair {
+  io::StereoCalibration calibration;
+  Plane left, right;
+};
+
+void with_mynteye_pair(const std::string& data, const std::string& title, const std::function<void(const MyntEyePair&)>& body) {
   const std::string folder = data + "/fisheye_mynteye/";
   const std::vector<std::string> files = {folder + "left_fisheye_img_0.png", folder + "right_fisheye_img_0.png",
                                           folder + "left_sensor_fisheye.yaml", folder + "right_sensor_fisheye.yaml"};
-  with_files("fixed-point rectification of fisheye_mynteye (equidistant, pinhole rectification) vs cv::remap", files, [&] {
-    const io::StereoCalibration calibration = io::load_stereo_calibration(files[2], files[3]);
-    const Plane left = io::read_luma_u8(files[0]);
-    const Plane right = io::read_luma_u8(files[1]);
+  with_files(title, files, [&] {
+    body({io::load_stereo_calibration(files[2], files[3]), io::read_luma_u8(files[0]), io::read_luma_u8(files[1])});
+  });
+}
+
+void fixed_point_rectification(const std::string& data) {
+  with_mynteye_pair(data, "fixed-point rectification of fisheye_mynteye (equidistant, pinhole rectification) vs cv::remap",
+                    [&](const MyntEyePair& pair) {
+    const io::StereoCalibration& calibration = pair.calibration;
+    const Plane& left = pair.left;
+    const Plane& right = pair.right;
     const io::RectificationMaps maps = io::compute_rectification_maps(calibration, left.width(), left.height());
     cv::Mat rectified[2];
     for (int view = 0; view < 2; ++view) {
@@ -145,13 +158,11 @@ void fixed_point_rectification(const std::string& data) {
 }
 
 void latlong_rectification(const std::string& data) {
-  const std::string folder = data + "/fisheye_mynteye/";
-  const std::vector<std::string> files = {folder + "left_fisheye_img_0.png", folder + "right_fisheye_img_0.png",
-                                          folder + "left_sensor_fisheye.yaml", folder + "right_sensor_fisheye.yaml"};
-  with_files("latitude-longitude rectification of fisheye_mynteye (equidistant), remap_bilinear kernel", files, [&] {
-    const io::StereoCalibration calibration = io::load_stereo_calibration(files[2], files[3]);
-    const Plane left = io::read_luma_u8(files[0]);
-    const Plane right = io::read_luma_u8(files[1]);
+  with_mynteye_pair(data, "latitude-longitude rectification of fisheye_mynteye (equidistant), remap_bilinear kernel",
+                    [&](const MyntEyePair& pair) {
+    const io::StereoCalibration& calibration = pair.calibration;
+    const Plane& left = pair.left;
+    const Plane& right = pair.right;
     for (double hfov_deg : {180.0, 120.0}) {
       io::LatLongOptions options;
       options.hfov_rad = hfov_deg * M_PI / 180.0;

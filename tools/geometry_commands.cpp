@@ -47,16 +47,23 @@ io::StereoCalibration load_calibration(const std::vector<std::string>& files) {
 
 // ---- rectify ----
 
+// "AxB" (or "AXB") with both numbers in [low, high]; nullopt otherwise.
+std::optional<cv::Size> parse_times(const std::string& text, int low, int high) {
+  int a = 0, b = 0;
+  char separator = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &a, &separator, &b, &extra) != 3 || (separator != 'x' && separator != 'X') || a < low ||
+      b < low || a > high || b > high) {
+    return std::nullopt;
+  }
+  return cv::Size(a, b);
+}
+
 // --size WxH (0x0 = the input size).
 cv::Size parse_output_size(const std::string& text) {
   if (text.empty()) return {0, 0};
-  int width = 0, height = 0;
-  char separator = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &width, &separator, &height, &extra) != 3 || (separator != 'x' && separator != 'X') ||
-      width < 1 || height < 1 || width > 8192 || height > 8192) {
-    throw CommandError(kExitUsage, "--size: expected WIDTHxHEIGHT in pixels, each 1..8192 (e.g. 752x480), got '" + text + "'");
-  }
-  return {width, height};
+  const std::optional<cv::Size> size = parse_times(text, 1, 8192);
+  if (!size) throw CommandError(kExitUsage, "--size: expected WIDTHxHEIGHT in pixels, each 1..8192 (e.g. 752x480), got '" + text + "'");
+  return *size;
 }
 
 int run_rectify(const std::string& left_path, const std::string& right_path, const std::vector<std::string>& calibration_files,
@@ -146,13 +153,9 @@ int run_check_rectification(const std::string& left_path, const std::string& rig
 // ---- calibrate ----
 
 cv::Size parse_board(const std::string& text) {
-  int columns = 0, rows = 0;
-  char separator = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &columns, &separator, &rows, &extra) != 3 || (separator != 'x' && separator != 'X') ||
-      columns < 2 || rows < 2 || columns > 100 || rows > 100) {
-    throw CommandError(kExitUsage, "--board: expected COLSxROWS inner corners, each 2..100 (e.g. 9x6), got '" + text + "'");
-  }
-  return {columns, rows};
+  const std::optional<cv::Size> board = parse_times(text, 2, 100);
+  if (!board) throw CommandError(kExitUsage, "--board: expected COLSxROWS inner corners, each 2..100 (e.g. 9x6), got '" + text + "'");
+  return *board;
 }
 
 std::vector<std::pair<std::string, std::string>> read_image_list(const std::string& list_path) {
