@@ -9,6 +9,10 @@
 //                         remap_bilinear kernel (remap_q5 tables) against cv::remap(INTER_LINEAR)
 //                         on the float maps: share of pixels within 1 grey level (>= 99.9 %), and
 //                         the vertical offset of matched features after rectification
+//   lat-long rectification the same pair rectified latitude-longitude (rows = epipolar planes) by
+//                         the same kernel, hfov 180 and 120 degrees at the input size: median
+//                         vertical offset of matched features (io/row_alignment, as
+//                         lpstereo check-rectification measures it), at most 0.5 px
 //
 // Usage: geometry_eval [--data DIR]
 #include <cmath>
@@ -101,14 +105,27 @@ Plane remap_fixed_point(const Plane& source, const Plane& table) {
   return output;
 }
 
-void fixed_point_rectification(const std::string& data) {
+// fisheye_mynteye: the pair and its Kimera sensor files, read when all four are there.
+struct MyntEyePair {
+  io::StereoCalibration calibration;
+  Plane left, right;
+};
+
+void with_mynteye_pair(const std::string& data, const std::string& title, const std::function<void(const MyntEyePair&)>& body) {
   const std::string folder = data + "/fisheye_mynteye/";
   const std::vector<std::string> files = {folder + "left_fisheye_img_0.png", folder + "right_fisheye_img_0.png",
                                           folder + "left_sensor_fisheye.yaml", folder + "right_sensor_fisheye.yaml"};
-  with_files("fixed-point rectification of fisheye_mynteye (equidistant, pinhole rectification) vs cv::remap", files, [&] {
-    const io::StereoCalibration calibration = io::load_stereo_calibration(files[2], files[3]);
-    const Plane left = io::read_luma_u8(files[0]);
-    const Plane right = io::read_luma_u8(files[1]);
+  with_files(title, files, [&] {
+    body({io::load_stereo_calibration(files[2], files[3]), io::read_luma_u8(files[0]), io::read_luma_u8(files[1])});
+  });
+}
+
+void fixed_point_rectification(const std::string& data) {
+  with_mynteye_pair(data, "fixed-point rectification of fisheye_mynteye (equidistant, pinhole rectification) vs cv::remap",
+                    [&](const MyntEyePair& pair) {
+    const io::StereoCalibration& calibration = pair.calibration;
+    const Plane& left = pair.left;
+    const Plane& right = pair.right;
     const io::RectificationMaps maps = io::compute_rectification_maps(calibration, left.width(), left.height());
     cv::Mat rectified[2];
     for (int view = 0; view < 2; ++view) {
@@ -140,6 +157,30 @@ void fixed_point_rectification(const std::string& data) {
   });
 }
 
+void latlong_rectification(const std::string& data) {
+  with_mynteye_pair(data, "latitude-longitude rectification of fisheye_mynteye (equidistant), remap_bilinear kernel",
+                    [&](const MyntEyePair& pair) {
+    const io::StereoCalibration& calibration = pair.calibration;
+    const Plane& left = pair.left;
+    const Plane& right = pair.right;
+    for (double hfov_deg : {180.0, 120.0}) {
+      io::LatLongOptions options;
+      options.hfov_rad = hfov_deg * M_PI / 180.0;
+      const io::RectificationMaps maps = io::compute_latlong_maps(calibration, left.width(), left.height(), options);
+      const Plane left_out = remap_fixed_point(left, io::rectification_table(maps.left_x, maps.left_y, "left"));
+      const Plane right_out = remap_fixed_point(right, io::rectification_table(maps.right_x, maps.right_y, "right"));
+      const io::RowAlignment after = io::measure_row_alignment(io::plane_to_mat(left_out), io::plane_to_mat(right_out), "akaze");
+      char line[320];
+      std::snprintf(line, sizeof(line),
+                    "hfov %.0f deg, %dx%d, %.2f px/rad, %.1f %%/%.1f %% of the pixels from inside the sources: vertical offset of "
+                    "matched features median %.3f px (p95 %.3f, %zu matches), at most 0.5 px",
+                    hfov_deg, maps.width, maps.height, maps.geometry.focal_px, 100 * maps.left_inside, 100 * maps.right_inside,
+                    after.median_px, after.p95_px, after.matches);
+      check(after.median_px <= 0.5, line);
+    }
+  });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -157,6 +198,7 @@ int main(int argc, char** argv) {
   std::printf("geometry_eval: data folder %s\n", data.c_str());
   calibration_loaders(data);
   fixed_point_rectification(data);
+  latlong_rectification(data);
   std::printf("geometry_eval: %d passed, %d failed\n", passes, failures);
   return failures == 0 ? 0 : 1;
 }

@@ -200,10 +200,18 @@ GraphSpec parse_graph_spec(const std::string& json_text, const std::string& sour
     if (!constants.is_array()) spec_error(source_name, "$.constants", "expected an array");
     for (size_t i = 0; i < constants.size(); ++i) {
       const std::string path = "$.constants[" + std::to_string(i) + "]";
-      check_keys(constants[i], {"name", "generator", "params", "comment"}, source_name, path);
+      check_keys(constants[i], {"name", "generator", "params", "width", "height", "comment"}, source_name, path);
       ConstantSpec constant{require_string(constants[i], "name", source_name, path),
                             require_string(constants[i], "generator", source_name, path), nlohmann::json::object()};
       if (constants[i].contains("params")) constant.params = constants[i].at("params");
+      for (const char* key : {"width", "height"}) {
+        if (!constants[i].contains(key)) continue;
+        const nlohmann::json& value = constants[i].at(key);
+        if (!value.is_number_integer() || value.get<int64_t>() < 0 || value.get<int64_t>() > 65536) {
+          spec_error(source_name, path + "." + key, "expected an integer 0..65536 (0 = the frame size), got " + value.dump());
+        }
+        (std::string(key) == "width" ? constant.width : constant.height) = value.get<int>();
+      }
       spec.constants.push_back(constant);
     }
   }
@@ -301,7 +309,8 @@ void Graph::verify(const VerifyOptions& options) {
     }
     buffers_[index].is_constant = true;
     buffers_[index].format = generator->second.format;
-    buffers_[index].shape = {options.frame_width, options.frame_height};
+    buffers_[index].shape = {constant.width > 0 ? constant.width : options.frame_width,
+                             constant.height > 0 ? constant.height : options.frame_height};
   }
   std::set<std::string> node_names;
   for (const NodeSpec& node_spec : spec_.nodes) {

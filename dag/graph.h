@@ -74,6 +74,10 @@ struct ConstantSpec {
   std::string name;
   std::string generator;
   nlohmann::json params = nlohmann::json::object();
+  // The plane's size when it is not the frame's (0 = the frame size): a remap table whose output
+  // differs from its source, e.g. a latitude-longitude rectification to another size.
+  int width = 0;
+  int height = 0;
 };
 
 struct GraphSpec {

@@ -8,6 +8,7 @@
 #include <tuple>
 #include <vector>
 
+#include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
 #include "dag/atomic_file.h"
@@ -334,7 +335,8 @@ LensModel lens_from_name(const std::string& name, const std::string& source) {
     return LensModel::pinhole;
   }
   if (lower == "equidistant" || lower == "fisheye" || lower == "kannala_brandt") return LensModel::equidistant;
-  fail(source, "distortion model '" + name + "': expected plumb_bob/radtan or equidistant/fisheye");
+  if (lower == "mei" || lower == "omni" || lower == "omnidir" || lower == "unified") return LensModel::mei;
+  fail(source, "distortion model '" + name + "': expected plumb_bob/radtan, equidistant/fisheye or mei/omnidir");
 }
 
 // Distortion coefficients for `lens` from a list in the file's order.
@@ -342,6 +344,14 @@ void set_distortion(CameraModel& camera, const std::vector<double>& d, const std
   camera.distortion = {};
   if (camera.lens == LensModel::equidistant) {
     if (d.size() != 4) fail(source, key + ": expected 4 equidistant coefficients k1 k2 k3 k4, got " + std::to_string(d.size()));
+    std::copy(d.begin(), d.end(), camera.distortion.begin());
+    return;
+  }
+  if (camera.lens == LensModel::mei) {
+    // cv::omnidir and Kalibr omni-radtan: k1 k2 p1 p2; Mei's toolbox adds k5 (sixth-order radial).
+    if (d.size() != 0 && d.size() != 4 && d.size() != 5) {
+      fail(source, key + ": expected 4 or 5 Mei coefficients k1 k2 p1 p2 [k5] (or none), got " + std::to_string(d.size()));
+    }
     std::copy(d.begin(), d.end(), camera.distortion.begin());
     return;
   }
@@ -393,6 +403,10 @@ StereoCalibration load_opencv(const cv::FileStorage& intrinsics, const cv::FileS
     set_distortion(*camera, read_numbers(intrinsics[d], d, source), d, source);
     read_image_size(intrinsics, *camera, source);
   }
+  if (lens == LensModel::mei) {
+    calibration.left.xi = require_numbers(intrinsics, "xi1", 1, source)[0];
+    calibration.right.xi = require_numbers(intrinsics, "xi2", 1, source)[0];
+  }
   calibration.rotation = to_array<9>(require_numbers(extrinsics, "R", 9, source));
   calibration.translation_m = to_array<3>(require_numbers(extrinsics, "T", 3, source));
   const bool any_rectification = has(extrinsics, "R1") || has(extrinsics, "R2") || has(extrinsics, "P1") || has(extrinsics, "P2");
@@ -405,6 +419,36 @@ StereoCalibration load_opencv(const cv::FileStorage& intrinsics, const cv::FileS
     if (has(extrinsics, "Q")) rectification.q = to_array<16>(require_numbers(extrinsics, "Q", 16, source));
     calibration.rectification = rectification;
   }
+  return calibration;
+}
+
+// opencv_contrib's omni_stereo_calibration sample: camera_matrix_1 distortion_coefficients_1 xi_1,
+// the same with _2, and extrinsic_parameters = (rvec, tvec) of cv::omnidir::stereoCalibrate, which
+// maps the first camera's frame into the second's (X_2 = R X_1 + T), in the units of the pattern
+// size given to the calibration (metres here). The file carries no image size.
+StereoCalibration load_omnidir(const cv::FileStorage& storage, const std::string& source) {
+  StereoCalibration calibration;
+  calibration.format = "opencv_omnidir";
+  calibration.source = source;
+  for (auto [camera, suffix] : {std::pair{&calibration.left, "_1"}, std::pair{&calibration.right, "_2"}}) {
+    camera->lens = LensModel::mei;
+    const std::string k_key = std::string("camera_matrix") + suffix;
+    const std::vector<double> k = require_numbers(storage, k_key, 9, source);
+    if (k[1] != 0) {
+      fail(source, k_key + ": skew s = " + number_text(k[1]) + ", expected 0 (calibrate with cv::omnidir::CALIB_FIX_SKEW)");
+    }
+    set_intrinsics(*camera, k, k_key, source);
+    const std::string d_key = std::string("distortion_coefficients") + suffix;
+    if (!has(storage, d_key.c_str())) fail(source, "missing " + d_key);
+    set_distortion(*camera, read_numbers(storage[d_key], d_key, source), d_key, source);
+    camera->xi = require_numbers(storage, std::string("xi") + suffix, 1, source)[0];
+    read_image_size(storage, *camera, source);
+  }
+  const std::vector<double> pose = require_numbers(storage, "extrinsic_parameters", 6, source);
+  cv::Matx33d rotation;
+  cv::Rodrigues(cv::Vec3d(pose[0], pose[1], pose[2]), rotation);
+  std::copy(rotation.val, rotation.val + 9, calibration.rotation.begin());
+  calibration.translation_m = {pose[3], pose[4], pose[5]};
   return calibration;
 }
 
@@ -422,6 +466,7 @@ SingleCamera load_single_camera(const cv::FileStorage& storage, const std::strin
   if (has(storage, "camera_matrix")) {  // ROS camera_info
     format = "ros_camera_info";
     camera.lens = lens_from_name(read_string(storage["distortion_model"]), source);
+    if (camera.lens == LensModel::mei) fail(source, "distortion_model: ROS camera_info has no xi, so no Mei (omnidir) model");
     set_intrinsics(camera, require_numbers(storage, "camera_matrix", 9, source), "camera_matrix", source);
     if (has(storage, "distortion_coefficients")) {
       set_distortion(camera, read_numbers(storage["distortion_coefficients"], "distortion_coefficients", source),
@@ -438,13 +483,30 @@ SingleCamera load_single_camera(const cv::FileStorage& storage, const std::strin
   } else if (has(storage, "intrinsics")) {  // Kalibr / Kimera sensor YAML
     format = "kalibr";
     const std::string model = read_string(storage["camera_model"]);
-    if (!model.empty() && model != "pinhole") fail(source, "camera_model '" + model + "': expected pinhole");
-    camera.lens = lens_from_name(read_string(storage["distortion_model"]), source);
-    const std::vector<double> k = require_numbers(storage, "intrinsics", 4, source);
-    camera.fx_px = k[0];
-    camera.fy_px = k[1];
-    camera.cx_px = k[2];
-    camera.cy_px = k[3];
+    if (!model.empty() && model != "pinhole" && model != "omni") {
+      fail(source, "camera_model '" + model + "': expected pinhole or omni (Mei's unified model)");
+    }
+    const std::string distortion_model = read_string(storage["distortion_model"]);
+    if (model == "omni") {
+      // Kalibr's omni camera: intrinsics [xi, gamma1, gamma2, cu, cv], radtan (k1 k2 p1 p2) or none.
+      if (!distortion_model.empty() && distortion_model != "radtan" && distortion_model != "none") {
+        fail(source, "distortion_model '" + distortion_model + "' with camera_model omni: expected radtan or none");
+      }
+      camera.lens = LensModel::mei;
+      const std::vector<double> k = require_numbers(storage, "intrinsics", 5, source);
+      camera.xi = k[0];
+      camera.fx_px = k[1];
+      camera.fy_px = k[2];
+      camera.cx_px = k[3];
+      camera.cy_px = k[4];
+    } else {
+      camera.lens = lens_from_name(distortion_model, source);
+      const std::vector<double> k = require_numbers(storage, "intrinsics", 4, source);
+      camera.fx_px = k[0];
+      camera.fy_px = k[1];
+      camera.cx_px = k[2];
+      camera.cy_px = k[3];
+    }
     const char* coefficients = has(storage, "distortion_coefficients") ? "distortion_coefficients" : "distortion_coeffs";
     if (has(storage, coefficients)) {
       set_distortion(camera, read_numbers(storage[coefficients], coefficients, source), coefficients, source);
@@ -514,6 +576,7 @@ StereoCalibration load_storage_file(const std::string& path, const std::string& 
   cv::FileStorage storage = open_storage(path, ignored);
   (void)text;
   if (has(storage, "M1") && has(storage, "R")) return load_opencv(storage, storage, path);
+  if (has(storage, "camera_matrix_1") && has(storage, "xi_1")) return load_omnidir(storage, path);
   if (has(storage, "M1")) fail(path, "has intrinsics M1 D1 M2 D2 but no extrinsics R T: give the extrinsics file too");
   if (has(storage, "R") && has(storage, "T")) fail(path, "has extrinsics R T but no intrinsics M1 D1 M2 D2: give the intrinsics file too");
   if (has(storage, "camera_matrix") || has(storage, "intrinsics")) {
@@ -533,6 +596,15 @@ bool looks_like_storage(const std::string& text) {
 }
 
 }  // namespace
+
+const char* lens_name(LensModel lens) {
+  switch (lens) {
+    case LensModel::pinhole: return "pinhole";
+    case LensModel::equidistant: return "equidistant";
+    case LensModel::mei: return "mei";
+  }
+  return "unknown";
+}
 
 bool CameraModel::has_distortion() const {
   return std::any_of(distortion.begin(), distortion.end(), [](double k) { return k != 0; });
@@ -557,6 +629,13 @@ void validate_calibration(const StereoCalibration& calibration) {
     }
     for (double k : camera->distortion) {
       if (!std::isfinite(k)) fail(source, std::string(name) + " camera: distortion coefficient is not finite");
+    }
+    if (camera->lens == LensModel::mei && !(camera->xi >= 0 && std::isfinite(camera->xi))) {
+      fail(source, std::string(name) + " camera: Mei's xi must be finite and >= 0, got " + number_text(camera->xi));
+    }
+    if (camera->lens != LensModel::mei && camera->xi != 0) {
+      fail(source, std::string(name) + " camera: xi " + number_text(camera->xi) + " given for a " + lens_name(camera->lens) +
+                       " lens (only Mei's model has xi)");
     }
     if (camera->width_px < 0 || camera->height_px < 0 || camera->width_px > 65536 || camera->height_px > 65536) {
       fail(source, std::string(name) + " camera: image size " + std::to_string(camera->width_px) + "x" +
@@ -633,7 +712,9 @@ void write_opencv_yaml(const std::string& path, const StereoCalibration& calibra
   cv::FileStorage storage(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
   auto matrix = [](const double* data, int rows, int cols) { return cv::Mat(rows, cols, CV_64F, const_cast<double*>(data)).clone(); };
   const bool equidistant = calibration.left.lens == LensModel::equidistant;
-  if (equidistant) storage << "lens_model" << "equidistant";
+  const bool mei = calibration.left.lens == LensModel::mei;
+  if (calibration.left.lens != LensModel::pinhole) storage << "lens_model" << lens_name(calibration.left.lens);
+  if (mei) storage << "xi1" << calibration.left.xi << "xi2" << calibration.right.xi;
   if (calibration.left.width_px > 0) {
     storage << "image_width" << calibration.left.width_px << "image_height" << calibration.left.height_px;
   }

@@ -8,7 +8,9 @@
 //   - intrinsics in pixels, principal point in pixel coordinates (pixel centres at integers);
 //   - pinhole lens distortion in OpenCV's order (k1, k2, p1, p2, k3); equidistant (fisheye)
 //     distortion as cv::fisheye and Kalibr's "equidistant": theta_d = theta (1 + k1 theta^2 +
-//     k2 theta^4 + k3 theta^6 + k4 theta^8).
+//     k2 theta^4 + k3 theta^6 + k4 theta^8); Mei's unified (omnidirectional) model as cv::omnidir,
+//     Kalibr's "omni" and Mei's toolbox: xi, then radial-tangential distortion on the plane of
+//     the shifted projection (k1, k2, p1, p2, k5), see io/spherical.h.
 //
 // Loaders (load_stereo_calibration picks one by the file's content, never by its name):
 //   OpenCV FileStorage, YAML or XML  M1 D1 M2 D2 (intrinsics) and R T (extrinsics), optionally
@@ -21,8 +23,13 @@
 //   ROS camera_info YAML pair        left and right files (camera_matrix, distortion_model,
 //                                    distortion_coefficients, rectification_matrix,
 //                                    projection_matrix, image_width, image_height)
-//   Kalibr/Kimera sensor YAML pair   left and right files (intrinsics [fu fv cu cv],
-//                                    distortion_model radtan|equidistant, resolution, T_BS)
+//   Kalibr/Kimera sensor YAML pair   left and right files (camera_model pinhole: intrinsics
+//                                    [fu fv cu cv]; camera_model omni: [xi gamma1 gamma2 cu cv];
+//                                    distortion_model radtan|equidistant|none, resolution, T_BS)
+//   OpenCV omnidir stereo file       camera_matrix_1 distortion_coefficients_1 xi_1, ..._2, and
+//                                    extrinsic_parameters (rvec, tvec), as opencv_contrib's
+//                                    omni_stereo_calibration sample writes it; or M1 D1 M2 D2 R T
+//                                    with lens_model: mei and xi1, xi2 (what write_opencv_yaml writes)
 // KITTI and Middlebury describe rectified views: already_rectified is set, and the baseline comes
 // from the projection matrices (KITTI: B = -(P_right[0,3] - P_left[0,3]) / P_right[0,0]).
 //
@@ -52,18 +59,26 @@ constexpr Matrix3 kIdentity3 = {1, 0, 0, 0, 1, 0, 0, 0, 1};
 enum class LensModel {
   pinhole,      // radial-tangential distortion (OpenCV plumb_bob / Kalibr radtan): k1 k2 p1 p2 k3
   equidistant,  // cv::fisheye / Kalibr equidistant / Kannala-Brandt: k1 k2 k3 k4
+  mei,          // Mei's unified model (cv::omnidir, Kalibr omni): xi, then k1 k2 p1 p2 k5 radtan
 };
+
+// "pinhole", "equidistant", "mei": for messages.
+const char* lens_name(LensModel lens);
 
 struct CameraModel {
   int width_px = 0;   // image size the intrinsics belong to; 0 = the file did not say
   int height_px = 0;
-  double fx_px = 0;   // focal lengths, pixels (> 0)
-  double fy_px = 0;
+  double fx_px = 0;   // focal lengths, pixels (> 0); for mei the generalised focal lengths
+  double fy_px = 0;   // gamma1, gamma2 of Mei's model (focal length times the mirror/lens factor)
   double cx_px = 0;   // principal point, pixels
   double cy_px = 0;
   LensModel lens = LensModel::pinhole;
-  // pinhole: k1 k2 p1 p2 k3 (unitless, on the normalised image plane); equidistant: k1 k2 k3 k4 0.
+  // pinhole: k1 k2 p1 p2 k3 (unitless, on the normalised image plane); equidistant: k1 k2 k3 k4 0;
+  // mei: k1 k2 p1 p2 k5 (Mei's toolbox names the sixth-order radial term k5; cv::omnidir has none).
   std::array<double, 5> distortion{};
+  // mei only: xi, the distance from the unit sphere's centre to the projection centre (unitless;
+  // 0 = pinhole, 1 = parabolic mirror; fisheye lenses calibrate to about 0.5 .. 2).
+  double xi = 0;
 
   bool has_distortion() const;
 };
@@ -89,8 +104,8 @@ struct StereoCalibration {
   // pixels; depth Z = f B / (d + doffs). 0 for every other source.
   double disparity_offset_px = 0;
   int num_disparities = 0;  // a disparity range the file suggests (Middlebury ndisp); 0 = none
-  std::string format;       // "opencv", "kitti_cam_to_cam", "kitti_object", "kitti_odometry",
-                            // "middlebury", "ros_camera_info", "kalibr"
+  std::string format;       // "opencv", "opencv_omnidir", "kitti_cam_to_cam", "kitti_object",
+                            // "kitti_odometry", "middlebury", "ros_camera_info", "kalibr"
   std::string source;       // the file(s) it was read from
 
   double baseline_m() const;  // |T|
@@ -106,12 +121,13 @@ StereoCalibration load_stereo_calibration(const std::string& path);
 StereoCalibration load_stereo_calibration(const std::string& first_path, const std::string& second_path);
 
 // Writes OpenCV FileStorage YAML (M1 D1 M2 D2 R T, R1 R2 P1 P2 Q when present, image_width and
-// image_height when known, and for equidistant lenses "lens_model: equidistant"), atomically.
+// image_height when known, for equidistant lenses "lens_model: equidistant", for Mei's model
+// "lens_model: mei" with xi1 and xi2), atomically.
 // load_stereo_calibration reads it back. `comments` lines (e.g. RMS error) go in as YAML comments.
 void write_opencv_yaml(const std::string& path, const StereoCalibration& calibration, const std::string& comments = "");
 
 // The checks every loader runs: focal lengths > 0 and finite, finite principal points and
-// distortion, R orthonormal (|R R^T - I| <= 1e-4 per element) with det +1, T finite and non-zero,
+// distortion, xi finite and >= 0 (mei), R orthonormal (|R R^T - I| <= 1e-4 per element) with det +1, T finite and non-zero,
 // image sizes non-negative and equal for both views when both are known. Throws CalibrationError
 // "<source>: <what is wrong>".
 void validate_calibration(const StereoCalibration& calibration);

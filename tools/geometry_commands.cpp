@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <tuple>
 
@@ -46,10 +47,40 @@ io::StereoCalibration load_calibration(const std::vector<std::string>& files) {
 
 // ---- rectify ----
 
+// "AxB" (or "AXB") with both numbers in [low, high]; nullopt otherwise.
+std::optional<cv::Size> parse_times(const std::string& text, int low, int high) {
+  int a = 0, b = 0;
+  char separator = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &a, &separator, &b, &extra) != 3 || (separator != 'x' && separator != 'X') || a < low ||
+      b < low || a > high || b > high) {
+    return std::nullopt;
+  }
+  return cv::Size(a, b);
+}
+
+// --size WxH (0x0 = the input size).
+cv::Size parse_output_size(const std::string& text) {
+  if (text.empty()) return {0, 0};
+  const std::optional<cv::Size> size = parse_times(text, 1, 8192);
+  if (!size) throw CommandError(kExitUsage, "--size: expected WIDTHxHEIGHT in pixels, each 1..8192 (e.g. 752x480), got '" + text + "'");
+  return *size;
+}
+
 int run_rectify(const std::string& left_path, const std::string& right_path, const std::vector<std::string>& calibration_files,
-                const std::string& output_directory) {
+                const std::string& output_directory, const std::string& model, double hfov_deg, const std::string& size_text_option) {
   if (left_path.empty() || right_path.empty() || output_directory.empty()) {
     throw CommandError(kExitUsage, "give LEFT RIGHT --calib C -o DIR");
+  }
+  std::optional<io::LatLongOptions> latlong;
+  if (model == "latlong") {
+    if (!(hfov_deg > 0 && hfov_deg <= 180)) {
+      throw CommandError(kExitUsage, "--hfov-deg: expected the lat-long horizontal field of view in degrees, (0, 180], got " +
+                                         std::to_string(hfov_deg));
+    }
+    const cv::Size size = parse_output_size(size_text_option);
+    latlong = io::LatLongOptions{hfov_deg * M_PI / 180.0, size.width, size.height};
+  } else if (!size_text_option.empty()) {
+    throw CommandError(kExitUsage, "--size applies to --model latlong only (a pinhole rectification keeps the input size)");
   }
   const Plane left = io::read_luma_u8(left_path);
   const Plane right = io::read_luma_u8(right_path);
@@ -57,12 +88,13 @@ int run_rectify(const std::string& left_path, const std::string& right_path, con
   const io::StereoCalibration calibration = load_calibration(calibration_files);
   // The maps are computed here first so that a calibration that does not fit the images fails with
   // its own message before the graph is built (the graph's generator computes the same maps).
-  const io::RectificationMaps maps = io::compute_rectification_maps(calibration, left.width(), left.height());
+  const io::RectificationMaps maps = latlong ? io::compute_latlong_maps(calibration, left.width(), left.height(), *latlong)
+                                             : io::compute_rectification_maps(calibration, left.width(), left.height());
   io::rectification_table(maps.left_x, maps.left_y, "left");
   io::rectification_table(maps.right_x, maps.right_y, "right");
 
   io::register_calibration_rectification_generator();
-  Graph graph(io::rectification_graph_spec(calibration_files));
+  Graph graph(io::rectification_graph_spec(calibration_files, latlong));
   VerifyOptions options;
   options.frame_width = left.width();
   options.frame_height = left.height();
@@ -79,10 +111,13 @@ int run_rectify(const std::string& left_path, const std::string& right_path, con
   const std::string right_file = (fs::path(output_directory) / "right.png").string();
   io::write_image(left_file, left_out);
   io::write_image(right_file, right_out);
-  std::printf("rectified %s pair (%s%s): focal %.3f px, baseline %.6f m, cx %.2f/%.2f px, cy %.2f px; %.1f %%/%.1f %% of the "
+  std::printf("rectified %s pair (%s%s) to %s: %s %.3f px, baseline %.6f m, cx %.2f/%.2f px, cy %.2f px; %.1f %%/%.1f %% of the "
               "pixels from inside the sources; remap_bilinear with remap_q5 tables -> %s, %s\n",
               size_text(left.width(), left.height()).c_str(), calibration.format.c_str(),
-              calibration.already_rectified ? ", already rectified: identity" : "", maps.geometry.focal_px,
+              latlong                          ? ", latitude-longitude"
+              : calibration.already_rectified ? ", already rectified: identity"
+                                              : "",
+              size_text(maps.width, maps.height).c_str(), latlong ? "focal (per radian)" : "focal", maps.geometry.focal_px,
               maps.geometry.baseline_m, maps.geometry.cx_left_px, maps.geometry.cx_right_px, maps.geometry.cy_px,
               100 * maps.left_inside, 100 * maps.right_inside, left_file.c_str(), right_file.c_str());
   return 0;
@@ -118,13 +153,9 @@ int run_check_rectification(const std::string& left_path, const std::string& rig
 // ---- calibrate ----
 
 cv::Size parse_board(const std::string& text) {
-  int columns = 0, rows = 0;
-  char separator = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &columns, &separator, &rows, &extra) != 3 || (separator != 'x' && separator != 'X') ||
-      columns < 2 || rows < 2 || columns > 100 || rows > 100) {
-    throw CommandError(kExitUsage, "--board: expected COLSxROWS inner corners, each 2..100 (e.g. 9x6), got '" + text + "'");
-  }
-  return {columns, rows};
+  const std::optional<cv::Size> board = parse_times(text, 2, 100);
+  if (!board) throw CommandError(kExitUsage, "--board: expected COLSxROWS inner corners, each 2..100 (e.g. 9x6), got '" + text + "'");
+  return *board;
 }
 
 std::vector<std::pair<std::string, std::string>> read_image_list(const std::string& list_path) {
@@ -290,6 +321,13 @@ GeometryCommands::GeometryCommands(CLI::App& app) {
                        "intrinsics + extrinsics pair or ROS camera_info / Kalibr sensor left + right files")
       ->required();
   rectify_->add_option("-o,--output", output_, "output folder (left.png, right.png)");
+  rectify_->add_option("--model", model_,
+                       "pinhole: rows are epipolar lines of pinhole views (OpenCV stereoRectify); latlong: rows are "
+                       "epipolar planes and columns angles within them (for fisheye and Mei calibrations)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"pinhole", "latlong"}));
+  rectify_->add_option("--hfov-deg", hfov_deg_, "latlong: the angle a row spans, degrees, (0, 180]")->capture_default_str();
+  rectify_->add_option("--size", size_, "latlong: output WIDTHxHEIGHT in pixels (default: the input size)");
 
   check_ = app.add_subcommand("check-rectification",
                               "vertical offset of matched features between the views (median, 95th percentile, px)");
@@ -314,7 +352,7 @@ bool GeometryCommands::selected() const { return rectify_->parsed() || check_->p
 
 int GeometryCommands::run() const {
   try {
-    if (rectify_->parsed()) return run_rectify(left_, right_, calibration_files_, output_);
+    if (rectify_->parsed()) return run_rectify(left_, right_, calibration_files_, output_, model_, hfov_deg_, size_);
     if (check_->parsed()) return run_check_rectification(check_left_, check_right_, detector_, json_path_);
     return run_calibrate(board_, square_m_, image_list_, calibration_output_);
   } catch (const io::CalibrationError& error) {

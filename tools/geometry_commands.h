@@ -1,7 +1,9 @@
 // The camera sub-commands of lpstereo:
-//   rectify LEFT RIGHT --calib C [--calib C2] -o DIR
+//   rectify LEFT RIGHT --calib C [--calib C2] -o DIR [--model pinhole|latlong] [--hfov-deg D] [--size WxH]
 //       rectifies a pair through the fixed-point remap kernel (graph with calibration_rectification
-//       tables); writes DIR/left.png and DIR/right.png
+//       tables); writes DIR/left.png and DIR/right.png. --model latlong: latitude-longitude
+//       rectification (rows = epipolar planes, columns = angle within them, hfov D degrees, output
+//       WxH), for fisheye and Mei (omnidirectional) calibrations
 //   check-rectification LEFT RIGHT [--detector akaze|orb] [--json F]
 //       vertical offset |y_left - y_right| of matched features (epipolar-consistent matches only):
 //       median and 95th percentile, pixels
@@ -29,7 +31,8 @@ class GeometryCommands {
   CLI::App* rectify_ = nullptr;
   CLI::App* check_ = nullptr;
   CLI::App* calibrate_ = nullptr;
-  std::string left_, right_, output_;
+  std::string left_, right_, output_, model_ = "pinhole", size_;
+  double hfov_deg_ = 180;
   std::vector<std::string> calibration_files_;
   std::string check_left_, check_right_, detector_ = "akaze", json_path_;
   std::string board_, image_list_, calibration_output_;

@@ -217,6 +217,35 @@ TEST(GraphSpecMustFail, SchemaErrorsNameThePath) {
   EXPECT_NE(message("[1, 2]"), "");
 }
 
+// A constant may have its own size (a remap table whose output is not the frame's size, as a
+// latitude-longitude rectification to another size): the remap output takes the table's size.
+TEST(GraphVerify, AConstantOfItsOwnSizeSetsTheRemapOutputSize) {
+  register_constant_generator("test_table_80x50", {ElementType::remap_q5, 0},
+                              [](const nlohmann::json&, int, int) { return Plane(80, 50, {ElementType::remap_q5, 0}); });
+  const std::string json = R"({
+    "name": "sized", "inputs": [{"name": "source", "format": "u8"}],
+    "constants": [{"name": "map", "generator": "test_table_80x50" SIZE}],
+    "nodes": [{"name": "remap", "kernel": "remap_bilinear", "inputs": {"source": "source", "map": "map"}, "outputs": {"output": "out"}}],
+    "outputs": ["out"]})";
+  auto with_size = [&](const std::string& size) {
+    std::string text = json;
+    text.replace(text.find("SIZE"), 4, size);
+    return text;
+  };
+  Graph graph(spec_from(with_size(R"(, "width": 80, "height": 50)")));
+  graph.verify(options_for(320, 240));
+  EXPECT_EQ(graph.buffers()[graph.buffer_index("out")].shape, (PlaneShape{80, 50}));
+  EXPECT_NE(verify_error(with_size(""), options_for(320, 240)).find("gave 80x50 remap_q5, expected 320x240 remap_q5"), std::string::npos);
+  try {
+    spec_from(with_size(R"(, "width": -3)"));
+    FAIL() << "a negative constant width accepted";
+  } catch (const GraphSpecError& error) {
+    EXPECT_NE(std::string(error.what()).find("at $.constants[0].width: expected an integer 0..65536 (0 = the frame size), got -3"),
+              std::string::npos)
+        << error.what();
+  }
+}
+
 TEST(GraphDot, DrawsNodesBuffersAndDelayedEdges) {
   Graph graph(spec_from(R"({
     "name": "dot", "inputs": [{"name": "image", "format": "u8"}],

@@ -257,9 +257,9 @@ TEST_F(Calibration, RosCameraInfoPairs) {
 }
 
 std::string kimera_camera(const std::string& t_bs, const std::string& intrinsics, const std::string& model,
-                          const std::string& coefficients) {
+                          const std::string& coefficients, const std::string& camera_model = "pinhole") {
   return "%YAML:1.0\n# General sensor definitions.\ncamera_id: test\nT_BS:\n  cols: 4\n  rows: 4\n  data: [" + t_bs +
-         "]\nrate_hz: 25\nresolution: [752, 480]\ncamera_model: pinhole\nintrinsics: [" + intrinsics +
+         "]\nrate_hz: 25\nresolution: [752, 480]\ncamera_model: " + camera_model + "\nintrinsics: [" + intrinsics +
          "] #fu, fv, cu, cv\ndistortion_model: " + model + "\ndistortion_coefficients: [" + coefficients + "]\n";
 }
 
@@ -280,6 +280,85 @@ TEST_F(Calibration, KalibrSensorPair) {
   // Right camera 0.12 m along body y = camera x: T = (-0.12, 0, 0).
   EXPECT_NEAR(calibration.translation_m[0], -0.12, 1e-12);
   EXPECT_NEAR(calibration.baseline_m(), 0.12, 1e-12);
+}
+
+// Mei's unified model from the files that carry it: a Kalibr/Kimera "omni" sensor pair (intrinsics
+// [xi, gamma1, gamma2, cu, cv], radtan k1 k2 p1 p2), opencv_contrib's omnidir stereo file (K, D, xi
+// per camera, extrinsic_parameters = rvec, tvec), and our own YAML (lens_model: mei, xi1, xi2).
+TEST_F(Calibration, MeiFromKalibrOmniOmnidirAndOurYaml) {
+  const std::string left = write("left_omni.yaml", kimera_camera("0, -1, 0, 0,  1, 0, 0, 0,  0, 0, 1, 0,  0, 0, 0, 1",
+                                                                 "1.21, 771.5, 772.25, 376.5, 240.5", "radtan",
+                                                                 "-0.21, 0.08, 0.0007, -0.0004", "omni"));
+  const std::string right = write("right_omni.yaml", kimera_camera("0, -1, 0, 0,  1, 0, 0, 0.11,  0, 0, 1, 0,  0, 0, 0, 1",
+                                                                   "1.19, 768.0, 769.0, 380.0, 238.0", "radtan",
+                                                                   "-0.2, 0.07, 0.0001, 0.0002", "omni"));
+  const StereoCalibration kalibr = load_stereo_calibration(left, right);
+  EXPECT_EQ(kalibr.left.lens, LensModel::mei);
+  EXPECT_DOUBLE_EQ(kalibr.left.xi, 1.21);
+  EXPECT_DOUBLE_EQ(kalibr.left.fx_px, 771.5);
+  EXPECT_DOUBLE_EQ(kalibr.right.cy_px, 238.0);
+  EXPECT_DOUBLE_EQ(kalibr.right.distortion[1], 0.07);
+  EXPECT_NEAR(kalibr.baseline_m(), 0.11, 1e-12);
+
+  auto write_omnidir = [&](const std::string& name, double skew, double xi2) {
+    const std::string file = scratch_.path(name);
+    cv::FileStorage storage(file, cv::FileStorage::WRITE);
+    storage << "flags" << 0;
+    storage << "camera_matrix_1" << (cv::Mat_<double>(3, 3) << 560, skew, 330, 0, 561, 250, 0, 0, 1);
+    storage << "distortion_coefficients_1" << (cv::Mat_<double>(1, 4) << -0.3, 0.1, 0.001, 0.002);
+    storage << "xi_1" << 0.95;
+    storage << "camera_matrix_2" << (cv::Mat_<double>(3, 3) << 562, 0, 328, 0, 563, 251, 0, 0, 1);
+    storage << "distortion_coefficients_2" << (cv::Mat_<double>(1, 4) << -0.29, 0.09, 0.0, 0.001);
+    storage << "xi_2" << xi2;
+    storage << "extrinsic_parameters" << (cv::Mat_<double>(1, 6) << 0.01, -0.02, 0.005, -0.2, 0.001, 0.002);
+    storage << "rms" << 0.3;
+    return file;
+  };
+  const StereoCalibration cv_omnidir = load_stereo_calibration(write_omnidir("omni_stereo.yaml", 0, 0.97));
+  EXPECT_EQ(cv_omnidir.format, "opencv_omnidir");
+  EXPECT_EQ(cv_omnidir.right.lens, LensModel::mei);
+  EXPECT_DOUBLE_EQ(cv_omnidir.right.xi, 0.97);
+  EXPECT_DOUBLE_EQ(cv_omnidir.left.distortion[0], -0.3);
+  EXPECT_EQ(cv_omnidir.left.distortion[4], 0.0);
+  const cv::Mat rotation = test_rotation();
+  for (int i = 0; i < 9; ++i) EXPECT_NEAR(cv_omnidir.rotation[static_cast<size_t>(i)], rotation.at<double>(i / 3, i % 3), 1e-12);
+  EXPECT_NEAR(cv_omnidir.baseline_m(), std::sqrt(0.04 + 0.000001 + 0.000004), 1e-12);
+
+  // Our writer keeps the model, xi and k5 (Mei's toolbox's sixth-order term).
+  StereoCalibration with_k5 = cv_omnidir;
+  with_k5.left.distortion[4] = 0.002;
+  const std::string ours = scratch_.path("mei.yaml");
+  write_opencv_yaml(ours, with_k5);
+  const StereoCalibration back = load_stereo_calibration(ours);
+  EXPECT_EQ(back.left.lens, LensModel::mei);
+  EXPECT_DOUBLE_EQ(back.left.xi, 0.95);
+  EXPECT_DOUBLE_EQ(back.right.xi, 0.97);
+  EXPECT_EQ(back.left.distortion, with_k5.left.distortion);
+
+  // Refusals, one line naming the file: skew, a negative xi, omni with 4 intrinsics or with
+  // equidistant distortion, a ROS file claiming Mei (ROS has no xi), a mei YAML without xi.
+  expect_refused([&] { load_stereo_calibration(write_omnidir("skew.yaml", 0.5, 0.97)); }, "skew.yaml",
+                 "camera_matrix_1: skew s = 0.5");
+  expect_refused([&] { load_stereo_calibration(write_omnidir("negative_xi.yaml", 0, -0.5)); }, "negative_xi.yaml",
+                 "right camera: Mei's xi must be finite and >= 0, got -0.5");
+  const std::string four = write("four.yaml", kimera_camera("1, 0, 0, 0,  0, 1, 0, 0,  0, 0, 1, 0,  0, 0, 0, 1", "771.5, 772.25, 376.5, 240.5",
+                                                            "radtan", "0, 0, 0, 0", "omni"));
+  expect_refused([&] { load_stereo_calibration(four, right); }, "four.yaml", "intrinsics: expected 5 numbers, got 4");
+  const std::string equidistant = write("omni_equidistant.yaml", kimera_camera("1, 0, 0, 0,  0, 1, 0, 0,  0, 0, 1, 0,  0, 0, 0, 1",
+                                                                               "1.2, 771.5, 772.25, 376.5, 240.5", "equidistant",
+                                                                               "0, 0, 0, 0", "omni"));
+  expect_refused([&] { load_stereo_calibration(equidistant, right); }, "omni_equidistant.yaml",
+                 "distortion_model 'equidistant' with camera_model omni: expected radtan or none");
+  std::string no_xi;
+  {
+    std::ifstream file(ours);
+    no_xi.assign(std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>());
+  }
+  no_xi.erase(no_xi.find("xi1:"), no_xi.find('\n', no_xi.find("xi1:")) - no_xi.find("xi1:") + 1);
+  expect_refused([&] { load_stereo_calibration(write("no_xi.yaml", no_xi)); }, "no_xi.yaml", "missing xi1");
+  const std::string ros = write("ros_mei.yaml", "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [500, 0, 320, 0, 500, 240, 0, 0, 1]\n"
+                                                "distortion_model: mei\nimage_width: 640\nimage_height: 480\n");
+  expect_refused([&] { load_stereo_calibration(ros, ros); }, "ros_mei.yaml", "ROS camera_info has no xi");
 }
 
 TEST_F(Calibration, RefusesInconsistentOrCorruptFiles) {

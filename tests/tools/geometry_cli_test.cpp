@@ -121,6 +121,117 @@ TEST_F(GeometryCli, RectifyRefusesBadInputWithOneLineAndWritesNothing) {
   EXPECT_NE(run("rectify " + pair + " -o " + path("out")).exit_code, 0);
 }
 
+// A Kalibr/Kimera sensor YAML (one camera): camera_model pinhole + equidistant, or omni (Mei) +
+// radtan with intrinsics [xi, gamma1, gamma2, cu, cv]; body_y_m places it along the body's y axis,
+// which the camera's x axis points along (as in fisheye_mynteye).
+void write_sensor_yaml(const std::string& file, const std::string& model, const std::string& intrinsics,
+                       const std::string& distortion_model, const std::string& coefficients, double body_y_m, int width, int height) {
+  std::ofstream(file) << "%YAML:1.0\ncamera_id: test\nT_BS:\n  cols: 4\n  rows: 4\n  data: [0.0, -1.0, 0.0, 0.0,\n"
+                      << "         1.0, 0.0, 0.0, " << body_y_m << ",\n         0.0, 0.0, 1.0, 0.0,\n         0.0, 0.0, 0.0, 1.0]\n"
+                      << "resolution: [" << width << ", " << height << "]\ncamera_model: " << model << "\nintrinsics: [" << intrinsics
+                      << "]\ndistortion_model: " << distortion_model << "\ndistortion_coefficients: [" << coefficients << "]\n";
+}
+
+// opencv_contrib's omni_stereo_calibration output (Mei's model): K, D, xi per camera and
+// extrinsic_parameters = (rvec, tvec).
+void write_omnidir_stereo(const std::string& file, double xi) {
+  cv::FileStorage storage(file, cv::FileStorage::WRITE);
+  storage << "camera_matrix_1" << (cv::Mat_<double>(3, 3) << 300, 0, 161, 0, 301, 120, 0, 0, 1);
+  storage << "distortion_coefficients_1" << (cv::Mat_<double>(1, 4) << -0.05, 0.01, 0.0005, -0.0003);
+  storage << "xi_1" << xi;
+  storage << "camera_matrix_2" << (cv::Mat_<double>(3, 3) << 302, 0, 159, 0, 302, 121, 0, 0, 1);
+  storage << "distortion_coefficients_2" << (cv::Mat_<double>(1, 4) << -0.04, 0.008, -0.0002, 0.0004);
+  storage << "xi_2" << xi;
+  storage << "extrinsic_parameters" << (cv::Mat_<double>(1, 6) << 0.003, -0.01, 0.002, -0.15, 0.001, 0.0005);
+}
+
+TEST_F(GeometryCli, RectifyLatLongGivesCvRemapBitsOfTheLatLongMaps) {
+  const int width = 321, height = 241;
+  ASSERT_TRUE(cv::imwrite(path("l.png"), texture(width, height, 21)));
+  ASSERT_TRUE(cv::imwrite(path("r.png"), texture(width, height, 22)));
+  write_sensor_yaml(path("left.yaml"), "pinhole", "150, 150.5, 160, 121", "equidistant", "-0.02, -0.007, 0.002, -0.001", 0, width, height);
+  write_sensor_yaml(path("right.yaml"), "pinhole", "151, 151, 161, 119", "equidistant", "-0.019, -0.005, -0.001, 0.0004", 0.12,
+                    width, height);
+  write_omnidir_stereo(path("omni.yaml"), 0.8);
+  struct Case {
+    std::vector<std::string> files;
+    std::string options, needle;
+    int out_width, out_height;
+  };
+  for (const Case& c : std::vector<Case>{
+           {{path("left.yaml"), path("right.yaml")}, "--hfov-deg 150 --size 300x200", "baseline 0.120000 m", 300, 200},
+           {{path("omni.yaml")}, "--hfov-deg 120", "opencv_omnidir, latitude-longitude) to 321x241", width, height},
+       }) {
+    std::string calib;
+    for (const std::string& file : c.files) calib += " --calib " + file;
+    const Result result = run("rectify " + path("l.png") + " " + path("r.png") + calib + " --model latlong " + c.options + " -o " +
+                              path("ll"));
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    EXPECT_NE(result.out.find(c.needle), std::string::npos) << result.out;
+    const io::StereoCalibration calibration = c.files.size() == 1 ? io::load_stereo_calibration(c.files[0])
+                                                                   : io::load_stereo_calibration(c.files[0], c.files[1]);
+    io::LatLongOptions options;
+    options.hfov_rad = (c.files.size() == 1 ? 120 : 150) * M_PI / 180;
+    options.width = c.out_width;
+    options.height = c.out_height;
+    const io::RectificationMaps maps = io::compute_latlong_maps(calibration, width, height, options);
+    for (int view = 0; view < 2; ++view) {
+      cv::Mat expected;
+      cv::remap(cv::imread(path(view == 0 ? "l.png" : "r.png"), cv::IMREAD_GRAYSCALE), expected, view == 0 ? maps.left_x : maps.right_x,
+                view == 0 ? maps.left_y : maps.right_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+      const cv::Mat ours = cv::imread(path(view == 0 ? "ll/left.png" : "ll/right.png"), cv::IMREAD_UNCHANGED);
+      ASSERT_EQ(ours.size(), cv::Size(c.out_width, c.out_height));
+      EXPECT_EQ(cv::norm(ours, expected, cv::NORM_INF), 0) << "view " << view;
+      EXPECT_GT(cv::countNonZero(ours), ours.total() / 2) << "view " << view;
+    }
+  }
+}
+
+TEST_F(GeometryCli, RectifyLatLongRefusesBadInputWithOneLine) {
+  ASSERT_TRUE(cv::imwrite(path("l.png"), texture(320, 240, 23)));
+  ASSERT_TRUE(cv::imwrite(path("r.png"), texture(320, 240, 24)));
+  write_omnidir_stereo(path("omni.yaml"), 0.8);
+  write_omnidir_stereo(path("omni0.yaml"), 0.0);  // xi = 0: a pinhole, at most 90 degrees off axis
+  // An equidistant polynomial that turns at about 60 degrees off axis (k1 = -0.3).
+  write_sensor_yaml(path("turn_l.yaml"), "pinhole", "150, 150, 160, 120", "equidistant", "-0.3, 0, 0, 0", 0, 320, 240);
+  write_sensor_yaml(path("turn_r.yaml"), "pinhole", "150, 150, 160, 120", "equidistant", "-0.3, 0, 0, 0", 0.1, 320, 240);
+  write_sensor_yaml(path("big_l.yaml"), "omni", "0.8, 270, 270, 320, 240", "radtan", "0, 0, 0, 0", 0, 640, 480);
+  write_sensor_yaml(path("big_r.yaml"), "omni", "0.8, 270, 270, 320, 240", "radtan", "0, 0, 0, 0", 0.1, 640, 480);
+  write_sensor_yaml(path("omni_equi.yaml"), "omni", "0.8, 270, 270, 320, 240", "equidistant", "0, 0, 0, 0", 0.1, 640, 480);
+  std::ofstream(path("corrupt.yaml")) << "%YAML:1.0\ncamera_matrix_1: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [ 300, 0\n";
+  std::ofstream(path("no_xi.yaml")) << "%YAML:1.0\ncamera_matrix_1: [300, 0, 160, 0, 300, 120, 0, 0, 1]\nxi_1: 0.8\n";
+  struct Bad {
+    std::string arguments, needle;
+    int exit_code;
+  };
+  const std::string pair = path("l.png") + " " + path("r.png");
+  const std::string omni = " --calib " + path("omni.yaml");
+  for (const Bad& bad : std::vector<Bad>{
+           {pair + omni + " --model latlong --hfov-deg 200", "--hfov-deg: expected the lat-long horizontal field of view in degrees, (0, 180]", 2},
+           {pair + omni + " --model latlong --hfov-deg 0", "--hfov-deg", 2},
+           {pair + omni + " --model latlong --size 300", "--size: expected WIDTHxHEIGHT", 2},
+           {pair + omni + " --model pinhole --size 300x200", "--size applies to --model latlong only", 2},
+           {pair + omni + " --model cylinder", "--model", 2},
+           {pair + " --calib " + path("turn_l.yaml") + " --calib " + path("turn_r.yaml") + " --model latlong --hfov-deg 180",
+            "model images at most 60.", 1},
+           {pair + " --calib " + path("omni0.yaml") + " --model latlong --hfov-deg 180", "mei model images at most 90.00 deg", 1},
+           {pair + omni + " --model latlong --hfov-deg 40 --size 100x500", "rows would span", 1},
+           {pair + " --calib " + path("big_l.yaml") + " --calib " + path("big_r.yaml") + " --model latlong",
+            "calibration is for 640x480 images, the images are 320x240", 1},
+           {pair + " --calib " + path("big_l.yaml") + " --calib " + path("omni_equi.yaml") + " --model latlong",
+            "distortion_model 'equidistant' with camera_model omni: expected radtan or none", 1},
+           {pair + " --calib " + path("corrupt.yaml") + " --model latlong", "corrupt.yaml", 1},
+           {pair + " --calib " + path("no_xi.yaml") + " --model latlong", "no_xi.yaml: missing distortion_coefficients_1", 1},
+           {pair + omni, "a Mei (omnidirectional) camera has no pinhole rectification here", 1},
+       }) {
+    const Result result = run("rectify " + bad.arguments + " -o " + path("out"));
+    EXPECT_EQ(result.exit_code, bad.exit_code) << bad.arguments << "\n" << result.err;
+    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_NE(result.err.find(bad.needle), std::string::npos) << result.err;
+    EXPECT_FALSE(fs::exists(path("out/left.png"))) << bad.arguments;
+  }
+}
+
 TEST_F(GeometryCli, CheckRectificationMeasuresVerticalOffsets) {
   const cv::Mat image = texture(400, 300, 6);
   cv::Mat shifted_x, shifted_xy;
