@@ -217,16 +217,16 @@ class StagedOutputs {
   ~StagedOutputs() {
     for (const auto& [staged, destination] : files_) std::remove(staged.c_str());
   }
-  // Runs `write` with the name to write `path` under: same folder (the rename stays on one file
+  // Runs `writer` with the name to write `path` under: same folder (the rename stays on one file
   // system), same extension (codecs pick their format by it). Its errors name `path`.
-  void write(const std::string& path, const std::function<void(const std::string& staged_path)>& write) {
+  void write(const std::string& path, const std::function<void(const std::string& staged_path)>& writer) {
     const std::filesystem::path destination(path);
     const std::string staged = (destination.parent_path() / ("." + destination.filename().string() + ".staged" +
                                                            std::to_string(::getpid()) + destination.extension().string()))
                                    .string();
     files_.emplace_back(staged, path);
     try {
-      write(staged);
+      writer(staged);
     } catch (const FileWriteError& error) {
       std::string message = error.what();
       for (size_t at = message.find(staged); at != std::string::npos; at = message.find(staged, at + path.size())) {
