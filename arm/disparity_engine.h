@@ -11,6 +11,29 @@
 // Both SGM graphs end in winner takes all with the uniqueness ratio, the parabola sub-pixel step
 // and the left-right check (kernels/sgm_core.h, kernels/sgm_reference.h).
 //
+// multires = true: two matching passes with the same paths, census and penalties, fused by
+// disparity_fuse_multires (graphs/disparity-multires-wta.json is the same shape with WTA matchers):
+//   far  (full resolution)  [min_disparity, min_disparity + num_far) px,
+//                           num_far = min(num_disparities, kMultiresFarDisparities = 128);
+//   near (half resolution)  downsample2x of both views, census, matching over the WHOLE range in
+//                           half px: [floor(min / 2), ceil((min + num - 1) / 2)], which covers every
+//                           full-resolution disparity of [min, min + num);
+//   fuse                    top = min + num_far - 1 - margin (margin = min(2, num_far - 1) px):
+//                           the near value x 2 where it is valid and above top, else the far value
+//                           where it is valid and <= top, else invalid (nearest upsampling).
+// The near pass searches the far range too because it is the pass that decides "near or far": a
+// matcher whose true disparity lies beyond its range returns a plausible value inside it, so the far
+// pass cannot say "not mine" (measured: kernels/disparity_fuse_multires.cpp). Near pixels thus have
+// half-resolution detail (1/8 px steps after the x 2, edges on the 2x2 grid). The LR check and
+// uniqueness run inside each pass (the near tolerance is in half px). No post-processing beyond the
+// single-resolution engine's (none): the output is the fused map.
+//
+// The right-view disparity (compute_right_view) is the same engine run on the mirrored pair:
+// mirror(right) as the left view, mirror(left) as the right view, result mirrored back. A right pixel
+// x with value d matches left pixel x + d; same range, same invalid value, same options. It costs a
+// second run; the kernels' own right-view keys are whole-pixel minima with no sub-pixel step,
+// uniqueness or LR check, so they are not exposed.
+//
 // Output: s16 Q4 disparity of the left view (value / 16 = pixels); invalid pixels hold
 // invalid_disparity_q4() = (min_disparity - 1) * 16, never 0-overloaded (DESIGN.md §4).
 #pragma once
@@ -51,10 +74,20 @@ struct DisparityParameters {
   // the lowest errors over the 8 Middlebury pairs and KITTI 2015 000046 of ../shared/data at a density
   // no lower than OpenCV's: docs/evaluation.md has the table.
   int max_cost_bits = 6;       // paths = 0 only: a best Hamming cost above this is invalid
+  bool multires = false;       // full-resolution far pass + half-resolution pass, fused (see above)
 };
 
 // One line naming every setting, for reports and benchmarks ("8-path SGM, census 5x5, P1 5, P2 45, ...").
 std::string settings_text(const DisparityParameters& parameters);
+
+// The multi-resolution split for a range (see the header comment). Disparities in px of each pass.
+struct MultiresSplit {
+  int min_far = 0, num_far = 0;    // full-resolution px
+  int min_near = 0, num_near = 0;  // half-resolution px
+  int margin_px = 0;               // top steps of the far range not trusted (full-resolution px)
+};
+inline constexpr int kMultiresFarDisparities = 128;  // the far pass's cap: the budgeted 4K search (issue 4)
+MultiresSplit multires_split(int min_disparity, int num_disparities);
 
 class DisparityEngine {
  public:
@@ -72,6 +105,9 @@ class DisparityEngine {
   // Left and right u8 views of the engine's size; returns the left-view disparity (s16 Q4), valid
   // until the next call.
   const Plane& compute(const Plane& left, const Plane& right);
+  // The right-view disparity of the same pair (see the header comment: the mirrored pair), s16 Q4,
+  // same invalid value; valid until the next call of either function (it reuses the graph's buffers).
+  const Plane& compute_right_view(const Plane& left, const Plane& right);
 
   int16_t invalid_disparity_q4() const { return static_cast<int16_t>((parameters_.min_disparity - 1) * 16); }
   const DisparityParameters& parameters() const { return parameters_; }
@@ -84,6 +120,7 @@ class DisparityEngine {
   DisparityParameters parameters_;
   std::unique_ptr<Graph> graph_;
   std::unique_ptr<FrameRunner> runner_;
+  Plane mirrored_left_, mirrored_right_, right_view_;  // compute_right_view's frames, kept between calls
 };
 
 }  // namespace lpstereo::arm

@@ -85,24 +85,12 @@ int run_rectify(const std::string& left_path, const std::string& right_path, con
   const Plane left = io::read_luma_u8(left_path);
   const Plane right = io::read_luma_u8(right_path);
   require_same_size(left_path, {left.width(), left.height()}, right_path, {right.width(), right.height()});
-  const io::StereoCalibration calibration = load_calibration(calibration_files);
-  // The maps are computed here first so that a calibration that does not fit the images fails with
-  // its own message before the graph is built (the graph's generator computes the same maps).
-  const io::RectificationMaps maps = latlong ? io::compute_latlong_maps(calibration, left.width(), left.height(), *latlong)
-                                             : io::compute_rectification_maps(calibration, left.width(), left.height());
-  io::rectification_table(maps.left_x, maps.left_y, "left");
-  io::rectification_table(maps.right_x, maps.right_y, "right");
-
-  io::register_calibration_rectification_generator();
-  Graph graph(io::rectification_graph_spec(calibration_files, latlong));
-  VerifyOptions options;
-  options.frame_width = left.width();
-  options.frame_height = left.height();
-  graph.verify(options);
-  arm::FrameRunner runner(graph);
-  runner.process({{"left", &left}, {"right", &right}});
-  const cv::Mat left_out = io::plane_to_mat(runner.buffer("left_rectified"));
-  const cv::Mat right_out = io::plane_to_mat(runner.buffer("right_rectified"));
+  const CalibrationForImages checked = load_calibration_for(calibration_files, left.width(), left.height(), latlong);
+  const io::StereoCalibration& calibration = checked.calibration;
+  const io::RectificationMaps& maps = checked.maps;
+  const RectifiedViews rectified = rectify_views(left, right, calibration_files, latlong);
+  const cv::Mat left_out = io::plane_to_mat(rectified.left);
+  const cv::Mat right_out = io::plane_to_mat(rectified.right);
 
   std::error_code error;
   fs::create_directories(output_directory, error);
@@ -311,6 +299,39 @@ int run_calibrate(const std::string& board_text, double square_m, const std::str
 }
 
 }  // namespace
+
+CalibrationForImages load_calibration_for(const std::vector<std::string>& calibration_files, int width, int height,
+                                          const std::optional<io::LatLongOptions>& latlong) {
+  try {
+    CalibrationForImages result;
+    result.calibration = load_calibration(calibration_files);
+    result.maps = latlong ? io::compute_latlong_maps(result.calibration, width, height, *latlong)
+                          : io::compute_rectification_maps(result.calibration, width, height);
+    // The fixed-point tables too, so that a map the kernel cannot take fails here, before the graph.
+    io::rectification_table(result.maps.left_x, result.maps.left_y, "left");
+    io::rectification_table(result.maps.right_x, result.maps.right_y, "right");
+    return result;
+  } catch (const cv::Exception& error) {
+    throw CommandError(kExitInput, "OpenCV: " + error.err);
+  }
+}
+
+RectifiedViews rectify_views(const Plane& left, const Plane& right, const std::vector<std::string>& calibration_files,
+                             const std::optional<io::LatLongOptions>& latlong) {
+  try {
+    io::register_calibration_rectification_generator();
+    Graph graph(io::rectification_graph_spec(calibration_files, latlong));
+    VerifyOptions options;
+    options.frame_width = left.width();
+    options.frame_height = left.height();
+    graph.verify(options);
+    arm::FrameRunner runner(graph);
+    runner.process({{"left", &left}, {"right", &right}});
+    return {runner.buffer("left_rectified").clone(), runner.buffer("right_rectified").clone()};
+  } catch (const cv::Exception& error) {
+    throw CommandError(kExitInput, "OpenCV: " + error.err);
+  }
+}
 
 GeometryCommands::GeometryCommands(CLI::App& app) {
   rectify_ = app.add_subcommand("rectify", "rectify a pair with a calibration through the fixed-point remap kernel");

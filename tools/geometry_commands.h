@@ -15,10 +15,39 @@
 
 #include <CLI/CLI.hpp>
 
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "dag/plane.h"
+#include "io/calibration.h"
+#include "io/rectification.h"
+
 namespace lpstereo::tools {
+
+// A calibration (--calib: one file, or two) checked against width x height images.
+struct CalibrationForImages {
+  io::StereoCalibration calibration;
+  io::RectificationMaps maps;
+};
+
+// Loads the calibration and computes its rectification maps and fixed-point tables for the images'
+// size, so that a calibration that does not fit them fails with one line before any pixel is
+// touched: io::CalibrationError naming the file and both sizes ("calibration is for 320x240
+// images, the images are 160x120"), a view that maps outside its source, a map the Q10.5 table
+// cannot hold; CommandError for the wrong number of files or an OpenCV failure.
+// latlong: latitude-longitude maps (fisheye and Mei pairs) instead of pinhole rectification.
+CalibrationForImages load_calibration_for(const std::vector<std::string>& calibration_files, int width, int height,
+                                          const std::optional<io::LatLongOptions>& latlong = std::nullopt);
+
+// Both views rectified through the fixed-point remap kernel (io::rectification_graph_spec: the
+// remap_bilinear graph with calibration_rectification tables), as `lpstereo rectify` and
+// `lpstereo disparity --calib C --rectify` do. Call load_calibration_for first for its checks.
+struct RectifiedViews {
+  Plane left, right;  // u8, the input size
+};
+RectifiedViews rectify_views(const Plane& left, const Plane& right, const std::vector<std::string>& calibration_files,
+                             const std::optional<io::LatLongOptions>& latlong = std::nullopt);
 
 class GeometryCommands {
  public:

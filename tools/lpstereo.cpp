@@ -1,7 +1,8 @@
 // lpstereo: the command line. Sub-commands:
 //   disparity   the main job: LEFT RIGHT -o OUT through arm::DisparityEngine (KITTI PNG, PFM or raw
-//               s16; optional fill, colour view, profile on a target), or --synthetic: the built-in
-//               scene into a folder with its colour view, truth and cv1-class profile
+//               s16; optional multi-resolution, rectification with a calibration, right-view map,
+//               fill, colour view, profile on a target), or --synthetic: the built-in scene into a
+//               folder with its colour view, truth and cv1-class profile
 //   eval        middlebury | kitti: accuracy on the shared data, optionally beside OpenCV StereoSGBM
 //   profile     the cost of a graph on a target at a frame size: report JSON, Perfetto trace,
 //               Markdown summary; --enforce exits 3 when over the time or bandwidth budget
@@ -13,14 +14,20 @@
 // 3 over budget with --enforce.
 #include <CLI/CLI.hpp>
 
+#include <unistd.h>
+
 #include <cctype>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "arm/disparity_engine.h"
 #include "arm/scheduler.h"
@@ -150,6 +157,11 @@ struct DisparityOptions {
   std::string lr_check = "1";
   int uniqueness_percent = 5;
   std::string backend = "native";
+  std::string multires = "off";
+  // LEFT RIGHT only: calibration (one file or A,B), rectify with it, the right-view map
+  std::vector<std::string> calibration_files;
+  bool rectify = false;
+  std::string right_output_path;
 };
 
 std::string lowercase(std::string text) {
@@ -157,24 +169,91 @@ std::string lowercase(std::string text) {
   return text;
 }
 
-// --format, or the one OUT's extension implies (.png kitti, .pfm pfm, .s16/.raw s16).
+// The format a file name's extension implies (.png kitti, .pfm pfm, .s16/.raw s16), or "".
+std::string format_of_extension(const std::string& extension) {
+  if (extension == ".png") return "kitti";
+  if (extension == ".pfm") return "pfm";
+  if (extension == ".s16" || extension == ".raw") return "s16";
+  return "";
+}
+
+// --format, or the one OUT's extension implies. --right-out is written in the same format, so its
+// name must not imply another one.
 std::string output_format(const DisparityOptions& options) {
   const std::string extension = lowercase(std::filesystem::path(options.output_path).extension().string());
-  std::string format = options.format;
+  std::string format = options.format.empty() ? format_of_extension(extension) : options.format;
   if (format.empty()) {
-    if (extension == ".png") format = "kitti";
-    if (extension == ".pfm") format = "pfm";
-    if (extension == ".s16" || extension == ".raw") format = "s16";
-    if (format.empty()) {
-      throw CommandError(kExitUsage, "-o " + options.output_path + ": cannot tell the format from the extension '" + extension +
-                                         "'; expected .png, .pfm, .s16 or .raw, or give --format kitti|pfm|s16");
-    }
+    throw CommandError(kExitUsage, "-o " + options.output_path + ": cannot tell the format from the extension '" + extension +
+                                       "'; expected .png, .pfm, .s16 or .raw, or give --format kitti|pfm|s16");
   }
   if (format == "kitti" && extension != ".png") {
     throw CommandError(kExitUsage, "-o " + options.output_path + ": --format kitti writes a PNG; expected a .png name, got '" +
                                        extension + "'");
   }
+  if (!options.right_output_path.empty()) {
+    const std::string right_extension = lowercase(std::filesystem::path(options.right_output_path).extension().string());
+    const std::string implied = format_of_extension(right_extension);
+    if (format == "kitti" && right_extension != ".png") {
+      throw CommandError(kExitUsage, "--right-out " + options.right_output_path +
+                                         ": written as kitti like -o, a PNG; expected a .png name, got '" + right_extension + "'");
+    }
+    if (!implied.empty() && implied != format) {
+      throw CommandError(kExitUsage, "--right-out " + options.right_output_path + ": written as " + format +
+                                         " like -o, but its extension '" + right_extension + "' means " + implied);
+    }
+  }
   return format;
+}
+
+// Several output files as one: each is written (atomically, by its writer) under a hidden staging
+// name beside its destination, and all are renamed into place by commit() once every one is
+// written. Until then an error (an exception) removes the staged files, so a failed run leaves no
+// output behind, not even the ones it had finished.
+class StagedOutputs {
+ public:
+  StagedOutputs() = default;
+  StagedOutputs(const StagedOutputs&) = delete;
+  StagedOutputs& operator=(const StagedOutputs&) = delete;
+  ~StagedOutputs() {
+    for (const auto& [staged, destination] : files_) std::remove(staged.c_str());
+  }
+  // Runs `writer` with the name to write `path` under: same folder (the rename stays on one file
+  // system), same extension (codecs pick their format by it). Its errors name `path`.
+  void write(const std::string& path, const std::function<void(const std::string& staged_path)>& writer) {
+    const std::filesystem::path destination(path);
+    const std::string staged = (destination.parent_path() / ("." + destination.filename().string() + ".staged" +
+                                                           std::to_string(::getpid()) + destination.extension().string()))
+                                   .string();
+    files_.emplace_back(staged, path);
+    try {
+      writer(staged);
+    } catch (const FileWriteError& error) {
+      std::string message = error.what();
+      for (size_t at = message.find(staged); at != std::string::npos; at = message.find(staged, at + path.size())) {
+        message.replace(at, staged.size(), path);
+      }
+      throw FileWriteError(message);
+    }
+  }
+  void commit() {
+    for (size_t i = 0; i < files_.size(); ++i) {
+      if (std::rename(files_[i].first.c_str(), files_[i].second.c_str()) != 0) {
+        const std::string reason = std::strerror(errno);
+        files_.erase(files_.begin(), files_.begin() + static_cast<std::ptrdiff_t>(i));  // those are in place
+        throw FileWriteError(files_.front().second + ": cannot rename the staged file into place: " + reason);
+      }
+    }
+    files_.clear();
+  }
+
+ private:
+  std::vector<std::pair<std::string, std::string>> files_;  // staged name, destination
+};
+
+void write_disparity_file(const std::string& path, const std::string& format, const Plane& disparity_q4, int min_disparity_px) {
+  if (format == "kitti") io::write_kitti_disparity_png(path, disparity_q4, min_disparity_px);
+  if (format == "pfm") io::write_pfm(path, io::disparity_q4_to_px(disparity_q4, min_disparity_px));
+  if (format == "s16") io::write_s16_raw(path, disparity_q4);
 }
 
 // The search range for a width-pixel image, checked: one line naming the flag, expected and actual.
@@ -186,6 +265,7 @@ arm::DisparityParameters disparity_parameters(const DisparityOptions& options, i
   if (options.p2) parameters.p2 = *options.p2;
   parameters.subpixel = options.subpixel == "on";
   parameters.uniqueness_percent = options.uniqueness_percent;
+  parameters.multires = options.multires == "on";
   if (options.lr_check == "off") {
     parameters.lr_max_diff = -1;
   } else {
@@ -232,21 +312,14 @@ double density_pct(const Plane& disparity_q4, int16_t invalid_q4) {
   return 100.0 * static_cast<double>(valid) / (static_cast<double>(disparity_q4.width()) * disparity_q4.height());
 }
 
-Plane copy_plane(const Plane& plane) {
-  Plane copy(plane.width(), plane.height(), plane.format());
-  for (int y = 0; y < plane.height(); ++y) {
-    std::memcpy(copy.row<uint8_t>(y), plane.row<uint8_t>(y), static_cast<size_t>(plane.width() * plane.element_size()));
-  }
-  return copy;
-}
-
 // The built-in scene: disparity.png, disparity_color.png, the views, the truth and the profile on a
 // target, all into one folder.
 int run_disparity_synthetic(const DisparityOptions& options) {
   if (!options.left_path.empty() || !options.right_path.empty() || !options.output_path.empty() || !options.report_path.empty() ||
-      !options.color_path.empty() || !options.format.empty()) {
+      !options.color_path.empty() || !options.format.empty() || !options.right_output_path.empty() ||
+      !options.calibration_files.empty() || options.rectify) {
     throw CommandError(kExitUsage, "--synthetic writes everything into --out-dir; it takes no LEFT RIGHT, -o, --format, "
-                                   "--color or --report");
+                                   "--color, --report, --right-out, --calib or --rectify");
   }
   check_frame_size(options.size);
   if (!(options.fps > 0 && options.fps <= 10000)) {
@@ -305,7 +378,8 @@ int run_disparity_synthetic(const DisparityOptions& options) {
   return 0;
 }
 
-// LEFT RIGHT -o OUT: every check before any file is written; the files are written atomically.
+// LEFT RIGHT -o OUT: every check before any file is written; the files are staged and renamed into
+// place together, so a failure leaves none of them.
 int run_disparity_files(const DisparityOptions& options) {
   if (options.left_path.empty() || options.right_path.empty() || options.output_path.empty()) {
     throw CommandError(kExitUsage, "give LEFT RIGHT -o OUT, or --synthetic for the built-in scene");
@@ -313,26 +387,57 @@ int run_disparity_files(const DisparityOptions& options) {
   if (options.target_name.empty() != options.report_path.empty()) {
     throw CommandError(kExitUsage, "--target and --report go together (the report is the profile on that target)");
   }
+  if (options.rectify && options.calibration_files.empty()) {
+    throw CommandError(kExitUsage, "--rectify needs --calib FILE (the calibration to rectify with)");
+  }
   if (!options.color_path.empty() && lowercase(std::filesystem::path(options.color_path).extension().string()) != ".png") {
     throw CommandError(kExitUsage, "--color " + options.color_path + ": expected a .png file name");
   }
   const std::string format = output_format(options);
-  const Plane left = io::read_luma_u8(options.left_path);
-  const Plane right = io::read_luma_u8(options.right_path);
+  {
+    // One file per output: a second one under the same name would replace the first.
+    std::map<std::string, std::string> outputs;
+    for (const auto& [flag, file] : {std::pair<std::string, std::string>{"-o", options.output_path},
+                                     {"--right-out", options.right_output_path},
+                                     {"--color", options.color_path},
+                                     {"--report", options.report_path}}) {
+      if (file.empty()) continue;
+      const std::string key = std::filesystem::absolute(file).lexically_normal().string();
+      if (outputs.count(key)) throw CommandError(kExitUsage, flag + " " + file + ": the same file as " + outputs[key]);
+      outputs[key] = flag;
+    }
+  }
+  Plane left = io::read_luma_u8(options.left_path);
+  Plane right = io::read_luma_u8(options.right_path);
   if (left.width() != right.width() || left.height() != right.height()) {
     throw CommandError(kExitInput, "image sizes differ: left " + options.left_path + " is " + std::to_string(left.width()) + "x" +
                                        std::to_string(left.height()) + ", right " + options.right_path + " is " +
                                        std::to_string(right.width()) + "x" + std::to_string(right.height()));
   }
   check_frame_size({left.width(), left.height()});
+  if (!options.calibration_files.empty()) {
+    // Checked against the images' size with or without --rectify (one line naming both sizes).
+    tools::load_calibration_for(options.calibration_files, left.width(), left.height());
+    if (options.rectify) {
+      tools::RectifiedViews rectified = tools::rectify_views(left, right, options.calibration_files);
+      left = rectified.left;
+      right = rectified.right;
+    }
+  }
   const arm::DisparityParameters parameters = disparity_parameters(options, left.width(), arm::DisparityParameters{}.num_disparities);
   std::optional<host_sim::Target> target;
   if (!options.target_name.empty()) target = host_sim::load_target(options.target_name);
   arm::DisparityEngine engine(left.width(), left.height(), parameters, target ? target->memory_budget() : MemoryBudget{},
                               options.threads, kernel_backend(options));
-  Plane disparity = copy_plane(engine.compute(left, right));
-  const double produced_pct = density_pct(disparity, engine.invalid_disparity_q4());
-  if (options.fill) io::fill_invalid_kitti(disparity, engine.invalid_disparity_q4());
+  const int16_t invalid_q4 = engine.invalid_disparity_q4();
+  Plane disparity = engine.compute(left, right).clone();
+  const double produced_pct = density_pct(disparity, invalid_q4);
+  Plane right_disparity;
+  if (!options.right_output_path.empty()) right_disparity = engine.compute_right_view(left, right).clone();
+  if (options.fill) {
+    io::fill_invalid_kitti(disparity, invalid_q4);
+    if (!right_disparity.empty()) io::fill_invalid_kitti(right_disparity, invalid_q4);
+  }
   std::optional<host_sim::ProfileReport> report;
   if (target) {
     const std::map<std::string, const Plane*> inputs = {{"left", &left}, {"right", &right}};
@@ -340,17 +445,32 @@ int run_disparity_files(const DisparityOptions& options) {
   }
 
   const int min_disparity_px = parameters.min_disparity;
-  if (format == "kitti") io::write_kitti_disparity_png(options.output_path, disparity, min_disparity_px);
-  if (format == "pfm") io::write_pfm(options.output_path, io::disparity_q4_to_px(disparity, min_disparity_px));
-  if (format == "s16") io::write_s16_raw(options.output_path, disparity);
-  if (!options.color_path.empty()) {
-    io::write_image(options.color_path,
-                    io::colorize_disparity(disparity, min_disparity_px, min_disparity_px + parameters.num_disparities));
+  StagedOutputs staged;
+  staged.write(options.output_path,
+               [&](const std::string& file) { write_disparity_file(file, format, disparity, min_disparity_px); });
+  if (!right_disparity.empty()) {
+    staged.write(options.right_output_path,
+                 [&](const std::string& file) { write_disparity_file(file, format, right_disparity, min_disparity_px); });
   }
-  if (report) write_profile_outputs(*report, {options.report_path, "", ""});
-  std::printf("disparity %dx%d, disparities [%d, %d), %.1f %% of pixels produced%s -> %s (%s)\n", left.width(), left.height(),
-              min_disparity_px, min_disparity_px + parameters.num_disparities, produced_pct,
-              options.fill ? ", the rest filled" : "", options.output_path.c_str(), format.c_str());
+  if (!options.color_path.empty()) {
+    staged.write(options.color_path, [&](const std::string& file) {
+      io::write_image(file, io::colorize_disparity(disparity, min_disparity_px, min_disparity_px + parameters.num_disparities));
+    });
+  }
+  if (report) staged.write(options.report_path, [&](const std::string& file) { write_profile_outputs(*report, {file, "", ""}); });
+  staged.commit();
+  std::string how;
+  if (options.rectify) how += ", rectified with " + options.calibration_files.front();
+  if (parameters.multires) {
+    const arm::MultiresSplit split = arm::multires_split(parameters.min_disparity, parameters.num_disparities);
+    how += ", multi-resolution: full resolution [" + std::to_string(split.min_far) + ", " +
+           std::to_string(split.min_far + split.num_far) + ") px, half resolution [" + std::to_string(split.min_near) + ", " +
+           std::to_string(split.min_near + split.num_near) + ") half px";
+  }
+  std::printf("disparity %dx%d, disparities [%d, %d)%s, %.1f %% of pixels produced%s -> %s (%s)%s%s\n", left.width(),
+              left.height(), min_disparity_px, min_disparity_px + parameters.num_disparities, how.c_str(), produced_pct,
+              options.fill ? ", the rest filled" : "", options.output_path.c_str(), format.c_str(),
+              right_disparity.empty() ? "" : ", right view -> ", options.right_output_path.c_str());
   return 0;
 }
 
@@ -410,7 +530,9 @@ int main(int argc, char** argv) {
   // disparity
   DisparityOptions disparity_options;
   CLI::App* disparity = app.add_subcommand(
-      "disparity", "left-view disparity of a rectified pair (LEFT RIGHT -o OUT), or of the built-in scene (--synthetic)");
+      "disparity",
+      "left-view disparity of a rectified pair (LEFT RIGHT -o OUT; --calib C --rectify rectifies it first; --right-out "
+      "adds the right view's), or of the built-in scene (--synthetic)");
   disparity->add_option("left", disparity_options.left_path, "left image (any format OpenCV reads; colour becomes BT.601 luma)");
   disparity->add_option("right", disparity_options.right_path, "right image, same size as the left");
   disparity->add_option("-o,--output", disparity_options.output_path, "disparity file to write");
@@ -434,11 +556,30 @@ int main(int argc, char** argv) {
   disparity->add_option("--lr-check", disparity_options.lr_check, "left-right check tolerance in px, or off")->capture_default_str();
   disparity->add_option("--uniqueness", disparity_options.uniqueness_percent, "SGM uniqueness ratio in % (0 = off, <= 50)")
       ->capture_default_str();
+  disparity->add_option("--multires", disparity_options.multires,
+                        "on: full-resolution SGM over [min-disp, min-disp + min(num-disp, 128)) plus a half-resolution "
+                        "pass over the whole range, fused into one full-resolution map (arm/disparity_engine.h, "
+                        "docs/kernels.md); off: one full-resolution pass")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"on", "off"}));
+  disparity->add_option("--calib", disparity_options.calibration_files,
+                        "calibration: OpenCV YAML/XML, KITTI calib, Middlebury calib.txt (two files as A,B: OpenCV "
+                        "intrinsics + extrinsics, ROS camera_info or Kalibr left + right). With --rectify both views are "
+                        "rectified with it first; without, it is only checked against the image size (and that it "
+                        "maps inside the images) and otherwise unused")
+      ->delimiter(',');
+  disparity->add_flag("--rectify", disparity_options.rectify,
+                      "rectify both views with --calib before matching (the fixed-point remap of `lpstereo rectify`); "
+                      "the maps are then in rectified coordinates");
+  disparity->add_option("--right-out", disparity_options.right_output_path,
+                        "also write the right-view disparity (same format as -o; right pixel x matches left pixel x + d): "
+                        "the engine run a second time on the mirrored pair");
   disparity->add_option("--backend", disparity_options.backend, "native (this CPU's best ISA level) or counting (same bits, slower)")
       ->capture_default_str()
       ->check(CLI::IsMember({"native", "counting"}));
   disparity->add_flag("--fill", disparity_options.fill,
-                      "fill invalid pixels as the KITTI development kit does (along the row, from the lower neighbour)");
+                      "fill invalid pixels as the KITTI development kit does (along the row, from the lower neighbour); "
+                      "both maps with --right-out");
   disparity->add_option("--color", disparity_options.color_path, "also write a colour view (PNG)");
   disparity->add_option("--threads", disparity_options.threads, "worker threads (0 = one per hardware thread)")
       ->capture_default_str()

@@ -126,10 +126,34 @@ TEST_F(Cli, BadInputGetsOneClearLineAndANonZeroExit) {
       {"no output", "disparity " + pair, "lpstereo: give LEFT RIGHT -o OUT, or --synthetic", 2},
       {"num-disp zero", "disparity " + pair + " -o " + path("o6.png") + " --num-disp 0",
        "lpstereo: --num-disp: expected a positive number, got 0", 2, "o6.png"},
+      {"num-disp negative", "disparity " + pair + " -o " + path("o6b.png") + " --num-disp -16 --multires on",
+       "lpstereo: --num-disp: expected a positive number, got -16", 2, "o6b.png"},
       {"num-disp wider than the image", "disparity " + pair + " -o " + path("o7.png") + " --num-disp 65",
        "lpstereo: --num-disp: expected at most 64 (the image width), got 65", 1, "o7.png"},
       {"range beyond the width", "disparity " + pair + " -o " + path("o8.s16") + " --min-disp 10 --num-disp 60",
        "lpstereo: --min-disp + --num-disp: expected at most 64 (the image width), got 10 + 60 = 70", 1, "o8.s16"},
+      {"range beyond the width, multi-resolution",
+       "disparity " + pair + " -o " + path("o8b.s16") + " --min-disp 20 --num-disp 50 --multires on",
+       "lpstereo: --min-disp + --num-disp: expected at most 64 (the image width), got 20 + 50 = 70", 1, "o8b.s16"},
+      {"rectify without a calibration", "disparity " + pair + " -o " + path("o13.png") + " --rectify",
+       "lpstereo: --rectify needs --calib FILE", 2, "o13.png"},
+      {"right view in another format", "disparity " + pair + " -o " + path("o14.png") + " --right-out " + path("r14.pfm"),
+       "lpstereo: --right-out " + path("r14.pfm") + ": written as kitti like -o, a PNG; expected a .png name, got '.pfm'", 2,
+       "o14.png"},
+      {"right view with another format's extension",
+       "disparity " + pair + " -o " + path("o15.pfm") + " --right-out " + path("r15.s16"),
+       "lpstereo: --right-out " + path("r15.s16") + ": written as pfm like -o, but its extension '.s16' means s16", 2, "r15.s16"},
+      {"right view over the left view", "disparity " + pair + " -o " + path("o16.png") + " --right-out " + path("o16.png"),
+       "lpstereo: --right-out " + path("o16.png") + ": the same file as -o", 2, "o16.png"},
+      {"right view into a missing folder (after the left map is done)",
+       "disparity " + pair + " -o " + path("o17.png") + " --right-out " + path("no/such/dir/r17.png"),
+       "lpstereo: " + path("no/such/dir/r17.png") + ": cannot write", 1, "o17.png"},
+      {"colour view into a missing folder (after both maps are done)",
+       "disparity " + pair + " -o " + path("o18.s16") + " --right-out " + path("r18.s16") + " --color " +
+           path("no/such/dir/c18.png"),
+       "lpstereo: " + path("no/such/dir/c18.png") + ": cannot write", 1, "r18.s16"},
+      {"synthetic scene with a right view", "disparity --synthetic --out-dir " + path("s19") + " --right-out " + path("r19.png"),
+       "lpstereo: --synthetic writes everything into --out-dir; it takes no", 2, "s19"},
       {"unknown output extension", "disparity " + pair + " -o " + path("o9.tif"),
        "lpstereo: -o " + path("o9.tif") + ": cannot tell the format from the extension '.tif'", 2, "o9.tif"},
       {"kitti format without .png", "disparity " + pair + " -o " + path("o10.pfm") + " --format kitti",
@@ -166,10 +190,16 @@ TEST_F(Cli, BadInputGetsOneClearLineAndANonZeroExit) {
   }
   // A size mismatch between the views.
   run("disparity --synthetic --width 80 --height 48 --out-dir " + path("pair2"));
-  const Result mismatch = run("disparity " + left + " " + path("pair2/right.png") + " -o " + path("o5.png"));
+  const Result mismatch = run("disparity " + left + " " + path("pair2/right.png") + " -o " + path("o5.png") + " --right-out " +
+                              path("r5.png"));
   EXPECT_EQ(mismatch.exit_code, 1);
-  EXPECT_EQ(mismatch.err.rfind("lpstereo: image sizes differ: left ", 0), 0u) << mismatch.err;
+  EXPECT_EQ(lines(mismatch.err), 1) << mismatch.err;
+  EXPECT_EQ(mismatch.err, "lpstereo: image sizes differ: left " + left + " is 64x48, right " + path("pair2/right.png") +
+                              " is 80x48\n");
   EXPECT_FALSE(fs::exists(path("o5.png")));
+  EXPECT_FALSE(fs::exists(path("r5.png")));
+  // A failed write after others were done takes them back: neither map of the colour-view case remains.
+  EXPECT_FALSE(fs::exists(path("o18.s16")));
   EXPECT_TRUE(no_temporaries());
 }
 
@@ -239,6 +269,51 @@ TEST_F(Cli, DisparityMatcherOptionsReachTheEngine) {
     EXPECT_EQ(bad.err.rfind(error_start, 0), 0u) << bad.err;
     EXPECT_FALSE(fs::exists(path("bad.s16")));
   }
+}
+
+TEST_F(Cli, DisparityMultiresolutionAndRightViewReachTheEngine) {
+  ASSERT_EQ(run("disparity --synthetic --width 320 --height 96 --out-dir " + path("pair")).exit_code, 0);
+  const std::string pair = path("pair/left.png") + " " + path("pair/right.png");
+  const int width = 320, height = 96;
+  // [-112, 32): 144 disparities, more than the full-resolution pass's 128, so that it searches
+  // [-112, 16) and the scene's larger disparities (up to 26 px) come from the half-resolution pass.
+  const int16_t invalid = (-112 - 1) * 16;
+  auto map = [&](const std::string& name, const std::string& options) {
+    const Result result = run("disparity " + pair + " -o " + path(name) + " --min-disp -112 --num-disp 144 " + options);
+    EXPECT_EQ(result.exit_code, 0) << options << ": " << result.err;
+    return result;
+  };
+  map("single.s16", "");
+  const Result multires = map("multi.s16", "--multires on --right-out " + path("multi_right.s16"));
+  EXPECT_NE(multires.out.find("multi-resolution: full resolution [-112, 16) px, half resolution [-56, 17) half px"),
+            std::string::npos)
+      << multires.out;
+  EXPECT_NE(multires.out.find(", right view -> " + path("multi_right.s16")), std::string::npos) << multires.out;
+  map("counted.s16", "--multires on --backend counting");
+  map("right.s16", "--right-out " + path("right_only.s16") + " --fill");
+  const Plane single = io::read_s16_raw(path("single.s16"), width, height);
+  const Plane multi = io::read_s16_raw(path("multi.s16"), width, height);
+  const Plane counted = io::read_s16_raw(path("counted.s16"), width, height);
+  const Plane right_view = io::read_s16_raw(path("multi_right.s16"), width, height);
+  const Plane filled_right = io::read_s16_raw(path("right_only.s16"), width, height);
+  int multires_differs = 0, right_valid = 0, right_consistent = 0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      ASSERT_EQ(multi.at<int16_t>(x, y), counted.at<int16_t>(x, y)) << "counting back end differs at " << x << "," << y;
+      ASSERT_NE(filled_right.at<int16_t>(x, y), invalid) << "--fill left a hole in the right view at " << x << "," << y;
+      multires_differs += single.at<int16_t>(x, y) != multi.at<int16_t>(x, y) ? 1 : 0;
+      // Right pixel x with disparity d sees left pixel x + d, whose left-view disparity is d too.
+      const int d = right_view.at<int16_t>(x, y);
+      if (d == invalid) continue;
+      ++right_valid;
+      const int left_x = x + (d + 8) / 16;  // d > 0 here (the scene has no negative disparity)
+      right_consistent += left_x >= 0 && left_x < width && std::abs(multi.at<int16_t>(left_x, y) - d) <= 16 ? 1 : 0;
+    }
+  }
+  EXPECT_GT(multires_differs, 0) << "--multires on gave the single-resolution map";
+  EXPECT_GT(right_valid, width * height * 6 / 10);
+  EXPECT_GT(right_consistent, right_valid * 9 / 10) << right_consistent << " of " << right_valid;
+  EXPECT_TRUE(no_temporaries());
 }
 
 TEST_F(Cli, EvalRunsTheEngineAndOpenCvOnAKittiLayoutAndWritesEveryNumber) {
