@@ -149,13 +149,16 @@ struct DisparityOptions {
   std::string target_name;  // empty: cv1-class for --synthetic, no profile otherwise
   std::optional<int> min_disparity_px, num_disparities;
   int threads = 0;
-  // the matcher (arm::DisparityParameters)
-  int paths = 4;
+  // the matcher (arm::DisparityParameters; its defaults are the command's)
+  int paths = arm::DisparityParameters{}.paths;
   std::optional<int> p1, p2;
-  std::string census = "5x5";
-  std::string subpixel = "on";
-  std::string lr_check = "1";
-  int uniqueness_percent = 5;
+  std::string census = arm::DisparityParameters{}.census_width == 9 ? "9x7" : "5x5";
+  std::string subpixel = arm::DisparityParameters{}.subpixel ? "on" : "off";
+  std::string lr_check = arm::DisparityParameters{}.lr_max_diff >= 0 ? std::to_string(arm::DisparityParameters{}.lr_max_diff) : "off";
+  int uniqueness_percent = arm::DisparityParameters{}.uniqueness_percent;
+  std::string median = arm::DisparityParameters{}.median ? "on" : "off";
+  int speckle_size_px = arm::DisparityParameters{}.speckle_max_size_px;
+  int speckle_range_px = arm::DisparityParameters{}.speckle_max_difference_px;
   std::string backend = "native";
   std::string multires = "off";
   // LEFT RIGHT only: calibration (one file or A,B), rectify with it, the right-view map
@@ -265,6 +268,9 @@ arm::DisparityParameters disparity_parameters(const DisparityOptions& options, i
   if (options.p2) parameters.p2 = *options.p2;
   parameters.subpixel = options.subpixel == "on";
   parameters.uniqueness_percent = options.uniqueness_percent;
+  parameters.median = options.median == "on";
+  parameters.speckle_max_size_px = options.speckle_size_px;
+  parameters.speckle_max_difference_px = options.speckle_range_px;
   parameters.multires = options.multires == "on";
   if (options.lr_check == "off") {
     parameters.lr_max_diff = -1;
@@ -556,6 +562,17 @@ int main(int argc, char** argv) {
   disparity->add_option("--lr-check", disparity_options.lr_check, "left-right check tolerance in px, or off")->capture_default_str();
   disparity->add_option("--uniqueness", disparity_options.uniqueness_percent, "SGM uniqueness ratio in % (0 = off, <= 50)")
       ->capture_default_str();
+  disparity->add_option("--median", disparity_options.median, "SGM: 3x3 median that keeps invalid pixels invalid")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"on", "off"}));
+  disparity->add_option("--speckle-size", disparity_options.speckle_size_px,
+                        "SGM: regions of at most this many pixels become invalid (cv::filterSpeckles; 0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1 << 30));
+  disparity->add_option("--speckle-range", disparity_options.speckle_range_px,
+                        "SGM: neighbours within this many px belong to one speckle region")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 4095));
   disparity->add_option("--multires", disparity_options.multires,
                         "on: full-resolution SGM over [min-disp, min-disp + min(num-disp, 128)) plus a half-resolution "
                         "pass over the whole range, fused into one full-resolution map (arm/disparity_engine.h, "

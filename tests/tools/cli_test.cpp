@@ -247,22 +247,33 @@ TEST_F(Cli, DisparityMatcherOptionsReachTheEngine) {
   const Plane counting = map("4c.s16", "--paths 4 --backend counting");
   const Plane eight_paths = map("8.s16", "--paths 8 --census 9x7");
   const Plane whole_pixels = map("w.s16", "--subpixel off --lr-check off --uniqueness 0");
-  int eight_differs = 0, fractional = 0, whole_fractional = 0;
+  const Plane defaults = map("d.s16", "");
+  const Plane raw = map("raw.s16", "--median off --speckle-size 0");
+  const Plane median_only = map("m.s16", "--speckle-size 0");
+  int eight_differs = 0, fractional = 0, whole_fractional = 0, raw_differs = 0;
   for (int y = 0; y < 64; ++y) {
     for (int x = 0; x < 96; ++x) {
       ASSERT_EQ(four_paths.at<int16_t>(x, y), counting.at<int16_t>(x, y)) << "counting back end differs at " << x << "," << y;
       eight_differs += four_paths.at<int16_t>(x, y) != eight_paths.at<int16_t>(x, y) ? 1 : 0;
       fractional += (four_paths.at<int16_t>(x, y) & 15) != 0 ? 1 : 0;
       whole_fractional += (whole_pixels.at<int16_t>(x, y) & 15) != 0 ? 1 : 0;
+      raw_differs += raw.at<int16_t>(x, y) != median_only.at<int16_t>(x, y) ? 1 : 0;
+      // The speckle filter only ever invalidates.
+      if (defaults.at<int16_t>(x, y) != median_only.at<int16_t>(x, y)) {
+        ASSERT_EQ(defaults.at<int16_t>(x, y), -16) << "the speckle filter changed a value at " << x << "," << y;
+      }
     }
   }
+  EXPECT_GT(raw_differs, 0) << "--median off gave the median's map";
   EXPECT_GT(eight_differs, 0) << "--paths 8 --census 9x7 gave the 4-path 5x5 map";
   EXPECT_GT(fractional, 0) << "sub-pixel on gave whole pixels only";
   EXPECT_EQ(whole_fractional, 0) << "--subpixel off gave fractions";
   for (const auto& [options, error_start] : std::vector<std::pair<std::string, std::string>>{
            {"--lr-check maybe", "lpstereo: --lr-check: expected a tolerance in px"},
            {"--paths 5", "lpstereo: --paths: 5 not in {0,4,8}"},
-           {"--census 7x7", "lpstereo: --census: 7x7 not in {5x5,9x7}"}}) {
+           {"--census 7x7", "lpstereo: --census: 7x7 not in {5x5,9x7}"},
+           {"--median maybe", "lpstereo: --median: maybe not in {on,off}"},
+           {"--speckle-size -1", "lpstereo: --speckle-size: Value -1 not in range"}}) {
     const Result bad = run("disparity " + pair + " -o " + path("bad.s16") + " " + options);
     EXPECT_EQ(bad.exit_code, 2) << options << ": " << bad.err;
     EXPECT_EQ(lines(bad.err), 1) << bad.err;
