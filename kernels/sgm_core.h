@@ -94,9 +94,9 @@ inline size_t sgm_state_bytes(int width, int disparities) {
   return 3 * 2 * (static_cast<size_t>(width) * slot + 1);
 }
 
-// Scratch layout (bytes, sized for the widest back end): three u16 buffers of Dp32 + 2 (a zero
-// "previous pixel" for path starts, the left-to-right path's previous pixel, the current pixel's
-// sums for the sub-pixel reads of S(best - 1) and S(best + 1)), then u32 rows: the right-view keys (W + 2 Dp32 + 64) and four
+// Scratch layout (bytes, sized for the widest back end): two u16 buffers of Dp32 + 2 (a zero
+// "previous pixel" for path starts; the current pixel's sums for the sub-pixel reads of S(best - 1)
+// and S(best + 1)), then u32 rows: the right-view keys (W + 2 Dp32 + 64) and four
 // per-pixel records (W + 64 each: best key, second-best cost, S(best - 1), S(best + 1)) that the
 // row's final pass turns into disparities 16 pixels per vector; the forward pass adds the staged
 // right census row.
@@ -124,7 +124,7 @@ inline SgmScratchLayout sgm_scratch_layout(int width, const SgmParams& params, S
   const size_t dp32 = static_cast<size_t>(sgm_padded(params.num_disparities, kSgmWidestLanesU16));
   auto align = [](size_t bytes) { return (bytes + 63) / 64 * 64; };
   layout.u16_buffer = dp32 + 2;
-  layout.keys_offset = align(3 * layout.u16_buffer * 2);
+  layout.keys_offset = align(2 * layout.u16_buffer * 2);
   layout.keys_count = static_cast<size_t>(width) + 2 * dp32 + 64;
   layout.rows_offset = align(layout.keys_offset + 4 * layout.keys_count);
   layout.row_count = static_cast<size_t>(width) + 64;
@@ -208,6 +208,34 @@ LPSTEREO_SGM_INLINE void path_step(const uint16_t* previous, uint16_t* out, cons
   }
 }
 
+// The same step for the path along the row, whose previous pixel is the one just computed: its
+// costs stay in registers (`last`, updated in place) and the d +- 1 neighbours are lane shifts
+// across adjacent vectors, so nothing goes through memory. (Storing them and loading them back one
+// lane off, as the other paths do with last row's slots, stalls the host: a load that straddles two
+// recent stores cannot be forwarded from the store buffer.) `sentinel` (0xFFFF) is the neighbour
+// beyond either end of the range.
+template <class B, int kMaxVectors>
+LPSTEREO_SGM_INLINE void path_step_in_registers(typename B::VU16* last, const typename B::VU16* cost, typename B::VU16* sum,
+                                                bool first, int vectors, const PathConstants<B>& constants,
+                                                const typename B::VU16& sentinel) {
+  using VU16 = typename B::VU16;
+  VU16 minimum = last[0];
+  for (int k = 1; k < vectors; ++k) minimum = B::min(minimum, last[k]);
+  minimum = B::min_across(minimum);
+  const VU16 minimum_p2 = B::adds(minimum, constants.p2);
+  VU16 neighbours[kMaxVectors];
+  for (int k = 0; k < vectors; ++k) {
+    const VU16 below = B::previous_lanes(k == 0 ? sentinel : last[k - 1], last[k]);
+    const VU16 above = B::next_lanes(last[k], k == vectors - 1 ? sentinel : last[k + 1]);
+    neighbours[k] = B::adds(B::min(below, above), constants.p1);
+  }
+  for (int k = 0; k < vectors; ++k) {
+    const VU16 best = B::min(neighbours[k], B::min(last[k], minimum_p2));
+    last[k] = B::adds(cost[k], B::sub(best, minimum));
+    sum[k] = first ? last[k] : B::adds(sum[k], last[k]);
+  }
+}
+
 }  // namespace sgm_detail
 
 // The tile body. Inputs: 0 = left census (Word), 1 = right census (Word), for the backward pass
@@ -256,8 +284,7 @@ void sgm_tile_for(const TileArgs& args) {
 
   const SgmScratchLayout layout = sgm_scratch_layout(width, params, kPass, static_cast<int>(sizeof(Word)));
   uint16_t* const zero_buffer = reinterpret_cast<uint16_t*>(args.scratch);
-  uint16_t* const left_path = zero_buffer + layout.u16_buffer;
-  uint16_t* const sums_buffer = left_path + layout.u16_buffer;
+  uint16_t* const sums_buffer = zero_buffer + layout.u16_buffer;
   uint32_t* const right_keys = reinterpret_cast<uint32_t*>(args.scratch + layout.keys_offset);
   uint32_t* const best_key_row = reinterpret_cast<uint32_t*>(args.scratch + layout.rows_offset);
   uint32_t* const second_row = best_key_row + layout.row_count;
@@ -272,9 +299,9 @@ void sgm_tile_for(const TileArgs& args) {
                                                     B::set1_u16(static_cast<uint16_t>(params.p2))};
   if constexpr (kPaths) {
     for (int i = 0; i < padded + 2; i += L16) store_clipped<B>(zero_buffer, i, padded + 2, zero16);
-    B::store_partial(left_path, ones16, 1);
-    B::store_partial(left_path + padded + 1, ones16, 1);
   }
+  VU16 row_path[kMaxVectors];  // the path along the row: the previous pixel's costs, in registers
+  for (VU16& costs : row_path) costs = zero16;
   // d - min_disparity per lane (0xFFFF on padding lanes), and the padding mask of the last vector.
   VU16 best_index[kMaxVectors];
   VU16 padding_mask = zero16;
@@ -385,8 +412,10 @@ void sgm_tile_for(const TileArgs& args) {
         if (has_padding) cost[vectors - 1] = B::bit_or(cost[vectors - 1], padding_mask);
         // The four paths: along the row, then the three from the previous row.
         const uint16_t* start = zero_buffer + 1;
-        sgm_detail::path_step<B, kMaxVectors>(mirrored_x == 0 ? start : left_path + 1, left_path + 1, cost, sum, true,
-                                              vectors, path_constants);
+        if (mirrored_x == 0) {
+          for (int k = 0; k < vectors; ++k) row_path[k] = zero16;  // path start: L = C
+        }
+        sgm_detail::path_step_in_registers<B, kMaxVectors>(row_path, cost, sum, true, vectors, path_constants, ones16);
         uint16_t* down_slot = regions[0] + diagonal_down * slot_stride + 1;
         sgm_detail::path_step<B, kMaxVectors>(mirrored_x == 0 ? start : down_slot, down_slot, cost, sum, false, vectors,
                                               path_constants);

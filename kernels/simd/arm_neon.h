@@ -190,7 +190,10 @@ struct Neon {
     static_assert(std::is_same_v<Lane, uint16_t> || std::is_same_v<Lane, uint32_t>, "min_across exists for u16 and u32 lanes");
     if constexpr (std::is_same_v<Lane, uint16_t>) return {vdupq_n_u16(vminvq_u16(a.v))};
     else return {vdupq_n_u32(vminvq_u32(a.v))};
-  }
+  }  // vext on the concatenation.
+  static VU16 previous_lanes(const VU16& before, const VU16& v) { return {vextq_u16(before.v, v.v, 7)}; }
+  static VU16 next_lanes(const VU16& v, const VU16& after) { return {vextq_u16(v.v, after.v, 1)}; }
+
 
   template <class Lane>
   static Vec<Lane> absdiff(const Vec<Lane>& a, const Vec<Lane>& b) {

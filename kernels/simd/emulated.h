@@ -201,7 +201,24 @@ struct Emulated {
     Vec<Lane> result;
     for (int i = 0; i < Vec<Lane>::kLanes; ++i) result.lane[i] = minimum;
     return result;
+  }  // Lane shifts across a pair of vectors (u16 lanes), for per-lane neighbours of a value kept in
+  // registers: previous_lanes(before, v) lane i = v lane i - 1, lane 0 = before's last lane;
+  // next_lanes(v, after) lane i = v lane i + 1, the last lane = after's lane 0. Counted as one permute.
+  static VU16 previous_lanes(const VU16& before, const VU16& v) {
+    count(OpClass::permute);
+    VU16 result;
+    result.lane[0] = before.lane[VU16::kLanes - 1];
+    for (int i = 1; i < VU16::kLanes; ++i) result.lane[i] = v.lane[i - 1];
+    return result;
   }
+  static VU16 next_lanes(const VU16& v, const VU16& after) {
+    count(OpClass::permute);
+    VU16 result;
+    for (int i = 0; i + 1 < VU16::kLanes; ++i) result.lane[i] = v.lane[i + 1];
+    result.lane[VU16::kLanes - 1] = after.lane[0];
+    return result;
+  }
+
 
   template <class Lane>
   static Vec<Lane> absdiff(const Vec<Lane>& a, const Vec<Lane>& b) {

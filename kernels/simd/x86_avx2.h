@@ -166,7 +166,14 @@ struct Avx2 {
       const __m128i halves = _mm_min_epu32(quarter, _mm_shuffle_epi32(quarter, 0x4E));
       return {_mm256_broadcastd_epi32(_mm_min_epu32(halves, _mm_shuffle_epi32(halves, 0xB1)))};
     }
+  }  // vpalignr works per 128-bit block: the block pair that straddles the two vectors first (vperm2i128).
+  static VU16 previous_lanes(const VU16& before, const VU16& v) {
+    return {_mm256_alignr_epi8(v.v, _mm256_permute2x128_si256(before.v, v.v, 0x21), 14)};
   }
+  static VU16 next_lanes(const VU16& v, const VU16& after) {
+    return {_mm256_alignr_epi8(_mm256_permute2x128_si256(v.v, after.v, 0x21), v.v, 2)};
+  }
+
 
   // Emulated: (a -sat b) | (b -sat a); one of the two is 0.
   template <class Lane>

@@ -170,7 +170,18 @@ struct Avx512 {
       const __m128i eighth = _mm_min_epu32(quarter, _mm_shuffle_epi32(quarter, 0x4E));
       return {_mm512_broadcastd_epi32(_mm_min_epu32(eighth, _mm_shuffle_epi32(eighth, 0xB1)))};
     }
+  }  // One two-source word permute (vpermt2w) each.
+  static VU16 previous_lanes(const VU16& before, const VU16& v) {
+    const __m512i index = _mm512_set_epi16(62, 61, 60, 59, 58, 57, 56, 55, 54, 53, 52, 51, 50, 49, 48, 47, 46, 45, 44, 43, 42,
+                                           41, 40, 39, 38, 37, 36, 35, 34, 33, 32, 31);
+    return {_mm512_permutex2var_epi16(before.v, index, v.v)};
   }
+  static VU16 next_lanes(const VU16& v, const VU16& after) {
+    const __m512i index = _mm512_set_epi16(32, 31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16, 15, 14, 13, 12,
+                                           11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1);
+    return {_mm512_permutex2var_epi16(v.v, index, after.v)};
+  }
+
 
   // Emulated: (a -sat b) | (b -sat a); one of the two is 0.
   template <class Lane>

@@ -158,7 +158,10 @@ struct Sse42 {
       const __m128i halves = _mm_min_epu32(a.v, _mm_shuffle_epi32(a.v, 0x4E));
       return {_mm_min_epu32(halves, _mm_shuffle_epi32(halves, 0xB1))};
     }
-  }
+  }  // palignr on the concatenation.
+  static VU16 previous_lanes(const VU16& before, const VU16& v) { return {_mm_alignr_epi8(v.v, before.v, 14)}; }
+  static VU16 next_lanes(const VU16& v, const VU16& after) { return {_mm_alignr_epi8(after.v, v.v, 2)}; }
+
 
   // Emulated: (a -sat b) | (b -sat a); one of the two is 0.
   template <class Lane>

@@ -405,7 +405,7 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
   auto add = [](simd::OpCounts& counts, OpClass op, int64_t n) { counts[op] += static_cast<uint64_t>(n); };
   // Per tile: broadcasts, the zero "previous pixel", the left path's sentinels, lane indices.
   add(per_tile, OpClass::permute, 4 + 2 + 5);
-  if (paths) add(per_tile, OpClass::store, (Dp + 2 + L - 1) / L + 2);
+  if (paths) add(per_tile, OpClass::store, (Dp + 2 + L - 1) / L);
   add(per_tile, OpClass::load, 1);
   add(per_tile, OpClass::compare, V);
   add(per_tile, OpClass::arith, 2 * V);
@@ -465,11 +465,13 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
     add(per_pixel, OpClass::load, V * (word_bytes == 4 ? 2 : 4));
     add(per_pixel, OpClass::logic, V * (word_bytes == 4 ? 2 : 4) + (Dp != p.num_disparities ? 1 : 0));
     add(per_pixel, OpClass::popcount, V * (word_bytes == 4 ? 2 : 4));
-    // Four path steps: 3V loads, V stores, (V - 1) + s + 1 + 6V arith, s permutes; sums 3V.
-    add(per_pixel, OpClass::load, 4 * 3 * V);
-    add(per_pixel, OpClass::store, 4 * V);
+    // Four path steps: (V - 1) + s + 1 + 6V arith, s permutes; sums 3V. The three from the
+    // previous row load 3V and store V each; the one along the row keeps its costs in registers and
+    // shifts lanes instead (2V permutes).
+    add(per_pixel, OpClass::load, 3 * 3 * V);
+    add(per_pixel, OpClass::store, 3 * V);
     add(per_pixel, OpClass::arith, 4 * ((V - 1) + s + 1 + 6 * V) + 3 * V);
-    add(per_pixel, OpClass::permute, 4 * s);
+    add(per_pixel, OpClass::permute, 4 * s + 2 * V);
   } else {  // the two sums loaded and added, the padding lanes set
     add(per_pixel, OpClass::load, 2 * V);
     add(per_pixel, OpClass::arith, V);

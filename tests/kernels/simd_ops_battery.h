@@ -46,6 +46,8 @@ enum class OpKind : int {
   min_across,      // every lane = the minimum of a's lanes
   first_lane,      // out lane 0 = first_lane(a), the other lanes 0
   store_stream,    // store_stream(aligned buffer, a), stream_fence(), copied to out
+  previous_lanes,  // previous_lanes(a, b)
+  next_lanes,      // next_lanes(a, b)
   count_
 };
 inline constexpr int kOpKindCount = static_cast<int>(OpKind::count_);
@@ -53,7 +55,7 @@ inline constexpr const char* kOpKindNames[kOpKindCount] = {
     "load/store", "load_partial", "store_partial", "set1", "extract", "add", "sub", "adds", "subs", "min", "max",
     "absdiff", "avg", "mullo", "bit_and", "bit_or", "bit_xor", "bit_andnot", "select", "shl", "shr", "cmpeq",
     "cmpgt", "cmplt", "popcount", "widen_lo", "widen_hi", "zip_lo", "zip_hi", "narrow_sat_u8", "narrow_sat_s16",
-    "narrow_sat_u16", "gather_u8", "gather_u16", "bitcast", "as_*", "min_across", "first_lane", "store_stream"};
+    "narrow_sat_u16", "gather_u8", "gather_u16", "bitcast", "as_*", "min_across", "first_lane", "store_stream", "previous_lanes", "next_lanes"};
 
 // Shift counts the battery can run (each op uses those below its lane bits).
 inline constexpr int kShiftCounts[] = {0, 1, 3, 7, 8, 15, 16, 31, 32, 63};
@@ -104,6 +106,8 @@ constexpr bool op_supports(OpKind kind, LaneKind lane) {
     case OpKind::gather_u8:
     case OpKind::gather_u16: return lane == LaneKind::s32;
     case OpKind::min_across: return lane == LaneKind::u16 || lane == LaneKind::u32;
+    case OpKind::previous_lanes:
+    case OpKind::next_lanes: return lane == LaneKind::u16;
     default: return true;
   }
 }
@@ -237,6 +241,12 @@ void probe_lane(const ProbeOp& op, const ProbeArgs& args) {
     case OpKind::max: probe_store<B>(args.out, B::max(a, b)); break;
     case OpKind::min_across:
       if constexpr (lane_has<Lane>(OpKind::min_across)) probe_store<B>(args.out, B::min_across(a));
+      break;
+    case OpKind::previous_lanes:
+      if constexpr (std::is_same_v<Lane, uint16_t>) probe_store<B>(args.out, B::previous_lanes(a, b));
+      break;
+    case OpKind::next_lanes:
+      if constexpr (std::is_same_v<Lane, uint16_t>) probe_store<B>(args.out, B::next_lanes(a, b));
       break;
     case OpKind::store_stream: {
       alignas(64) Lane lanes[Vector::kLanes];
