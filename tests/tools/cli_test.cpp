@@ -83,6 +83,26 @@ TEST_F(Cli, EnforceExitsThreeWithOneLineWhenOverBudget) {
   EXPECT_NE(reported.out.find("not enforced: graph 'stereo-census-wta' is marked as not meant to fit"), std::string::npos);
 }
 
+// A graph whose tiles do not fit the target's SRAM: the profile says so first, still reports the
+// figures, and --enforce fails even for a graph marked as not meant to fit.
+TEST_F(Cli, ProfileReportsAGraphThatDoesNotFitTheSram) {
+  const std::string command = "profile --graph disparity --target tda4vm-c7x --width 1280 --height 96 --report " + path("r.json");
+  const Result reported = run(command);
+  ASSERT_EQ(reported.exit_code, 0) << reported.err;
+  EXPECT_EQ(reported.out.rfind("DOES NOT FIT: verify phase 4 (memory placement): node 'sgm_far': SRAM working set", 0), 0u)
+      << reported.out;
+  EXPECT_NE(reported.out.find("sgm_far                vector sgm_4path"), std::string::npos) << reported.out;
+  std::ifstream report(path("r.json"));
+  const nlohmann::json json = nlohmann::json::parse(report);
+  EXPECT_FALSE(json["fits_budget"].get<bool>());
+  const Result enforced = run(command + " --enforce");
+  EXPECT_EQ(enforced.exit_code, 3);
+  EXPECT_EQ(lines(enforced.err), 1) << enforced.err;
+  EXPECT_EQ(enforced.err.rfind("lpstereo: over budget: graph 'disparity' on tda4vm-c7x at 1280x96: does not fit the SRAM: ", 0),
+            0u)
+      << enforced.err;
+}
+
 TEST_F(Cli, GraphVerifyAndDot) {
   Result verify = run("graph verify rectify-census --target cv1-class --width 3840 --height 1728");
   EXPECT_EQ(verify.exit_code, 0) << verify.err;
