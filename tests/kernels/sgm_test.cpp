@@ -116,26 +116,24 @@ TEST(Sgm4Path, Census64MatchesReference) {
   expect_all_back_ends_match_reference(test_case, {{41, 13}, {41, 4}});
 }
 
-// The forward sums the reference gives for a census pair (u16, W*D per row), as the backward
-// kernel's third input.
-Plane reference_forward_sums(const Plane& left, const Plane& right, const nlohmann::json& params, int word_bytes) {
-  const KernelDescriptor& forward = testing::kernel_named(word_bytes == 4 ? "sgm_8path_forward" : "sgm_8path_forward_census64");
-  const PreparedKernel prepared = forward.prepare(params, {{left.width(), left.height()}, {right.width(), right.height()}});
+// The sums a sums-writing SGM kernel's reference gives for a census pair (u16, W*D per row): the
+// forward paths' (sgm_8path_forward, the backward kernel's third input) or the backward paths'
+// (sgm_8path_backward_sums, sgm_8path_select's second input).
+Plane reference_sums(const std::string& kernel_name, const Plane& left, const Plane& right, const nlohmann::json& params) {
+  const KernelDescriptor& kernel = testing::kernel_named(kernel_name);
+  const PreparedKernel prepared = kernel.prepare(params, {{left.width(), left.height()}, {right.width(), right.height()}});
   const PlaneShape shape = prepared.output_shapes.at(0);
   Plane sums(shape.width, shape.height, {ElementType::u16, 0}, shape.width * 2 + 6);
-  forward.reference({left.view(), right.view()}, {sums.view()}, prepared.params.get(), BorderMode::replicate, 0);
+  kernel.reference({left.view(), right.view()}, {sums.view()}, prepared.params.get(), BorderMode::replicate, 0);
   return sums;
 }
 
-// The backward paths' sums the reference gives (sgm_8path_backward_sums), as sgm_8path_select's second input.
+Plane reference_forward_sums(const Plane& left, const Plane& right, const nlohmann::json& params, int word_bytes) {
+  return reference_sums(word_bytes == 4 ? "sgm_8path_forward" : "sgm_8path_forward_census64", left, right, params);
+}
+
 Plane reference_backward_sums(const Plane& left, const Plane& right, const nlohmann::json& params, int word_bytes) {
-  const KernelDescriptor& kernel =
-      testing::kernel_named(word_bytes == 4 ? "sgm_8path_backward_sums" : "sgm_8path_backward_sums_census64");
-  const PreparedKernel prepared = kernel.prepare(params, {{left.width(), left.height()}, {right.width(), right.height()}});
-  const PlaneShape shape = prepared.output_shapes.at(0);
-  Plane sums(shape.width, shape.height, {ElementType::u16, 0}, shape.width * 2 + 10);
-  kernel.reference({left.view(), right.view()}, {sums.view()}, prepared.params.get(), BorderMode::replicate, 0);
-  return sums;
+  return reference_sums(word_bytes == 4 ? "sgm_8path_backward_sums" : "sgm_8path_backward_sums_census64", left, right, params);
 }
 
 nlohmann::json forward_params(const nlohmann::json& params) {
