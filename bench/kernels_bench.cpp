@@ -8,6 +8,9 @@
 //   remap_bilinear (remap_q5 map)  vs cv::remap(INTER_LINEAR) with the float maps and with the
 //                                  fixed-point maps of cv::convertMaps (CV_16SC2 + CV_16UC1, built
 //                                  once outside the timing, as our remap_q5 map is)
+//   disparity_to_points            vs cv::reprojectImageTo3D on the same CV_16S Q4 map (Q scaled by
+//                                  1/16): b = 0.12 m, f = 1000 px, disparities 20 .. 72 px with 1 in
+//                                  16 invalid; ours writes three s32 mm planes, OpenCV one CV_32FC3
 //
 // Sizes 1920x1080 and 3840x1728; throughput in megapixels of output per second of CPU time: the
 // rate counter "Mpx" (the console prints it with an SI prefix, "Mpx=2.5k/s" = 2500 megapixels/s).
@@ -20,6 +23,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/core/utility.hpp>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <cstring>
@@ -114,6 +118,46 @@ void BM_census9x7(benchmark::State& state) { run_lpstereo_kernel(state, "census9
 void BM_median3x3(benchmark::State& state) { run_lpstereo_kernel(state, "median3x3", ElementType::u8); }
 void BM_remap_bilinear(benchmark::State& state) { run_lpstereo_kernel(state, "remap_bilinear", ElementType::u8); }
 
+// An s16 Q4 disparity map from the frame's texture (20 .. 72 px), 1 pixel in 16 invalid (-16).
+const Plane& disparity_frame(int width, int height) {
+  static std::map<std::pair<int, int>, Plane> maps;
+  auto found = maps.find({width, height});
+  if (found != maps.end()) return found->second;
+  const Frame& input = frame(width, height);
+  Plane& map = maps[{width, height}] = Plane(width, height, {ElementType::s16, 4});
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const int value = (x * 7 + y * 3) % 16 == 0 ? -16 : 320 + 13 * input.image.at<uint8_t>(y, x) / 4;
+      map.at<int16_t>(x, y) = static_cast<int16_t>(value);
+    }
+  }
+  return map;
+}
+
+constexpr double kBenchBaselineM = 0.12;
+constexpr double kBenchFocalPx = 1000.0;
+
+void BM_disparity_to_points(benchmark::State& state) {
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const Plane& disparity = disparity_frame(width, height);
+  const KernelDescriptor& kernel = kernel_named("disparity_to_points");
+  const nlohmann::json params = {{"baseline_m", kBenchBaselineM}, {"focal_px", kBenchFocalPx}, {"u0_px", width / 2.0},
+                                 {"v0_px", height / 2.0},         {"min_disparity", 0},         {"num_disparities", 128}};
+  const PreparedKernel prepared = kernel.prepare(params, {{width, height}});
+  const BufferFormat millimetres{ElementType::s32, 0};
+  Plane x(width, height, millimetres), y(width, height, millimetres), z(width, height, millimetres);
+  const VectorNodeBinding binding{&kernel, prepared.params.get(), BorderMode::replicate, 0, {disparity.view()},
+                                  {x.view(), y.view(), z.view()}};
+  const simd::Isa isa = simd::active_isa();
+  for (auto _ : state) {
+    run_vector_node(binding, kTileWidth, kTileHeight, KernelBackend::native, isa);
+    benchmark::DoNotOptimize(z.row<uint8_t>(0));
+    benchmark::ClobberMemory();
+  }
+  set_megapixels_per_second(state, width, height);
+}
+
 // Times `function(frame, output)`, an OpenCV call on the frame's inputs.
 template <class Function>
 void run_opencv(benchmark::State& state, const Function& function) {
@@ -145,6 +189,17 @@ void BM_opencv_remap_linear_fixed_map(benchmark::State& state) {
   });
 }
 
+void BM_opencv_reprojectImageTo3D(benchmark::State& state) {
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const Plane& disparity = disparity_frame(width, height);
+  const cv::Mat map(height, width, CV_16SC1, disparity.row<int16_t>(0), static_cast<size_t>(disparity.stride_bytes()));
+  // OpenCV's Q (stereoRectify) for a raw Q4 map: W = d_q4 / (16 B).
+  const cv::Mat q = (cv::Mat_<double>(4, 4) << 1, 0, 0, -width / 2.0, 0, 1, 0, -height / 2.0, 0, 0, 0, kBenchFocalPx, 0, 0,
+                     1.0 / (16 * kBenchBaselineM), 0);
+  run_opencv(state, [&](const Frame&, cv::Mat& output) { cv::reprojectImageTo3D(map, output, q, true); });
+}
+
 void sizes(benchmark::internal::Benchmark* benchmark) {
   benchmark->ArgNames({"width", "height"})
       ->Args({1920, 1080})
@@ -162,6 +217,8 @@ BENCHMARK(BM_opencv_medianBlur3)->Apply(sizes);
 BENCHMARK(BM_remap_bilinear)->Apply(sizes);
 BENCHMARK(BM_opencv_remap_linear_float_map)->Apply(sizes);
 BENCHMARK(BM_opencv_remap_linear_fixed_map)->Apply(sizes);
+BENCHMARK(BM_disparity_to_points)->Apply(sizes);
+BENCHMARK(BM_opencv_reprojectImageTo3D)->Apply(sizes);
 
 }  // namespace
 }  // namespace lpstereo

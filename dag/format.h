@@ -18,7 +18,10 @@ enum class ElementType : uint8_t {
   s16,       // signed 16-bit fixed point; fraction_bits gives the Q-format. Disparity is s16 Q4
              // (value / 16 = pixels), invalid = (min_disparity - 1) * 16 (DESIGN.md §4).
   u32,       // unsigned 32-bit (histograms, counters).
-  s32,       // signed 32-bit fixed point (accumulators); fraction_bits gives the Q-format.
+  s32,       // signed 32-bit fixed point (accumulators); fraction_bits gives the Q-format. Camera-frame
+             // points (disparity_to_points "x", "y", "z"): s32 with 0 fraction bits = millimetres,
+             // no point = INT32_MIN in all three (kernels/disparity_to_points.h), never saturated
+             // except z at 2^31 - 1 mm.
   census32,  // census signature of a window of at most 32 pixels (5x5: 24 bits, bit k = neighbour k
              // in raster order, centre skipped, is darker than the centre; upper bits 0).
   census64,  // census signature of a window of at most 64 pixels (9x7: 62 bits, same bit order).

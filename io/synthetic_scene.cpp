@@ -50,6 +50,10 @@ struct Box {
 
 }  // namespace
 
+double synthetic_texture_grey(double s, double t, uint32_t surface_seed, double base_grey) {
+  return texture(s, t, surface_seed, base_grey);
+}
+
 SyntheticStereoScene make_synthetic_stereo_scene(const SyntheticSceneOptions& options) {
   const int width = options.width, height = options.height;
   if (width < 16 || height < 16 || width > 16384 || height > 16384) {

@@ -29,4 +29,10 @@ struct SyntheticSceneOptions {
 
 SyntheticStereoScene make_synthetic_stereo_scene(const SyntheticSceneOptions& options);
 
+// The scene's surface texture at surface coordinates (s, t) in pixel-sized units: three octaves of
+// value noise (cells of 2.5, 8 and 24 units), mean grey `base_grey`, about +-110 around it (not
+// clamped). For tests that render their own surfaces (a plane at a known distance) with the same
+// texture the built-in scene uses.
+double synthetic_texture_grey(double s, double t, uint32_t surface_seed, double base_grey);
+
 }  // namespace lpstereo::io

@@ -43,6 +43,7 @@
 #include "tools/command_error.h"
 #include "tools/eval_command.h"
 #include "tools/geometry_commands.h"
+#include "tools/points_command.h"
 
 namespace {
 
@@ -689,6 +690,7 @@ int main(int argc, char** argv) {
 
   // rectify, check-rectification, calibrate
   tools::GeometryCommands geometry(app);
+  tools::PointsCommand points(app);  // points (tools/points_command.h)
 
   try {
     app.parse(argc, argv);
@@ -710,6 +712,7 @@ int main(int argc, char** argv) {
     if (*dot) return run_graph_dot(dot_graph, dot_output);
     if (*kernels) return run_kernels();
     if (geometry.selected()) return geometry.run();
+    if (points.selected()) return points.run();
   } catch (const CommandError& error) {
     std::cerr << "lpstereo: " << error.what() << "\n";
     return error.exit_code;
