@@ -69,6 +69,29 @@ void add_matcher(GraphSpec& spec, const DisparityParameters& parameters, int min
   selection["uniqueness_percent"] = parameters.uniqueness_percent;
   selection["subpixel"] = parameters.subpixel ? 1 : 0;
   selection["lr_max_diff"] = parameters.lr_max_diff;
+  if (parameters.parallel_path_passes) {
+    // Two passes of paths side by side, each writing its path sums, then the selection.
+    const bool four = parameters.paths == 4;
+    const std::string first_kernel = four ? "sgm_4path_row_pair_sums" : "sgm_8path_forward";
+    const std::string second_kernel = four ? "sgm_4path_column_pair_sums" : "sgm_8path_backward_sums";
+    NodeSpec first = census_pair_node((four ? "sgm_row_pair" : "sgm_forward") + suffix, first_kernel + kernel_suffix,
+                                      penalties, left_census, right_census);
+    first.outputs["sums"] = (four ? "row_pair_sums" : "forward_sums") + suffix;
+    NodeSpec second = census_pair_node((four ? "sgm_column_pair" : "sgm_backward") + suffix, second_kernel + kernel_suffix,
+                                       penalties, left_census, right_census);
+    second.outputs["sums"] = (four ? "column_pair_sums" : "backward_sums") + suffix;
+    NodeSpec select;
+    select.name = "sgm_select" + suffix;
+    select.kernel = "sgm_sums_select";
+    select.inputs["forward"] = {first.outputs["sums"], false};
+    select.inputs["backward"] = {second.outputs["sums"], false};
+    select.outputs["disparity"] = output;
+    select.params = selection;
+    spec.nodes.push_back(first);
+    spec.nodes.push_back(second);
+    spec.nodes.push_back(select);
+    return;
+  }
   if (parameters.paths == 4) {
     NodeSpec sgm = census_pair_node("sgm" + suffix, "sgm_4path" + kernel_suffix, selection, left_census, right_census);
     sgm.outputs["disparity"] = output;
@@ -79,21 +102,6 @@ void add_matcher(GraphSpec& spec, const DisparityParameters& parameters, int min
       census_pair_node("sgm_forward" + suffix, "sgm_8path_forward" + kernel_suffix, penalties, left_census, right_census);
   forward.outputs["sums"] = "forward_sums" + suffix;
   spec.nodes.push_back(forward);
-  if (parameters.parallel_8path_passes) {
-    NodeSpec backward = census_pair_node("sgm_backward" + suffix, "sgm_8path_backward_sums" + kernel_suffix, penalties,
-                                         left_census, right_census);
-    backward.outputs["sums"] = "backward_sums" + suffix;
-    NodeSpec select;
-    select.name = "sgm_select" + suffix;
-    select.kernel = "sgm_8path_select";
-    select.inputs["forward"] = {"forward_sums" + suffix, false};
-    select.inputs["backward"] = {"backward_sums" + suffix, false};
-    select.outputs["disparity"] = output;
-    select.params = selection;
-    spec.nodes.push_back(backward);
-    spec.nodes.push_back(select);
-    return;
-  }
   NodeSpec backward =
       census_pair_node("sgm_backward" + suffix, "sgm_8path_backward" + kernel_suffix, selection, left_census, right_census);
   backward.inputs["forward"] = {"forward_sums" + suffix, false};

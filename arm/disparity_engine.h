@@ -60,11 +60,13 @@ struct DisparityParameters {
   int uniqueness_percent = 5;  // SGM: the best cost must beat the others (|d - best| > 1) by this %; 0 = off, <= 50
   bool subpixel = true;        // SGM: parabola sub-pixel step (Q4); false = whole pixels
   int lr_max_diff = 2;         // SGM: left-right check tolerance in px; -1 = off
-  // 8 paths only, a schedule (same bits either way): true = the forward and the backward paths as
-  // two passes side by side (sgm_8path_forward, sgm_8path_backward_sums), then the selection
-  // (sgm_8path_select, row bands in parallel): what two host cores run fastest; false = the backward
-  // pass fused with the selection (sgm_8path_backward), one sums volume less in DRAM: the chip's.
-  bool parallel_8path_passes = true;
+  // A schedule (same bits either way). true: the paths as two passes side by side, each writing
+  // its path sums, then the selection (sgm_sums_select, row bands in parallel): 8 paths as
+  // sgm_8path_forward + sgm_8path_backward_sums, 4 paths as sgm_4path_row_pair_sums +
+  // sgm_4path_column_pair_sums; what two host cores run fastest. false: the chip's schedule, which
+  // holds fewer volumes in DRAM: sgm_4path in one row-streaming pass (none), or sgm_8path_forward
+  // then sgm_8path_backward fused with the selection (one).
+  bool parallel_path_passes = true;
   // Post-processing of the SGM map (not with paths = 0), OpenCV StereoSGBM's order and semantics:
   bool median = true;          // 3x3 median that keeps invalid pixels invalid (kernels/median3x3_s16.cpp)
   int speckle_max_size_px = 100;  // regions of at most this many pixels become invalid; 0 = off

@@ -2,7 +2,7 @@
 // runs right, bottom-right, bottom and bottom-left (rows bottom up) on census Hamming costs and
 // writes the per-pixel sums of their path costs (u16, W*D per row, reversed disparity order, as
 // sgm_8path_forward). It reads only the census planes, so it runs beside sgm_8path_forward (two
-// workers on the host, two vector units on a chip that has them); sgm_8path_select then adds the
+// workers on the host, two vector units on a chip that has them); sgm_sums_select then adds the
 // two sums and selects. Same bits as the two-pass sgm_8path_forward + sgm_8path_backward pair,
 // which keeps one sums volume less in DRAM (the chip graphs' choice). _census64 takes census9x7.
 // Algorithm, formats and the overflow bound: kernels/sgm_core.h; working set as sgm_8path_forward

@@ -77,21 +77,38 @@ enum class SgmPass {
   forward,        // 4 paths, writes the per-pixel sums S (u16, W*D per row): sgm_8path_forward
   backward,       // the other 4 paths (rows bottom up), adds the forward sums, winner takes all: sgm_8path_backward
   backward_sums,  // the other 4 paths (rows bottom up), writes their own sums: sgm_8path_backward_sums
-  select,         // no paths: adds the two sums, winner takes all: sgm_8path_select
+  row_pair_sums,     // 2 of the 4 single-pass paths (along the row, top-left), writes their sums: sgm_4path_row_pair_sums
+  column_pair_sums,  // the other 2 (top, top-right), writes their sums: sgm_4path_column_pair_sums
+  select,         // no paths: adds two sums planes, winner takes all: sgm_sums_select
 };
+
+// Which of the four paths of a direction a pass runs: along the row, the diagonal from the previous
+// row's left neighbour (the "down" diagonal slot), straight from the previous row, the other diagonal.
+inline constexpr bool sgm_runs_row_path(SgmPass pass) { return pass != SgmPass::column_pair_sums && pass != SgmPass::select; }
+inline constexpr bool sgm_runs_down_diagonal(SgmPass pass) { return sgm_runs_row_path(pass); }
+inline constexpr bool sgm_runs_straight(SgmPass pass) { return pass != SgmPass::row_pair_sums && pass != SgmPass::select; }
+inline constexpr bool sgm_runs_up_diagonal(SgmPass pass) { return sgm_runs_straight(pass); }
+// Row-state regions: one per path from the previous row.
+inline constexpr int sgm_state_regions(SgmPass pass) {
+  return (sgm_runs_down_diagonal(pass) ? 1 : 0) + (sgm_runs_straight(pass) ? 1 : 0) + (sgm_runs_up_diagonal(pass) ? 1 : 0);
+}
 
 // What each pass does (the tile body branches on these at compile time).
 inline constexpr bool sgm_runs_paths(SgmPass pass) { return pass != SgmPass::select; }
 inline constexpr bool sgm_rows_bottom_up(SgmPass pass) { return pass == SgmPass::backward || pass == SgmPass::backward_sums; }
-inline constexpr bool sgm_writes_sums(SgmPass pass) { return pass == SgmPass::forward || pass == SgmPass::backward_sums; }
+inline constexpr bool sgm_writes_sums(SgmPass pass) {
+  return pass == SgmPass::forward || pass == SgmPass::backward_sums || pass == SgmPass::row_pair_sums ||
+         pass == SgmPass::column_pair_sums;
+}
 inline constexpr bool sgm_selects(SgmPass pass) { return !sgm_writes_sums(pass); }
 
 inline constexpr int sgm_padded(int disparities, int lanes) { return (disparities + lanes - 1) / lanes * lanes; }
 
-// Row state bytes (see above): three paths x (W slots of Dp32 + 1 u16, plus the last sentinel).
-inline size_t sgm_state_bytes(int width, int disparities) {
+// Row state bytes (see above): one region per path from the previous row (three, or one or two for
+// the path-pair passes) x (W slots of Dp32 + 1 u16, plus the last sentinel).
+inline size_t sgm_state_bytes(int width, int disparities, int regions = 3) {
   const size_t slot = static_cast<size_t>(sgm_padded(disparities, kSgmWidestLanesU16)) + 1;
-  return 3 * 2 * (static_cast<size_t>(width) * slot + 1);
+  return static_cast<size_t>(regions) * 2 * (static_cast<size_t>(width) * slot + 1);
 }
 
 // Scratch layout (bytes, sized for the widest back end): two u16 buffers of Dp32 + 2 (a zero
@@ -272,12 +289,22 @@ void sgm_tile_for(const TileArgs& args) {
   // Row state: three path regions of W slots (stride Dp + 1, this back end's Dp) plus a sentinel.
   const ptrdiff_t slot_stride = padded + 1;
   const ptrdiff_t region_size = static_cast<ptrdiff_t>(width) * slot_stride + 1;
-  uint16_t* regions[3];
-  for (int path = 0; path < 3; ++path) regions[path] = reinterpret_cast<uint16_t*>(args.state) + path * region_size;
+  // regions[0] down diagonal, [1] straight, [2] up diagonal; a pass that skips a path has no region for it.
+  constexpr bool kRowPath = sgm_runs_row_path(kPass), kDownDiagonal = sgm_runs_down_diagonal(kPass);
+  constexpr bool kStraight = sgm_runs_straight(kPass), kUpDiagonal = sgm_runs_up_diagonal(kPass);
+  uint16_t* regions[3] = {nullptr, nullptr, nullptr};
+  {
+    int next_region = 0;
+    const bool runs[3] = {kDownDiagonal, kStraight, kUpDiagonal};
+    for (int path = 0; path < 3; ++path) {
+      if (runs[path]) regions[path] = reinterpret_cast<uint16_t*>(args.state) + (next_region++) * region_size;
+    }
+  }
   const bool first_tile = kBackward ? args.tile_y + tile_rows == height : args.tile_y == 0;
   if (kPaths && first_tile) {
     // Once per frame (not counted: W + 1 scalar writes per path): the slot sentinels.
     for (int path = 0; path < 3; ++path) {
+      if (regions[path] == nullptr) continue;
       for (ptrdiff_t slot = 0; slot <= width; ++slot) regions[path][slot * slot_stride] = 0xFFFF;
     }
   }
@@ -390,7 +417,7 @@ void sgm_tile_for(const TileArgs& args) {
       // Matching costs, lanes j = 0 .. Dp-1 <-> d = min_disparity + D - 1 - j <-> right word x - d.
       VU16 sum[kMaxVectors];
       if constexpr (!kPaths) {
-        // sgm_8path_select: S = the forward sums + the backward sums (each <= 4 (Cmax + P2), so no
+        // sgm_sums_select: S = the forward sums + the backward sums (each <= 4 (Cmax + P2), so no
         // saturation), padding lanes forced to 0xFFFF as the path passes leave them.
         const ptrdiff_t element = static_cast<ptrdiff_t>(x) * count;
         const uint16_t* forward = plane_row<const uint16_t>(args.inputs[0], y) + element;
@@ -410,20 +437,30 @@ void sgm_tile_for(const TileArgs& args) {
           cost[k] = sgm_detail::census_costs<B, Word>(left_word, right_row, first_column + k * L16, right_end);
         }
         if (has_padding) cost[vectors - 1] = B::bit_or(cost[vectors - 1], padding_mask);
-        // The four paths: along the row, then the three from the previous row.
+        // The paths: along the row, then those from the previous row (the pass's subset of the four;
+        // the first one run sets the sums).
         const uint16_t* start = zero_buffer + 1;
-        if (mirrored_x == 0) {
-          for (int k = 0; k < vectors; ++k) row_path[k] = zero16;  // path start: L = C
+        if constexpr (kRowPath) {
+          if (mirrored_x == 0) {
+            for (int k = 0; k < vectors; ++k) row_path[k] = zero16;  // path start: L = C
+          }
+          sgm_detail::path_step_in_registers<B, kMaxVectors>(row_path, cost, sum, true, vectors, path_constants, ones16);
         }
-        sgm_detail::path_step_in_registers<B, kMaxVectors>(row_path, cost, sum, true, vectors, path_constants, ones16);
-        uint16_t* down_slot = regions[0] + diagonal_down * slot_stride + 1;
-        sgm_detail::path_step<B, kMaxVectors>(mirrored_x == 0 ? start : down_slot, down_slot, cost, sum, false, vectors,
-                                              path_constants);
-        uint16_t* straight_slot = regions[1] + static_cast<ptrdiff_t>(mirrored_x) * slot_stride + 1;
-        sgm_detail::path_step<B, kMaxVectors>(straight_slot, straight_slot, cost, sum, false, vectors, path_constants);
-        uint16_t* up_slot = regions[2] + diagonal_up * slot_stride + 1;
-        sgm_detail::path_step<B, kMaxVectors>(mirrored_x == width - 1 ? start : up_slot, up_slot, cost, sum, false,
-                                              vectors, path_constants);
+        if constexpr (kDownDiagonal) {
+          uint16_t* down_slot = regions[0] + diagonal_down * slot_stride + 1;
+          sgm_detail::path_step<B, kMaxVectors>(mirrored_x == 0 ? start : down_slot, down_slot, cost, sum, !kRowPath, vectors,
+                                                path_constants);
+        }
+        if constexpr (kStraight) {
+          uint16_t* straight_slot = regions[1] + static_cast<ptrdiff_t>(mirrored_x) * slot_stride + 1;
+          sgm_detail::path_step<B, kMaxVectors>(straight_slot, straight_slot, cost, sum, !kRowPath && !kDownDiagonal, vectors,
+                                                path_constants);
+        }
+        if constexpr (kUpDiagonal) {
+          uint16_t* up_slot = regions[2] + diagonal_up * slot_stride + 1;
+          sgm_detail::path_step<B, kMaxVectors>(mirrored_x == width - 1 ? start : up_slot, up_slot, cost, sum, false,
+                                                vectors, path_constants);
+        }
         diagonal_down = diagonal_down + 1 == width ? 0 : diagonal_down + 1;
         diagonal_up = diagonal_up + 1 == width ? 0 : diagonal_up + 1;
       }

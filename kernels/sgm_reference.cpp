@@ -137,8 +137,12 @@ void sgm_reference(SgmPass pass, int word_bytes, const std::vector<PlaneView>& i
   const SgmVolume cost = sgm_reference_costs(inputs[0], inputs[1], word_bytes, params.min_disparity, params.num_disparities);
   SgmVolume sum{cost.width, cost.height, count, std::vector<int32_t>(cost.values.size(), 0)};
   if (pass == SgmPass::backward) add_sums_plane(inputs[2], sum);
-  for (const SgmPathDirection& direction : sgm_rows_bottom_up(pass) ? kSgmBackwardPaths : kSgmForwardPaths) {
-    sgm_reference_add_path(cost, params.p1, params.p2, direction, sum);
+  // kSgmForwardPaths order: along the row, top-left, top, top-right (the kernels' regions order).
+  const bool runs[4] = {sgm_runs_row_path(pass), sgm_runs_down_diagonal(pass), sgm_runs_straight(pass), sgm_runs_up_diagonal(pass)};
+  for (int path = 0; path < 4; ++path) {
+    if (!runs[path]) continue;
+    sgm_reference_add_path(cost, params.p1, params.p2,
+                           sgm_rows_bottom_up(pass) ? kSgmBackwardPaths[path] : kSgmForwardPaths[path], sum);
   }
   if (sgm_selects(pass)) {
     sgm_reference_select(sum, params, outputs[0]);
@@ -169,9 +173,8 @@ PreparedKernel sgm_prepare(SgmPass pass, const nlohmann::json& json, const std::
   params->lr_max_diff = param_int(json, "lr_max_diff", -1, -1, 2047);
   if (sgm_writes_sums(pass) &&
       (json.contains("uniqueness_percent") || json.contains("subpixel") || json.contains("lr_max_diff"))) {
-    throw KernelError(std::string(pass == SgmPass::forward ? "sgm_8path_forward" : "sgm_8path_backward_sums") +
-                      " selects no disparity: parameters uniqueness_percent, subpixel and lr_max_diff belong to the "
-                      "selecting kernel");
+    throw KernelError("a pass that writes path sums selects no disparity: parameters uniqueness_percent, subpixel and "
+                      "lr_max_diff belong to the selecting kernel");
   }
   if (pass == SgmPass::select) {  // the two sums planes, W*D x H each, W = their width / D
     const PlaneShape forward = input_shapes.at(0);
@@ -238,9 +241,18 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
                            census_name + " Hamming costs: their per-pixel sums, u16 W*D per row (runs beside the forward pass)";
       descriptor.rows_bottom_up = true;
       break;
+    case SgmPass::row_pair_sums:
+      descriptor.summary = "4-path SGM, two of the paths (along the row, top-left) on " + census_name +
+                           " Hamming costs: their per-pixel sums, u16 W*D per row (runs beside the column pair)";
+      break;
+    case SgmPass::column_pair_sums:
+      descriptor.summary = "4-path SGM, the other two paths (top, top-right) on " + census_name +
+                           " Hamming costs: their per-pixel sums, u16 W*D per row (runs beside the row pair)";
+      break;
     case SgmPass::select:
-      descriptor.summary = "8-path SGM, selection: forward + backward sums, winner takes all with uniqueness, sub-pixel "
-                           "and LR check: s16 Q4 disparity (no row state: row tiles run in parallel)";
+      descriptor.summary = "SGM selection from two path-sums planes (8-path forward + backward, or the two 4-path pairs): "
+                           "winner takes all with uniqueness, sub-pixel and LR check, s16 Q4 (no row state: row bands "
+                           "run in parallel)";
       descriptor.full_width_tiles = true;
       break;
   }
@@ -258,9 +270,9 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
     return sgm_writes_sums(pass) ? output_width / params.num_disparities : output_width;
   };
   if (sgm_runs_paths(pass)) {
-    descriptor.state_bytes = [image_width](int width, int, const void* params_pointer) {
+    descriptor.state_bytes = [image_width, pass](int width, int, const void* params_pointer) {
       const auto& params = *static_cast<const SgmParams*>(params_pointer);
-      return sgm_state_bytes(image_width(width, params), params.num_disparities);
+      return sgm_state_bytes(image_width(width, params), params.num_disparities, sgm_state_regions(pass));
     };
   }
   descriptor.scratch_bytes = [pass, word_bytes, image_width](int tile_width, int, const void* params_pointer) {

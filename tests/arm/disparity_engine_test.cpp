@@ -195,7 +195,7 @@ TEST(DisparityEngine, MultiresolutionSplitCoversTheWholeRange) {
   int downsamples = 0, sgm_selections = 0;
   for (const NodeSpec& node : spec.nodes) {
     downsamples += node.kernel == "downsample2x" ? 1 : 0;
-    sgm_selections += node.kernel == "sgm_8path_select" ? 1 : 0;
+    sgm_selections += node.kernel == "sgm_sums_select" ? 1 : 0;
   }
   EXPECT_EQ(downsamples, 2);
   EXPECT_EQ(sgm_selections, 2);
@@ -272,7 +272,7 @@ TEST(DisparityEngine, BuildsTheGraphOfItsParameters) {
   ASSERT_EQ(defaults.nodes.size(), 7u);
   EXPECT_EQ(defaults.nodes[2].kernel, "sgm_8path_forward");
   EXPECT_EQ(defaults.nodes[3].kernel, "sgm_8path_backward_sums");
-  EXPECT_EQ(defaults.nodes[4].kernel, "sgm_8path_select");
+  EXPECT_EQ(defaults.nodes[4].kernel, "sgm_sums_select");
   EXPECT_EQ(defaults.nodes[4].inputs.at("backward").buffer, "backward_sums");
   EXPECT_EQ(defaults.nodes[5].kernel, "median3x3_s16");
   EXPECT_EQ(defaults.nodes[6].task, "speckle_filter");
@@ -281,17 +281,26 @@ TEST(DisparityEngine, BuildsTheGraphOfItsParameters) {
   parameters.paths = 4;
   parameters.median = false;
   parameters.speckle_max_size_px = 0;
+  const GraphSpec four_parallel = arm::DisparityEngine::graph_spec(parameters);
+  ASSERT_EQ(four_parallel.nodes.size(), 5u);
+  EXPECT_EQ(four_parallel.nodes[2].kernel, "sgm_4path_row_pair_sums");
+  EXPECT_EQ(four_parallel.nodes[3].kernel, "sgm_4path_column_pair_sums");
+  EXPECT_EQ(four_parallel.nodes[4].kernel, "sgm_sums_select");
+  EXPECT_EQ(four_parallel.nodes[4].inputs.at("backward").buffer, "column_pair_sums");
+  EXPECT_EQ(four_parallel.nodes[4].outputs.at("disparity"), "disparity");
+  parameters.parallel_path_passes = false;
   const GraphSpec four = arm::DisparityEngine::graph_spec(parameters);
   ASSERT_EQ(four.nodes.size(), 3u);
   EXPECT_EQ(four.nodes.back().kernel, "sgm_4path");
   EXPECT_EQ(four.nodes.back().outputs.at("disparity"), "disparity");
+  parameters.parallel_path_passes = true;
   parameters.speckle_max_size_px = 100;
   EXPECT_EQ(arm::DisparityEngine::graph_spec(parameters).nodes.back().task, "speckle_filter");
   parameters.paths = 8;
   parameters.census_width = 9;
   parameters.median = true;
   parameters.speckle_max_size_px = 0;
-  parameters.parallel_8path_passes = false;
+  parameters.parallel_path_passes = false;
   const GraphSpec eight = arm::DisparityEngine::graph_spec(parameters);
   ASSERT_EQ(eight.nodes.size(), 5u);
   EXPECT_EQ(eight.nodes[0].kernel, "census9x7");

@@ -109,9 +109,13 @@ const std::vector<GoldenCase>& golden_cases() {
       {"sgm_8path_forward_census64", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 61}, {97, 61}}, 0xd74c844c52218697ull},
       {"sgm_8path_backward", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}, {"uniqueness_percent", 5}, {"subpixel", 1}, {"lr_max_diff", 1}}, BorderMode::replicate, {{97, 61}, {97, 61}, {97 * 40, 61}}, 0x2e20f9eeadf168ccull},
       {"sgm_8path_backward_census64", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}, {"uniqueness_percent", 5}, {"subpixel", 1}, {"lr_max_diff", 1}}, BorderMode::replicate, {{97, 61}, {97, 61}, {97 * 40, 61}}, 0x25b79baf4add4c05ull},
+      {"sgm_4path_row_pair_sums", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 61}, {97, 61}}, 0xb38f88be77d58ffcull},
+      {"sgm_4path_column_pair_sums", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 61}, {97, 61}}, 0x47423da366d5c9d6ull},
+      {"sgm_4path_row_pair_sums_census64", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 61}, {97, 61}}, 0x72f715c4fe28c998ull},
+      {"sgm_4path_column_pair_sums_census64", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 61}, {97, 61}}, 0xc4b1077f5a193c01ull},
       {"sgm_8path_backward_sums", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 61}, {97, 61}}, 0x7b4b1d3f9218db9dull},
       {"sgm_8path_backward_sums_census64", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 61}, {97, 61}}, 0xfa203fec69c83cb2ull},
-      {"sgm_8path_select", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}, {"uniqueness_percent", 5}, {"subpixel", 1}, {"lr_max_diff", 1}}, BorderMode::replicate, {{97 * 40, 61}, {97 * 40, 61}}, 0xe8ebb4cbc8b52d59ull},
+      {"sgm_sums_select", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}, {"uniqueness_percent", 5}, {"subpixel", 1}, {"lr_max_diff", 1}}, BorderMode::replicate, {{97 * 40, 61}, {97 * 40, 61}}, 0xe8ebb4cbc8b52d59ull},
   };
   return cases;
 }
@@ -195,7 +199,7 @@ TEST(Golden, KernelsAllHaveAGoldenCase) {
 
 // The whole disparity pipeline on the built-in synthetic scene: the engine's defaults (8-path SGM,
 // LR check, median, speckle filter) under both 8-path schedules, and the chip graphs' matcher alone
-// (4-path SGM, LR 1 px, no post-processing).
+// (4-path SGM, LR 1 px, no post-processing) under both 4-path schedules: a schedule never changes a bit.
 TEST(Golden, DisparityPipelineGivesItsGoldenBitsOnEveryBackEnd) {
   io::SyntheticSceneOptions scene_options;
   scene_options.width = 193;
@@ -206,11 +210,11 @@ TEST(Golden, DisparityPipelineGivesItsGoldenBitsOnEveryBackEnd) {
     arm::DisparityParameters parameters;
     uint64_t golden;
   };
-  std::vector<Pipeline> pipelines(3);
+  std::vector<Pipeline> pipelines(4);
   pipelines[0].label = "engine defaults";
   pipelines[0].golden = 0xfbb6652269f97a41ull;
   pipelines[2].label = "engine defaults, 8-path backward pass fused with the selection";
-  pipelines[2].parameters.parallel_8path_passes = false;
+  pipelines[2].parameters.parallel_path_passes = false;
   pipelines[2].golden = pipelines[0].golden;  // a schedule: the same bits
   pipelines[1].label = "4-path SGM alone";
   pipelines[1].parameters.paths = 4;
@@ -218,6 +222,9 @@ TEST(Golden, DisparityPipelineGivesItsGoldenBitsOnEveryBackEnd) {
   pipelines[1].parameters.median = false;
   pipelines[1].parameters.speckle_max_size_px = 0;
   pipelines[1].golden = 0xb37777b3df61a499ull;
+  pipelines[3] = pipelines[1];
+  pipelines[3].label = "4-path SGM alone, one row-streaming pass (sgm_4path)";
+  pipelines[3].parameters.parallel_path_passes = false;
   for (Pipeline& pipeline : pipelines) {
     pipeline.parameters.num_disparities = 32;
     std::optional<Plane> scalar;

@@ -118,7 +118,7 @@ TEST(Sgm4Path, Census64MatchesReference) {
 
 // The sums a sums-writing SGM kernel's reference gives for a census pair (u16, W*D per row): the
 // forward paths' (sgm_8path_forward, the backward kernel's third input) or the backward paths'
-// (sgm_8path_backward_sums, sgm_8path_select's second input).
+// (sgm_8path_backward_sums, sgm_sums_select's second input).
 Plane reference_sums(const std::string& kernel_name, const Plane& left, const Plane& right, const nlohmann::json& params) {
   const KernelDescriptor& kernel = testing::kernel_named(kernel_name);
   const PreparedKernel prepared = kernel.prepare(params, {{left.width(), left.height()}, {right.width(), right.height()}});
@@ -175,7 +175,7 @@ TEST(Sgm8Path, BackwardSumsAndSelectMatchReferenceAndTheTwoPassPair) {
     expect_all_back_ends_match_reference(backward_sums, {{sums_width, 17}, {sums_width, 5}, {sums_width, 1}});
     const Plane forward = reference_forward_sums(pair.left, pair.right, forward_params(params), 4);
     const Plane backward = reference_backward_sums(pair.left, pair.right, forward_params(params), 4);
-    KernelCase select{"sgm_8path_select", params, {forward, backward}, 4};
+    KernelCase select{"sgm_sums_select", params, {forward, backward}, 4};
     expect_all_back_ends_match_reference(select, {{45, 17}, {45, 4}, {45, 1}});
 
     const KernelDescriptor& two_pass = testing::kernel_named("sgm_8path_backward");
@@ -184,7 +184,7 @@ TEST(Sgm8Path, BackwardSumsAndSelectMatchReferenceAndTheTwoPassPair) {
     Plane expected(45, 17, {ElementType::s16, 4});
     two_pass.reference({pair.left.view(), pair.right.view(), forward.view()}, {expected.view()},
                        two_pass_prepared.params.get(), BorderMode::replicate, 0);
-    const KernelDescriptor& selector = testing::kernel_named("sgm_8path_select");
+    const KernelDescriptor& selector = testing::kernel_named("sgm_sums_select");
     const PreparedKernel select_prepared = selector.prepare(params, {{forward.width(), 17}, {backward.width(), 17}});
     Plane actual(45, 17, {ElementType::s16, 4});
     VectorNodeBinding binding{&selector, select_prepared.params.get(), BorderMode::replicate, 0,
@@ -193,6 +193,51 @@ TEST(Sgm8Path, BackwardSumsAndSelectMatchReferenceAndTheTwoPassPair) {
     for (int y = 0; y < 17; ++y) {
       for (int x = 0; x < 45; ++x) ASSERT_EQ(actual.at<int16_t>(x, y), expected.at<int16_t>(x, y)) << "x=" << x << " y=" << y;
     }
+  }
+}
+
+// The host-parallel 4-path pair: each pair's sums against the reference at odd sizes across tile
+// heights (the row state carried across tiles), and pair + pair + sgm_sums_select gives sgm_4path's
+// map bit for bit.
+TEST(Sgm4Path, PathPairsAndSelectMatchReferenceAndTheSinglePass) {
+  for (const RangeCase& range : kRanges) {
+    const nlohmann::json params = sgm_params(range.min_disparity, range.num_disparities, 5, 60, range.uniqueness,
+                                             range.subpixel, range.lr_max_diff);
+    CensusPair pair = shifted_census(43, 19, ElementType::census32, 50 * 4, std::max(range.min_disparity, -5),
+                                     range.min_disparity + range.num_disparities - 1, 41);
+    SCOPED_TRACE("min_disparity " + std::to_string(range.min_disparity) + " D " + std::to_string(range.num_disparities));
+    const int sums_width = 43 * range.num_disparities;
+    for (const char* name : {"sgm_4path_row_pair_sums", "sgm_4path_column_pair_sums"}) {
+      KernelCase pair_case{name, forward_params(params), {pair.left, pair.right}, 6};
+      expect_all_back_ends_match_reference(pair_case, {{sums_width, 19}, {sums_width, 5}, {sums_width, 1}});
+    }
+    const Plane row_sums = reference_sums("sgm_4path_row_pair_sums", pair.left, pair.right, forward_params(params));
+    const Plane column_sums = reference_sums("sgm_4path_column_pair_sums", pair.left, pair.right, forward_params(params));
+    const KernelDescriptor& single = testing::kernel_named("sgm_4path");
+    const PreparedKernel single_prepared = single.prepare(params, {{43, 19}, {43, 19}});
+    Plane expected(43, 19, {ElementType::s16, 4});
+    single.reference({pair.left.view(), pair.right.view()}, {expected.view()}, single_prepared.params.get(),
+                     BorderMode::replicate, 0);
+    const KernelDescriptor& selector = testing::kernel_named("sgm_sums_select");
+    const PreparedKernel select_prepared = selector.prepare(params, {{row_sums.width(), 19}, {column_sums.width(), 19}});
+    for (KernelBackend backend : {KernelBackend::native, KernelBackend::counting}) {
+      Plane actual(43, 19, {ElementType::s16, 4});
+      VectorNodeBinding binding{&selector, select_prepared.params.get(), BorderMode::replicate, 0,
+                                {row_sums.view(), column_sums.view()}, {actual.view()}, select_prepared.input_halos};
+      run_vector_node(binding, 43, 7, backend, simd::available_isas().back());
+      for (int y = 0; y < 19; ++y) {
+        for (int x = 0; x < 43; ++x) ASSERT_EQ(actual.at<int16_t>(x, y), expected.at<int16_t>(x, y)) << "x=" << x << " y=" << y;
+      }
+    }
+  }
+}
+
+TEST(Sgm4Path, PathPairsCensus64MatchReference) {
+  const nlohmann::json params = sgm_params(-3, 35, 9, 110, 10, 1, 1);
+  CensusPair pair = shifted_census(31, 13, ElementType::census64, 40 * 8, 0, 20, 9);
+  for (const char* name : {"sgm_4path_row_pair_sums_census64", "sgm_4path_column_pair_sums_census64"}) {
+    KernelCase pair_case{name, forward_params(params), {pair.left, pair.right}, 4};
+    expect_all_back_ends_match_reference(pair_case, {{31 * 35, 13}, {31 * 35, 4}});
   }
 }
 
@@ -463,13 +508,16 @@ simd::OpCounts expected_sgm_ops(kernels::SgmPass pass, int word_bytes, const ker
     add(per_pixel, OpClass::load, V * (word_bytes == 4 ? 2 : 4));
     add(per_pixel, OpClass::logic, V * (word_bytes == 4 ? 2 : 4) + (Dp != p.num_disparities ? 1 : 0));
     add(per_pixel, OpClass::popcount, V * (word_bytes == 4 ? 2 : 4));
-    // Four path steps: (V - 1) + s + 1 + 6V arith, s permutes; sums 3V. The three from the
-    // previous row load 3V and store V each; the one along the row keeps its costs in registers and
-    // shifts lanes instead (2V permutes).
-    add(per_pixel, OpClass::load, 3 * 3 * V);
-    add(per_pixel, OpClass::store, 3 * V);
-    add(per_pixel, OpClass::arith, 4 * ((V - 1) + s + 1 + 6 * V) + 3 * V);
-    add(per_pixel, OpClass::permute, 4 * s + 2 * V);
+    // Path steps (four, or the pass's pair): (V - 1) + s + 1 + 6V arith and s permutes each; the sums
+    // V per path after the first. Those from the previous row load 3V and store V each; the one along
+    // the row keeps its costs in registers and shifts lanes instead (2V permutes).
+    const int64_t row_path = kernels::sgm_runs_row_path(pass) ? 1 : 0;
+    const int64_t memory_paths = kernels::sgm_state_regions(pass);
+    const int64_t path_count = row_path + memory_paths;
+    add(per_pixel, OpClass::load, memory_paths * 3 * V);
+    add(per_pixel, OpClass::store, memory_paths * V);
+    add(per_pixel, OpClass::arith, path_count * ((V - 1) + s + 1 + 6 * V) + (path_count - 1) * V);
+    add(per_pixel, OpClass::permute, path_count * s + row_path * 2 * V);
   } else {  // the two sums loaded and added, the padding lanes set
     add(per_pixel, OpClass::load, 2 * V);
     add(per_pixel, OpClass::arith, V);
@@ -523,10 +571,14 @@ TEST(SgmOps, CountedOpsEqualClosedForm) {
       {kernels::SgmPass::forward, 8, 19, 3, 3, 0, 16, 0, 1, -1},  {kernels::SgmPass::backward, 4, 37, 6, 4, 1, 96, 15, 1, 2},
       {kernels::SgmPass::backward, 8, 17, 3, 1, 0, 32, 0, 0, 0},  {kernels::SgmPass::backward_sums, 4, 31, 5, 2, -2, 35, 0, 1, -1},
       {kernels::SgmPass::backward_sums, 8, 18, 4, 3, 0, 32, 0, 1, -1}, {kernels::SgmPass::select, 4, 39, 6, 4, 1, 96, 15, 1, 2},
-      {kernels::SgmPass::select, 4, 23, 5, 2, -3, 20, 0, 0, -1}};
-  const char* names[2][5] = {{"sgm_4path", "sgm_8path_forward", "sgm_8path_backward", "sgm_8path_backward_sums", "sgm_8path_select"},
+      {kernels::SgmPass::select, 4, 23, 5, 2, -3, 20, 0, 0, -1},
+      {kernels::SgmPass::row_pair_sums, 4, 29, 5, 2, -2, 35, 0, 1, -1}, {kernels::SgmPass::row_pair_sums, 8, 17, 4, 3, 0, 64, 0, 1, -1},
+      {kernels::SgmPass::column_pair_sums, 4, 33, 6, 4, 1, 40, 0, 1, -1}, {kernels::SgmPass::column_pair_sums, 8, 19, 3, 1, 0, 32, 0, 1, -1}};
+  const char* names[2][7] = {{"sgm_4path", "sgm_8path_forward", "sgm_8path_backward", "sgm_8path_backward_sums",
+                              "sgm_4path_row_pair_sums", "sgm_4path_column_pair_sums", "sgm_sums_select"},
                              {"sgm_4path_census64", "sgm_8path_forward_census64", "sgm_8path_backward_census64",
-                              "sgm_8path_backward_sums_census64", ""}};
+                              "sgm_8path_backward_sums_census64", "sgm_4path_row_pair_sums_census64",
+                              "sgm_4path_column_pair_sums_census64", ""}};
   for (const OpCase& c : cases) {
     const std::string name = names[c.word_bytes == 4 ? 0 : 1][static_cast<int>(c.pass)];
     nlohmann::json params = sgm_params(c.min_disparity, c.count, 4, 50, c.uniqueness, c.subpixel, c.lr);
