@@ -83,8 +83,8 @@ void add_matcher(GraphSpec& spec, const DisparityParameters& parameters, int min
     NodeSpec select;
     select.name = "sgm_select" + suffix;
     select.kernel = "sgm_sums_select";
-    select.inputs["forward"] = {first.outputs["sums"], false};
-    select.inputs["backward"] = {second.outputs["sums"], false};
+    select.inputs["first_sums"] = {first.outputs["sums"], false};
+    select.inputs["second_sums"] = {second.outputs["sums"], false};
     select.outputs["disparity"] = output;
     select.params = selection;
     spec.nodes.push_back(first);

@@ -177,16 +177,16 @@ PreparedKernel sgm_prepare(SgmPass pass, const nlohmann::json& json, const std::
                       "lr_max_diff belong to the selecting kernel");
   }
   if (pass == SgmPass::select) {  // the two sums planes, W*D x H each, W = their width / D
-    const PlaneShape forward = input_shapes.at(0);
-    if (forward.width % params->num_disparities != 0) {
-      throw KernelError("port 'forward': expected a width that is a multiple of num_disparities " +
-                        std::to_string(params->num_disparities) + ", got " + std::to_string(forward.width));
+    const PlaneShape first = input_shapes.at(0);
+    if (first.width % params->num_disparities != 0) {
+      throw KernelError("port 'first_sums': expected a width that is a multiple of num_disparities " +
+                        std::to_string(params->num_disparities) + ", got " + std::to_string(first.width));
     }
-    if (!(input_shapes.at(1) == forward)) {
-      throw KernelError("port 'backward': expected the forward sums' size " + shape_text(forward) + ", got " +
+    if (!(input_shapes.at(1) == first)) {
+      throw KernelError("port 'second_sums': expected the first sums' size " + shape_text(first) + ", got " +
                         shape_text(input_shapes[1]));
     }
-    return PreparedKernel{params, {{forward.width / params->num_disparities, forward.height}}, {}, {}};
+    return PreparedKernel{params, {{first.width / params->num_disparities, first.height}}, {}, {}};
   }
   const PlaneShape left = input_shapes.at(0);
   if (!(input_shapes.at(1) == left)) {
@@ -215,8 +215,8 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
   const std::string census_name = word_bytes == 4 ? "census32" : "census64";
   const PortAccess census_access = sgm_writes_sums(pass) ? PortAccess::whole : PortAccess::window;
   if (pass == SgmPass::select) {
-    descriptor.ports = {{"forward", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole},
-                        {"backward", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole}};
+    descriptor.ports = {{"first_sums", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole},
+                        {"second_sums", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole}};
   } else {
     descriptor.ports = {{"left", PortDirection::input, census, census_access},
                         {"right", PortDirection::input, census, census_access}};

@@ -273,7 +273,7 @@ TEST(DisparityEngine, BuildsTheGraphOfItsParameters) {
   EXPECT_EQ(defaults.nodes[2].kernel, "sgm_8path_forward");
   EXPECT_EQ(defaults.nodes[3].kernel, "sgm_8path_backward_sums");
   EXPECT_EQ(defaults.nodes[4].kernel, "sgm_sums_select");
-  EXPECT_EQ(defaults.nodes[4].inputs.at("backward").buffer, "backward_sums");
+  EXPECT_EQ(defaults.nodes[4].inputs.at("second_sums").buffer, "backward_sums");
   EXPECT_EQ(defaults.nodes[5].kernel, "median3x3_s16");
   EXPECT_EQ(defaults.nodes[6].task, "speckle_filter");
   EXPECT_EQ(defaults.nodes[6].params.at("max_difference_q4"), 32);
@@ -286,7 +286,7 @@ TEST(DisparityEngine, BuildsTheGraphOfItsParameters) {
   EXPECT_EQ(four_parallel.nodes[2].kernel, "sgm_4path_row_pair_sums");
   EXPECT_EQ(four_parallel.nodes[3].kernel, "sgm_4path_column_pair_sums");
   EXPECT_EQ(four_parallel.nodes[4].kernel, "sgm_sums_select");
-  EXPECT_EQ(four_parallel.nodes[4].inputs.at("backward").buffer, "column_pair_sums");
+  EXPECT_EQ(four_parallel.nodes[4].inputs.at("second_sums").buffer, "column_pair_sums");
   EXPECT_EQ(four_parallel.nodes[4].outputs.at("disparity"), "disparity");
   parameters.parallel_path_passes = false;
   const GraphSpec four = arm::DisparityEngine::graph_spec(parameters);

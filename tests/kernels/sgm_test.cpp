@@ -429,6 +429,10 @@ TEST(SgmMustFail, RefusesBadParametersAndShapes) {
   EXPECT_THROW(backward.prepare({{"num_disparities", 16}}, {{64, 8}, {64, 8}, {64 * 15, 8}}), KernelError);
   const KernelDescriptor& forward = testing::kernel_named("sgm_8path_forward");
   EXPECT_THROW(forward.prepare({{"subpixel", 1}}, shapes), KernelError);
+  const KernelDescriptor& select = testing::kernel_named("sgm_sums_select");
+  EXPECT_THROW(select.prepare({{"num_disparities", 16}}, {{64 * 16 + 3, 8}, {64 * 16 + 3, 8}}), KernelError);  // not W * D
+  EXPECT_THROW(select.prepare({{"num_disparities", 16}}, {{64 * 16, 8}, {64 * 16, 9}}), KernelError);  // sizes differ
+  EXPECT_EQ(select.prepare({{"num_disparities", 16}}, {{64 * 16, 8}, {64 * 16, 8}}).output_shapes.at(0), (PlaneShape{64, 8}));
 }
 
 // The closed-form op count of an SGM kernel on the counting back end (L = 32 u16 lanes, 16 u32,
