@@ -225,6 +225,23 @@ TEST(RoadProfileNoRoad, EmptyWallSkyUpsideDownAndImplausibleScenesGiveNone) {
   }
 }
 
+// arm/tasks/road_profile.cpp's counted work where no row has a peak: the peak scan (3 per bin and
+// row) and the fixed 64 of gate and record; the V-disparity plane read once, the two records.
+TEST(RoadProfile, CountedWorkOfAnEmptyMapEqualsClosedForm) {
+  const Camera camera;
+  const Plane histogram = v_disparity(filled(kInvalid));
+  const ArmTaskDescriptor* task = ArmTaskRegistry::instance().find("road_profile");
+  ASSERT_NE(task, nullptr);
+  const PreparedKernel prepared = task->prepare(task_params(camera), {{kNumBins, kHeight}, {arm::kRoadProfileWords, 1}});
+  Plane previous(arm::kRoadProfileWords, 1, {ElementType::s32, 0});
+  for (int i = 0; i < arm::kRoadProfileWords; ++i) previous.at<int32_t>(i, 0) = 0;
+  Plane output(arm::kRoadProfileWords, 1, {ElementType::s32, 0});
+  ArmWork work;
+  task->run(ArmTaskArgs{{&histogram, &previous}, {&output}, prepared.params.get(), &work});
+  EXPECT_EQ(work.scalar_ops, 3u * kNumBins * kHeight + 64u);
+  EXPECT_EQ(work.memory_bytes, 2u * kNumBins * kHeight + 2u * 4u * arm::kRoadProfileWords);
+}
+
 TEST(RoadProfileMustFail, RefusesMissingCalibrationAndUnknownParameters) {
   const ArmTaskDescriptor* task = ArmTaskRegistry::instance().find("road_profile");
   ASSERT_NE(task, nullptr);
