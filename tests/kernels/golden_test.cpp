@@ -96,6 +96,9 @@ const std::vector<GoldenCase>& golden_cases() {
       {"remap_bilinear", nlohmann::json::object(), BorderMode::constant, {{97, 61}, {97, 61}}, 0xae5d9a5b4982d4f4ull},
       {"downsample2x", nlohmann::json::object(), BorderMode::replicate, {{97, 61}}, 0xf62a5de4e48df7b2ull},
       {"median3x3_s16", {{"invalid_q4", -16}}, BorderMode::replicate, {{97, 61}}, 0x2a44dd156fc0ce16ull},
+      // Inputs -100 .. 1099 (Q4, integer parts -7 .. 68): the invalid marker -64 (bin -1), below
+      // the bins, 40 bins (a partial 32-lane block) and above them.
+      {"v_disparity", {{"min_disparity", -3}, {"num_bins", 40}}, BorderMode::replicate, {{97, 61}}, 0x8d71a94bed7f6205ull},
       // Inputs -100 .. 1099 (Q4): the invalid marker -64, d <= 0, the range and above it (> 976).
       {"disparity_to_points", {{"baseline_m", 0.12}, {"focal_px", 700.5}, {"u0_px", 48.3}, {"v0_px", 30.7}, {"min_disparity", -3}, {"num_disparities", 64}},
        BorderMode::replicate, {{97, 61}}, 0xb5e2659b9254767full},

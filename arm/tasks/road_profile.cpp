@@ -1,0 +1,324 @@
+// ARM task "road_profile": the road's line in the V-disparity image (kernels/v_disparity.cpp), with
+// the camera height and pitch it implies, a per-frame confidence, and the previous frame's profile
+// carried over a delayed edge when this frame's fit is weak. Record layout: arm/tasks/road_profile.h.
+//
+// Model (Labayrade, Aubert, Tarel 2002, "Real time obstacle detection in stereovision on non flat
+// road geometry through v-disparity representation", IEEE IV, §3; thesis 003 §4.2.1). A camera at
+// height h above a flat road, pitched down by theta, focal f (px), principal row v0, baseline B: a
+// road point at camera depth z_c has y_c = (h - z_c sin theta) / cos theta, so with v - v0 = f y_c /
+// z_c and d = f B / z_c:
+//     d(v) = (B / h) ((v - v0) cos theta + f sin theta)                         (Labayrade eq. 6)
+// a straight line in (v, d): slope a = (B / h) cos theta, zero at the horizon row
+// v_h = v0 - f tan theta, intercept b = -a v_h. From a fitted line the camera follows:
+//     theta = atan((v0 - v_h) / f),   h = B cos theta / a.
+// Plausibility gate: a > 0 (disparity grows towards the bottom of the image), h in
+// [min_camera_height_mm, max_camera_height_mm], |theta| <= max_abs_pitch_mrad. A wall (one disparity
+// on every row: a vertical line in V-disparity, a ~ 0, h -> infinity), the sky (d ~ 0) or an empty
+// map never pass it, so they give confidence 0 and no road.
+//
+// Steps, per frame:
+//   1. per row v the strongest bin (the first of equal maxima) with count >= min_peak_count: the
+//      point (v, bin + min_disparity + 0.5), the bin's centre (the kernel floors d, so the centre is
+//      the unbiased estimate of a disparity spread over the bin);
+//   2. RANSAC (Fischler and Bolles 1981) over point pairs drawn by a fixed LCG (seed parameter, so
+//      frames and tests are deterministic): ransac_iterations candidates, each with slope > 0, scored
+//      by the number of points within inlier_threshold_px; ties keep the first;
+//   3. least squares d = a v + b on the best candidate's inliers, then the inliers of the LS line
+//      (a second LS on them when the set changed), the RMS residual;
+//   4. confidence = 1000 * (inliers / points) * min(1, inliers / full_confidence_inliers), 0 when
+//      fewer than min_inliers or the gate refuses the line;
+//   5. confidence >= min_confidence: write the fitted profile. Otherwise, if the delayed input
+//      "previous" holds a valid profile carried fewer than max_carried_frames times, write it again
+//      with carried = 1 and frames_carried + 1 (and this frame's confidence); else valid = 0.
+//
+// Ports: "v_disparity" u16 (num_bins x image height, kernels/v_disparity.cpp), "previous" s32 (this
+// task's own output read over a delayed edge; kRoadProfileWords x 1, all zero before the first
+// frame), output "profile" s32 kRoadProfileWords x 1. The previous record's shape is checked in run,
+// not prepare: verify() prepares a node in a delayed loop once with a guessed frame-size shape.
+//
+// Parameters (units in the names): min_disparity (px, the V-disparity's bin 0; default 0),
+// focal_px (> 0, required), baseline_m (> 0, required), principal_row_px (default: (height - 1) / 2),
+// min_peak_count (px, default 20), ransac_iterations (default 200), inlier_threshold_px (default 1.0),
+// min_inliers (rows, default 20), full_confidence_inliers (rows, default 100), min_confidence
+// (0 .. 1000, default 300), min_camera_height_mm (default 300), max_camera_height_mm (default 4000),
+// max_abs_pitch_mrad (default 250), max_carried_frames (default 5), seed (default 1).
+//
+// Counted work (deterministic, ArmWork), with N bins, H rows, P points, K iterations, I inliers:
+//   scalar_ops   = 3 N H (peak scan: load, compare, select) + 12 K (pair draw, line) + 4 P per
+//                  candidate with slope > 0 (per point a multiply-add, an absolute value, a compare, a
+//                  count) + 8 P per inlier pass (LS sums and recount; two passes when a line was
+//                  found) + 64 (gate, record);
+//   memory_bytes = 2 N H (the V-disparity plane) + 2 * 4 kRoadProfileWords (previous and output).
+#include "arm/tasks/road_profile.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "dag/arm_task.h"
+
+namespace lpstereo::arm {
+
+RoadProfile decode_road_profile(const Plane& record) {
+  if (record.width() != kRoadProfileWords || record.height() != 1 || record.format().type != ElementType::s32) {
+    throw std::runtime_error("road profile record: expected " + std::to_string(int(kRoadProfileWords)) + "x1 s32, got " +
+                             std::to_string(record.width()) + "x" + std::to_string(record.height()) + " " +
+                             format_name(record.format()));
+  }
+  const int32_t* word = record.row<const int32_t>(0);
+  RoadProfile profile;
+  profile.valid = word[kRoadValid] != 0;
+  profile.carried = word[kRoadCarried] != 0;
+  profile.confidence = word[kRoadConfidence];
+  profile.slope = word[kRoadSlopeQ16] / 65536.0;
+  profile.intercept_px = word[kRoadInterceptQ16] / 65536.0;
+  profile.horizon_row = word[kRoadHorizonRowQ8] / 256.0;
+  profile.camera_height_mm = word[kRoadCameraHeightMm];
+  profile.pitch_rad = word[kRoadPitchUrad] * 1e-6;
+  profile.inlier_count = word[kRoadInlierCount];
+  profile.point_count = word[kRoadPointCount];
+  profile.rms_residual_px = word[kRoadRmsResidualQ8] / 256.0;
+  profile.frames_carried = word[kRoadFramesCarried];
+  return profile;
+}
+
+namespace {
+
+struct RoadProfileParams {
+  int min_disparity = 0;
+  double focal_px = 0.0;
+  double baseline_m = 0.0;
+  double principal_row_px = 0.0;
+  int min_peak_count = 20;
+  int ransac_iterations = 200;
+  double inlier_threshold_px = 1.0;
+  int min_inliers = 20;
+  int full_confidence_inliers = 100;
+  int min_confidence = 300;
+  int min_camera_height_mm = 300;
+  int max_camera_height_mm = 4000;
+  int max_abs_pitch_mrad = 250;
+  int max_carried_frames = 5;
+  uint32_t seed = 1;
+};
+
+double required_positive(const nlohmann::json& params, const char* name) {
+  if (!params.contains(name)) throw KernelError(std::string("parameter '") + name + "': expected a number > 0, got none");
+  const double value = param_double(params, name, 0.0, 0.0, 1e9);
+  if (!(value > 0.0)) throw KernelError(std::string("parameter '") + name + "': expected a number > 0, got " + std::to_string(value));
+  return value;
+}
+
+PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShape>& input_shapes) {
+  check_param_names(params, {"min_disparity", "focal_px", "baseline_m", "principal_row_px", "min_peak_count",
+                             "ransac_iterations", "inlier_threshold_px", "min_inliers", "full_confidence_inliers",
+                             "min_confidence", "min_camera_height_mm", "max_camera_height_mm", "max_abs_pitch_mrad",
+                             "max_carried_frames", "seed"});
+  if (input_shapes.size() != 2) {
+    throw KernelError("inputs: expected 2 (v_disparity, previous), got " + std::to_string(input_shapes.size()));
+  }
+  const PlaneShape& histogram = input_shapes[0];
+  auto prepared = std::make_shared<RoadProfileParams>();
+  RoadProfileParams& p = *prepared;
+  p.min_disparity = param_int(params, "min_disparity", 0, -2047, 2047);
+  p.focal_px = required_positive(params, "focal_px");
+  p.baseline_m = required_positive(params, "baseline_m");
+  p.principal_row_px = param_double(params, "principal_row_px", (histogram.height - 1) / 2.0, -1e6, 1e6);
+  p.min_peak_count = param_int(params, "min_peak_count", 20, 1, 65535);
+  p.ransac_iterations = param_int(params, "ransac_iterations", 200, 1, 100000);
+  p.inlier_threshold_px = param_double(params, "inlier_threshold_px", 1.0, 0.01, 100.0);
+  p.min_inliers = param_int(params, "min_inliers", 20, 2, 1 << 20);
+  p.full_confidence_inliers = param_int(params, "full_confidence_inliers", 100, 1, 1 << 20);
+  p.min_confidence = param_int(params, "min_confidence", 300, 0, 1000);
+  p.min_camera_height_mm = param_int(params, "min_camera_height_mm", 300, 1, 1000000);
+  p.max_camera_height_mm = param_int(params, "max_camera_height_mm", 4000, p.min_camera_height_mm, 1000000);
+  p.max_abs_pitch_mrad = param_int(params, "max_abs_pitch_mrad", 250, 0, 1570);
+  p.max_carried_frames = param_int(params, "max_carried_frames", 5, 0, 1 << 20);
+  p.seed = static_cast<uint32_t>(param_int(params, "seed", 1, 0, 0x7FFFFFFF));
+  return PreparedKernel{prepared, {{kRoadProfileWords, 1}}};
+}
+
+struct Point {
+  double v, d;
+};
+
+struct Line {
+  double slope = 0.0, intercept = 0.0;
+  double at(double v) const { return slope * v + intercept; }
+};
+
+// Least squares d = a v + b; false when the rows do not determine a slope.
+bool least_squares(const std::vector<Point>& points, const std::vector<int>& indices, Line& line) {
+  double sv = 0, sd = 0, svv = 0, svd = 0;
+  for (int i : indices) {
+    sv += points[i].v;
+    sd += points[i].d;
+    svv += points[i].v * points[i].v;
+    svd += points[i].v * points[i].d;
+  }
+  const double n = static_cast<double>(indices.size());
+  const double denominator = n * svv - sv * sv;
+  if (indices.size() < 2 || denominator <= 0.0) return false;
+  line.slope = (n * svd - sv * sd) / denominator;
+  line.intercept = (sd - line.slope * sv) / n;
+  return true;
+}
+
+std::vector<int> inliers_of(const std::vector<Point>& points, const Line& line, double threshold) {
+  std::vector<int> inliers;
+  for (int i = 0; i < static_cast<int>(points.size()); ++i) {
+    if (std::abs(points[i].d - line.at(points[i].v)) <= threshold) inliers.push_back(i);
+  }
+  return inliers;
+}
+
+int32_t round_to_s32(double value) {
+  return static_cast<int32_t>(std::llround(std::clamp(value, -2147483648.0, 2147483647.0)));
+}
+
+void run(const ArmTaskArgs& args) {
+  const auto& p = *static_cast<const RoadProfileParams*>(args.params);
+  const Plane& histogram = *args.inputs.at(0);
+  const Plane& previous = *args.inputs.at(1);
+  Plane& output = *args.outputs.at(0);
+  if (previous.width() != kRoadProfileWords || previous.height() != 1) {
+    throw KernelError("input 'previous': expected the " + std::to_string(int(kRoadProfileWords)) +
+                      "x1 road profile record (this task's own output, delayed), got " + std::to_string(previous.width()) + "x" +
+                      std::to_string(previous.height()));
+  }
+  const int bins = histogram.width();
+  const int rows = histogram.height();
+  uint64_t ops = 0;
+
+  // 1. Per-row peaks.
+  std::vector<Point> points;
+  for (int v = 0; v < rows; ++v) {
+    const uint16_t* row = histogram.row<const uint16_t>(v);
+    int best = 0;
+    for (int b = 1; b < bins; ++b) best = row[b] > row[best] ? b : best;
+    if (row[best] >= p.min_peak_count) points.push_back({double(v), best + p.min_disparity + 0.5});
+  }
+  ops += 3ull * bins * rows;
+  const int point_count = static_cast<int>(points.size());
+
+  // 2. RANSAC over pairs, deterministic.
+  Line best_line;
+  int best_score = 0;
+  if (point_count >= 2) {
+    uint32_t state = p.seed * 2654435761u + 1u;
+    auto draw = [&]() {
+      state = state * 1664525u + 1013904223u;  // Numerical Recipes LCG
+      return static_cast<int>((uint64_t{state >> 8} * static_cast<uint64_t>(point_count)) >> 24);
+    };
+    for (int iteration = 0; iteration < p.ransac_iterations; ++iteration) {
+      const int i = draw();
+      const int j = draw();
+      ops += 12;
+      if (points[i].v == points[j].v) continue;
+      Line candidate;
+      candidate.slope = (points[j].d - points[i].d) / (points[j].v - points[i].v);
+      candidate.intercept = points[i].d - candidate.slope * points[i].v;
+      if (!(candidate.slope > 0.0)) continue;  // a road's disparity grows towards the bottom
+      int score = 0;
+      for (const Point& point : points) score += std::abs(point.d - candidate.at(point.v)) <= p.inlier_threshold_px ? 1 : 0;
+      ops += 4ull * point_count;
+      if (score > best_score) {
+        best_score = score;
+        best_line = candidate;
+      }
+    }
+  }
+
+  // 3. Least squares on the inliers, once more if the LS line's inliers differ.
+  Line line;
+  std::vector<int> inliers;
+  bool fitted = false;
+  if (best_score >= 2) {
+    inliers = inliers_of(points, best_line, p.inlier_threshold_px);
+    fitted = least_squares(points, inliers, line);
+    ops += 8ull * point_count;
+    if (fitted) {
+      std::vector<int> refined = inliers_of(points, line, p.inlier_threshold_px);
+      ops += 8ull * point_count;
+      Line refit;
+      if (refined != inliers && least_squares(points, refined, refit)) {
+        line = refit;
+        inliers = std::move(refined);
+      }
+    }
+  }
+  const int inlier_count = fitted ? static_cast<int>(inliers.size()) : 0;
+
+  // 4. Gate and confidence.
+  double camera_height_m = 0.0, pitch_rad = 0.0, horizon_row = 0.0, rms = 0.0;
+  bool plausible = false;
+  if (fitted && line.slope > 0.0 && inlier_count >= p.min_inliers) {
+    horizon_row = -line.intercept / line.slope;
+    pitch_rad = std::atan((p.principal_row_px - horizon_row) / p.focal_px);
+    camera_height_m = p.baseline_m * std::cos(pitch_rad) / line.slope;
+    const double height_mm = camera_height_m * 1000.0;
+    plausible = height_mm >= p.min_camera_height_mm && height_mm <= p.max_camera_height_mm &&
+                std::abs(pitch_rad) * 1000.0 <= p.max_abs_pitch_mrad;
+    double squares = 0.0;
+    for (int i : inliers) squares += std::pow(points[i].d - line.at(points[i].v), 2);
+    rms = std::sqrt(squares / inlier_count);
+  }
+  int confidence = 0;
+  if (plausible) {
+    const double ratio = static_cast<double>(inlier_count) / point_count;
+    const double support = std::min(1.0, static_cast<double>(inlier_count) / p.full_confidence_inliers);
+    confidence = static_cast<int>(std::lround(1000.0 * ratio * support));
+  }
+  ops += 64;
+
+  // 5. The record: this frame's fit, the carried previous one, or none.
+  int32_t* word = output.row<int32_t>(0);
+  std::fill(word, word + kRoadProfileWords, 0);
+  const int32_t* last = previous.row<const int32_t>(0);
+  if (plausible && confidence >= p.min_confidence) {
+    word[kRoadValid] = 1;
+    word[kRoadConfidence] = confidence;
+    word[kRoadSlopeQ16] = round_to_s32(line.slope * 65536.0);
+    word[kRoadInterceptQ16] = round_to_s32(line.intercept * 65536.0);
+    word[kRoadHorizonRowQ8] = round_to_s32(horizon_row * 256.0);
+    word[kRoadCameraHeightMm] = round_to_s32(camera_height_m * 1000.0);
+    word[kRoadPitchUrad] = round_to_s32(pitch_rad * 1e6);
+    word[kRoadInlierCount] = inlier_count;
+    word[kRoadPointCount] = point_count;
+    word[kRoadRmsResidualQ8] = round_to_s32(rms * 256.0);
+  } else if (last[kRoadValid] != 0 && last[kRoadFramesCarried] < p.max_carried_frames) {
+    std::memcpy(word, last, sizeof(int32_t) * kRoadProfileWords);
+    word[kRoadCarried] = 1;
+    word[kRoadFramesCarried] = last[kRoadFramesCarried] + 1;
+    word[kRoadConfidence] = confidence;
+  } else {
+    word[kRoadConfidence] = confidence;
+    word[kRoadInlierCount] = inlier_count;
+    word[kRoadPointCount] = point_count;
+  }
+  if (args.work != nullptr) {
+    args.work->scalar_ops += ops;
+    args.work->memory_bytes += 2ull * bins * rows + 2ull * 4 * kRoadProfileWords;
+  }
+}
+
+ArmTaskDescriptor make_road_profile() {
+  ArmTaskDescriptor descriptor;
+  descriptor.name = "road_profile";
+  descriptor.summary =
+      "road line in V-disparity (RANSAC + least squares), implied camera height and pitch gated, confidence, weak fits carry the previous frame";
+  descriptor.ports = {{"v_disparity", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole},
+                      {"previous", PortDirection::input, {ElementType::s32, 0}, PortAccess::whole},
+                      {"profile", PortDirection::output, {ElementType::s32, 0}, PortAccess::whole}};
+  descriptor.prepare = prepare;
+  descriptor.run = run;
+  return descriptor;
+}
+
+}  // namespace
+}  // namespace lpstereo::arm
+
+LPSTEREO_REGISTER_ARM_TASK(road_profile, lpstereo::arm::make_road_profile);
