@@ -1,0 +1,781 @@
+#include "io/stereo_synth.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+namespace lpstereo::io {
+
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+constexpr double kPi = 3.14159265358979323846;
+
+// ---- deterministic hashing and value noise (no std distributions: their output differs between
+// standard libraries, and a scene must be the same everywhere for a seed) ----
+
+uint64_t mix64(uint64_t h) {
+  h ^= h >> 30;
+  h *= 0xBF58476D1CE4E5B9ull;
+  h ^= h >> 27;
+  h *= 0x94D049BB133111EBull;
+  h ^= h >> 31;
+  return h;
+}
+
+struct SplitMix {
+  uint64_t state;
+  uint64_t next() { return mix64(state += 0x9E3779B97F4A7C15ull); }
+  double uniform() { return static_cast<double>(next() >> 11) * (1.0 / 9007199254740992.0); }  // [0, 1)
+  double uniform(double low, double high) { return low + (high - low) * uniform(); }
+  double gaussian() {  // Box-Muller; one value per call is enough here
+    const double u1 = std::max(uniform(), 1e-300), u2 = uniform();
+    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2 * kPi * u2);
+  }
+};
+
+double lattice(int64_t x, int64_t y, uint64_t seed) {
+  const uint64_t h = mix64(static_cast<uint64_t>(x) * 0x9E3779B97F4A7C15ull ^ mix64(static_cast<uint64_t>(y) ^ seed));
+  return static_cast<double>(h >> 40) * (2.0 / 16777216.0) - 1.0;  // [-1, 1)
+}
+
+double value_noise(double x, double y, uint64_t seed) {
+  const double fx = std::floor(x), fy = std::floor(y);
+  const auto ix = static_cast<int64_t>(fx), iy = static_cast<int64_t>(fy);
+  double sx = x - fx, sy = y - fy;
+  sx = sx * sx * (3 - 2 * sx);
+  sy = sy * sy * (3 - 2 * sy);
+  const double top = lattice(ix, iy, seed) + sx * (lattice(ix + 1, iy, seed) - lattice(ix, iy, seed));
+  const double bottom = lattice(ix, iy + 1, seed) + sx * (lattice(ix + 1, iy + 1, seed) - lattice(ix, iy + 1, seed));
+  return top + sy * (bottom - top);
+}
+
+// Octaves of value noise with cells `cells_m` (metres, or radians x 1000 for the sky). An octave
+// fades out as its cell shrinks to the pixel footprint at the hit (full weight from 3 footprints,
+// none below 1): the texture a camera would see blurred, instead of aliasing that differs between
+// the two views.
+struct Texture {
+  double cells[4];
+  double amplitudes[4];
+  int octaves;
+};
+
+double texture(const Texture& t, double s, double r, uint64_t seed, double footprint) {
+  double sum = 0;
+  for (int k = 0; k < t.octaves; ++k) {
+    const double weight = std::clamp((t.cells[k] / footprint - 1.0) * 0.5, 0.0, 1.0);
+    if (weight > 0) sum += weight * t.amplitudes[k] * value_noise(s / t.cells[k], r / t.cells[k], seed + 7919u * static_cast<uint64_t>(k));
+  }
+  return sum;
+}
+
+constexpr Texture kAsphalt{{0.03, 0.09, 0.27, 0.8}, {0.3, 0.25, 0.2, 0.15}, 4};
+constexpr Texture kVerge{{0.05, 0.15, 0.45, 1.5}, {0.3, 0.25, 0.25, 0.2}, 4};
+constexpr Texture kObject{{0.012, 0.035, 0.1, 0.3}, {0.25, 0.2, 0.15, 0.1}, 4};
+constexpr Texture kWall{{0.4, 1.2, 3.6, 11}, {0.3, 0.3, 0.25, 0.2}, 4};
+constexpr Texture kSky{{4, 12, 36, 100}, {0.06, 0.08, 0.1, 0.1}, 4};  // milliradians
+
+struct Rgb {
+  double r = 0, g = 0, b = 0;
+};
+Rgb operator*(Rgb c, double k) { return {c.r * k, c.g * k, c.b * k}; }
+
+struct Vec {
+  double x = 0, y = 0, z = 0;
+};
+double dot(Vec a, Vec b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+Vec normalized(Vec a) {
+  const double n = std::sqrt(dot(a, a));
+  return {a.x / n, a.y / n, a.z / n};
+}
+
+// Towards the light, road frame (y down): from above, a little from the camera's side and left.
+const Vec kLight = normalized({-0.3, -0.85, -0.45});
+
+// ---- geometry ----
+
+struct Camera {
+  double focal_px, cx_px, cy_px;
+  double cos_pitch, sin_pitch;
+  // The road-frame direction of the ray through image point (u, v), scaled so its camera-frame z is
+  // 1: the hit parameter t is then the camera-frame depth Z.
+  Vec ray(double u, double v) const {
+    const double x = (u - cx_px) / focal_px, y = (v - cy_px) / focal_px;
+    return {x, y * cos_pitch + sin_pitch, -y * sin_pitch + cos_pitch};
+  }
+  // Road frame -> camera frame (of a camera at road X = origin_x).
+  Vec to_camera(Vec p, double origin_x) const {
+    return {p.x - origin_x, p.y * cos_pitch - p.z * sin_pitch, p.y * sin_pitch + p.z * cos_pitch};
+  }
+};
+
+struct Road {
+  double height_m, slope_tan, slope_start_m, end_m;
+  double y_at(double z) const { return z <= slope_start_m ? height_m : height_m - slope_tan * (z - slope_start_m); }
+  // Nearest hit of a ray from (ox, 0, 0) along d with the road surface before its end, or +inf.
+  double hit(Vec d) const {
+    double best = kInfinity;
+    if (d.y > 0) {
+      const double t = height_m / d.y;
+      if (t * d.z <= slope_start_m && t * d.z > 0) best = t;
+    }
+    const double denominator = d.y + slope_tan * d.z;
+    if (denominator > 0) {
+      const double t = (height_m + slope_tan * slope_start_m) / denominator;
+      if (t * d.z > slope_start_m && t < best) best = t;
+    }
+    return best * d.z <= end_m ? best : kInfinity;
+  }
+};
+
+enum class Shape { cone, cylinder, capsule, box };
+
+struct Placed {
+  SynthObject object;
+  Shape shape = Shape::box;
+  double base_y;  // road-frame Y of the base (the road surface under the base centre)
+  double top_radius_m;
+  uint64_t seed;
+  Rgb colour, second_colour;
+  int bbox[2][4];  // per view: conservative pixel bounds x0 y0 x1 y1 (inclusive)
+};
+
+struct ObjectHit {
+  double t = kInfinity;
+  Vec normal;
+  double s = 0;       // texture coordinate around / across the surface, metres
+  double height = 0;  // height above the base, metres
+};
+
+bool solve_quadratic(double a, double b, double c, double& t0, double& t1) {
+  if (std::abs(a) < 1e-15) {
+    if (std::abs(b) < 1e-15) return false;
+    t0 = t1 = -c / b;
+    return true;
+  }
+  const double disc = b * b - 4 * a * c;
+  if (disc < 0) return false;
+  const double root = std::sqrt(disc);
+  t0 = (-b - root) / (2 * a);
+  t1 = (-b + root) / (2 * a);
+  if (t0 > t1) std::swap(t0, t1);
+  return true;
+}
+
+// A vertical surface of revolution about (x_m, z_m): radius r0 at the base, r1 at height h.
+void hit_round(const Placed& p, double ox, Vec d, double r0, double r1, double h, bool cap, ObjectHit& best) {
+  const double px = ox - p.object.x_m, pz = -p.object.z_m;
+  const double k = (r0 - r1) / h;
+  // radius at the ray point: q = r0 - k (base_y - y) = q0 + q1 t (the ray starts at y = 0)
+  const double q0 = r0 - k * p.base_y, q1 = k * d.y;
+  double t0, t1;
+  if (solve_quadratic(d.x * d.x + d.z * d.z - q1 * q1, 2 * (px * d.x + pz * d.z - q0 * q1), px * px + pz * pz - q0 * q0, t0, t1)) {
+    for (double t : {t0, t1}) {
+      if (!(t > 1e-6) || t >= best.t) continue;
+      const double height = p.base_y - t * d.y;
+      if (height < 0 || height > h || q0 + q1 * t < 0) continue;
+      const double x = px + t * d.x, z = pz + t * d.z, q = q0 + q1 * t;
+      best.t = t;
+      best.normal = normalized({x, -q * k, z});
+      best.s = std::atan2(x, -z) * std::max(r0, r1);
+      best.height = height;
+      break;
+    }
+  }
+  if (cap && d.y != 0) {  // the top disc
+    const double t = (p.base_y - h) / d.y;
+    if (t > 1e-6 && t < best.t) {
+      const double x = px + t * d.x, z = pz + t * d.z;
+      if (x * x + z * z <= r1 * r1) {
+        best.t = t;
+        best.normal = {0, -1, 0};
+        best.s = x;
+        best.height = h + z;  // a texture coordinate on the disc, continuing the side's
+      }
+    }
+  }
+}
+
+void hit_sphere(const Placed& p, double ox, Vec d, double radius, double centre_height, ObjectHit& best) {
+  const Vec o{ox - p.object.x_m, -(p.base_y - centre_height), -p.object.z_m};
+  double t0, t1;
+  if (!solve_quadratic(dot(d, d), 2 * dot(o, d), dot(o, o) - radius * radius, t0, t1)) return;
+  const double t = t0 > 1e-6 ? t0 : t1;
+  if (!(t > 1e-6) || t >= best.t) return;
+  const Vec n{(o.x + t * d.x) / radius, (o.y + t * d.y) / radius, (o.z + t * d.z) / radius};
+  if (n.y > 0) return;  // the lower half is inside the cylinder below
+  best.t = t;
+  best.normal = n;
+  best.s = std::atan2(n.x, -n.z) * radius;
+  best.height = p.base_y - t * d.y;
+}
+
+void hit_box(const Placed& p, double ox, Vec d, ObjectHit& best) {
+  const SynthObject& o = p.object;
+  const double low[3] = {o.x_m - o.width_m / 2, p.base_y - o.height_m, o.z_m - o.length_m / 2};
+  const double high[3] = {o.x_m + o.width_m / 2, p.base_y, o.z_m + o.length_m / 2};
+  const double origin[3] = {ox, 0, 0}, direction[3] = {d.x, d.y, d.z};
+  double t_near = -kInfinity, t_far = kInfinity;
+  int axis = -1, sign = 0;
+  for (int a = 0; a < 3; ++a) {
+    if (direction[a] == 0) {
+      if (origin[a] < low[a] || origin[a] > high[a]) return;
+      continue;
+    }
+    double ta = (low[a] - origin[a]) / direction[a], tb = (high[a] - origin[a]) / direction[a];
+    int face_sign = -1;  // entering through the low face: outward normal points to -axis
+    if (ta > tb) {
+      std::swap(ta, tb);
+      face_sign = 1;
+    }
+    if (ta > t_near) {
+      t_near = ta;
+      axis = a;
+      sign = face_sign;
+    }
+    t_far = std::min(t_far, tb);
+  }
+  if (axis < 0 || t_near > t_far || !(t_near > 1e-6) || t_near >= best.t) return;
+  const double hit[3] = {ox + t_near * d.x, t_near * d.y, t_near * d.z};
+  best.t = t_near;
+  best.normal = {axis == 0 ? double(sign) : 0, axis == 1 ? double(sign) : 0, axis == 2 ? double(sign) : 0};
+  best.height = p.base_y - hit[1];
+  best.s = axis == 0 ? hit[2] : hit[0];
+  if (axis == 1) best.height = o.height_m + hit[2] - low[2];
+}
+
+void hit_object(const Placed& p, double ox, Vec d, ObjectHit& best) {
+  const double r = p.object.width_m / 2, h = p.object.height_m;
+  switch (p.shape) {
+    case Shape::cone: hit_round(p, ox, d, r, p.top_radius_m, h, true, best); break;
+    case Shape::cylinder: hit_round(p, ox, d, r, r, h, true, best); break;
+    case Shape::capsule:
+      hit_round(p, ox, d, r, r, h - r, false, best);
+      hit_sphere(p, ox, d, r, h - r, best);
+      break;
+    case Shape::box: hit_box(p, ox, d, best); break;
+  }
+}
+
+Rgb object_albedo(const Placed& p, const ObjectHit& hit, double footprint) {
+  const double f = hit.height / p.object.height_m;  // 0 at the base, 1 at the top
+  Rgb base = p.colour;
+  switch (p.object.object_class) {
+    case SynthClass::cone: if (f > 0.45 && f < 0.7) base = {235, 235, 235}; break;   // reflective band
+    case SynthClass::can: if (f > 0.2 && f < 0.8) base = p.second_colour; break;      // label
+    case SynthClass::bin: if (f > 0.92) base = p.colour * 0.7; break;                 // lid
+    case SynthClass::pedestrian:
+      if (hit.height > 1.45) base = {205, 160, 130};                                  // head
+      else if (hit.height < 0.85) base = p.second_colour;                             // legs
+      break;
+    case SynthClass::car: if (f > 0.6) base = {45, 50, 58}; break;                    // windows
+    default: break;
+  }
+  return base * (1.0 + texture(kObject, hit.s, hit.height, p.seed, footprint));
+}
+
+struct Sample {
+  Rgb colour;
+  double depth = kInfinity;  // camera-frame z, +inf for sky
+  int id = 0;
+};
+
+class Renderer {
+ public:
+  Renderer(const StereoSynthOptions& options) : options_(options) {
+    camera_.focal_px = options.width / 2.0 / std::tan(options.hfov_deg * kPi / 360.0);
+    camera_.cx_px = (options.width - 1) / 2.0;
+    camera_.cy_px = (options.height - 1) / 2.0;
+    camera_.cos_pitch = std::cos(options.pitch_rad);
+    camera_.sin_pitch = std::sin(options.pitch_rad);
+    road_ = {options.camera_height_m, std::tan(options.slope_deg * kPi / 180.0), options.slope_start_m,
+             options.background_distance_m};
+    SplitMix colours{uint64_t{options.seed} * 7777u + 5};
+    for (size_t i = 0; i < options.objects.size(); ++i) place(options.objects[i], i, colours);
+  }
+
+  const Camera& camera() const { return camera_; }
+  const Road& road() const { return road_; }
+  const std::vector<Placed>& placed() const { return placed_; }
+
+  Sample trace(int view, double u, double v, int pixel_u, int pixel_v) const {
+    const double ox = view == 0 ? 0.0 : options_.baseline_m;
+    const Vec d = camera_.ray(u, v);
+    const double length = std::sqrt(dot(d, d));
+    const double footprint_per_t = length / camera_.focal_px;  // metres per pixel per unit depth
+    const uint64_t seed = options_.seed;
+    Sample sample;
+
+    ObjectHit object;
+    int object_index = -1;
+    for (size_t i = 0; i < placed_.size(); ++i) {
+      const int* b = placed_[i].bbox[view];
+      if (pixel_u < b[0] || pixel_u > b[2] || pixel_v < b[1] || pixel_v > b[3]) continue;
+      const double before = object.t;
+      hit_object(placed_[i], ox, d, object);
+      if (object.t < before) object_index = static_cast<int>(i);
+    }
+    const double t_road = road_.hit(d);
+    double t_wall = kInfinity, wall_y = 0;
+    if (d.z > 0) {
+      t_wall = road_.end_m / d.z;
+      wall_y = t_wall * d.y;
+      const double x = ox + t_wall * d.x;
+      const double top = road_.y_at(road_.end_m) - (30 + 20 * value_noise(x / 80.0, 0.5, seed + 11));
+      if (wall_y < top || wall_y > road_.y_at(road_.end_m) + 1e-9) t_wall = kInfinity;
+    }
+
+    if (object_index >= 0 && object.t <= t_road && object.t <= t_wall) {
+      const Placed& p = placed_[static_cast<size_t>(object_index)];
+      const double grazing = std::max(std::abs(dot(object.normal, d)) / length, 0.1);
+      const double footprint = object.t * footprint_per_t / std::sqrt(grazing);
+      const double shade = 0.55 + 0.45 * std::max(0.0, dot(object.normal, kLight));
+      sample.colour = object_albedo(p, object, footprint) * shade;
+      sample.depth = object.t;
+      sample.id = object_index + 1;
+    } else if (t_road < t_wall) {
+      const double x = ox + t_road * d.x, z = t_road * d.z;
+      const double grazing = std::max(std::abs(d.y) / length, 0.02);
+      const double footprint = t_road * footprint_per_t / std::sqrt(grazing);
+      sample.colour = road_albedo(x, z, footprint);
+      sample.depth = t_road;
+    } else if (t_wall < kInfinity) {
+      const double x = ox + t_wall * d.x;
+      const double footprint = t_wall * footprint_per_t;
+      sample.colour = Rgb{95, 105, 90} * (1.0 + texture(kWall, x, wall_y, seed + 101, footprint));
+      sample.depth = t_wall;
+    } else {
+      // Sky: a texture of the direction only, so both views see it at the same pixel (disparity 0).
+      const double azimuth = std::atan2(d.x, d.z) * 1000, elevation = std::atan2(-d.y, std::hypot(d.x, d.z)) * 1000;
+      sample.colour = Rgb{185, 200, 220} * (1.0 + texture(kSky, azimuth, elevation, seed + 202, 1000.0 / camera_.focal_px));
+    }
+    return sample;
+  }
+
+ private:
+  Rgb road_albedo(double x, double z, double footprint) const {
+    const double ax = std::abs(x);
+    if (ax > 5.6) return Rgb{80, 105, 65} * (1.0 + texture(kVerge, x, z, options_.seed + 303, footprint));
+    // Lane markings 0.15 m wide: solid road edges at +-5.25 m, dashed lane lines at +-1.75 m
+    // (3 m dashes every 9 m); the left camera is centred in the middle lane.
+    const bool edge = std::abs(ax - 5.25) < 0.075;
+    const bool lane = std::abs(ax - 1.75) < 0.075 && std::fmod(std::max(z, 0.0), 9.0) < 3.0;
+    const double grain = 1.0 + texture(kAsphalt, x, z, options_.seed + 404, footprint);
+    return (edge || lane) ? Rgb{225, 225, 220} * (0.85 + 0.15 * grain) : Rgb{100, 100, 104} * grain;
+  }
+
+  void place(const SynthObject& object, size_t index, SplitMix& colours) {
+    Placed p;
+    p.object = object;
+    p.base_y = road_.y_at(object.z_m);
+    p.top_radius_m = object.width_m / 2 * 0.15;
+    p.seed = uint64_t{options_.seed} * 1000003u + index * 7919u + 17u;
+    const Rgb palette[] = {{200, 40, 40}, {40, 70, 160}, {230, 200, 60}, {60, 140, 70}, {220, 220, 225}, {30, 30, 35}, {150, 90, 160}};
+    const Rgb picked = palette[colours.next() % 7];
+    const Rgb second = palette[colours.next() % 7];
+    switch (object.object_class) {
+      case SynthClass::cone: p.shape = Shape::cone; p.colour = {235, 95, 25}; break;
+      case SynthClass::can: p.shape = Shape::cylinder; p.colour = {165, 165, 172}; p.second_colour = picked; break;
+      case SynthClass::tape_roll: p.shape = Shape::cylinder; p.colour = {205, 195, 150}; break;
+      case SynthClass::box: p.shape = Shape::box; p.colour = {175, 135, 85}; break;
+      case SynthClass::bin: p.shape = Shape::box; p.colour = {45, 95, 55}; break;
+      case SynthClass::pedestrian: p.shape = Shape::capsule; p.colour = picked; p.second_colour = Rgb{55, 55, 95}; break;
+      case SynthClass::car: p.shape = Shape::box; p.colour = second; break;
+    }
+    // Conservative pixel bounds per view from the 8 corners of the object's bounding box; a corner
+    // behind (or almost at) the camera leaves the whole image.
+    for (int view = 0; view < 2; ++view) {
+      const double ox = view == 0 ? 0.0 : options_.baseline_m;
+      const double half_x = object.width_m / 2 * 1.01 + 0.01;
+      const double half_z = (p.shape == Shape::box ? object.length_m : object.width_m) / 2 * 1.01 + 0.01;
+      double u0 = kInfinity, v0 = kInfinity, u1 = -kInfinity, v1 = -kInfinity;
+      bool behind = false;
+      for (int corner = 0; corner < 8; ++corner) {
+        const Vec road_point{object.x_m + ((corner & 1) ? half_x : -half_x), p.base_y - ((corner & 2) ? object.height_m * 1.01 + 0.01 : -0.01),
+                             object.z_m + ((corner & 4) ? half_z : -half_z)};
+        const Vec c = camera_.to_camera(road_point, ox);
+        if (c.z < 0.05) {
+          behind = true;
+          break;
+        }
+        const double u = camera_.focal_px * c.x / c.z + camera_.cx_px, v = camera_.focal_px * c.y / c.z + camera_.cy_px;
+        u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
+      }
+      int* b = p.bbox[view];
+      if (behind) {
+        b[0] = b[1] = -1, b[2] = options_.width, b[3] = options_.height;
+      } else {
+        auto clamp_to = [](double x, int high) { return static_cast<int>(std::clamp(x, -2.0, static_cast<double>(high) + 1)); };
+        b[0] = clamp_to(std::floor(u0) - 1, options_.width), b[1] = clamp_to(std::floor(v0) - 1, options_.height);
+        b[2] = clamp_to(std::ceil(u1) + 1, options_.width), b[3] = clamp_to(std::ceil(v1) + 1, options_.height);
+      }
+    }
+    placed_.push_back(p);
+  }
+
+  const StereoSynthOptions& options_;
+  Camera camera_{};
+  Road road_{};
+  std::vector<Placed> placed_;
+};
+
+uint8_t to_u8(double x) { return static_cast<uint8_t>(std::clamp(std::lround(x), 0L, 255L)); }
+
+void require(bool ok, const std::string& option, const std::string& expected, double actual) {
+  if (ok) return;
+  std::ostringstream text;
+  text << option << ": expected " << expected << ", got " << actual;
+  throw std::invalid_argument(text.str());
+}
+
+}  // namespace
+
+const char* synth_class_name(SynthClass object_class) {
+  switch (object_class) {
+    case SynthClass::cone: return "cone";
+    case SynthClass::can: return "can";
+    case SynthClass::box: return "box";
+    case SynthClass::tape_roll: return "tape_roll";
+    case SynthClass::bin: return "bin";
+    case SynthClass::pedestrian: return "pedestrian";
+    case SynthClass::car: return "car";
+  }
+  return "?";
+}
+
+SynthObject synth_object(SynthClass object_class, double x_m, double z_m) {
+  SynthObject o;
+  o.object_class = object_class;
+  o.x_m = x_m;
+  o.z_m = z_m;
+  switch (object_class) {  // width, height, length (metres)
+    case SynthClass::cone: o.width_m = 0.18, o.height_m = 0.30, o.length_m = 0.18; break;
+    case SynthClass::can: o.width_m = 0.15, o.height_m = 0.19, o.length_m = 0.15; break;
+    case SynthClass::box: o.width_m = 0.40, o.height_m = 0.43, o.length_m = 0.30; break;
+    case SynthClass::tape_roll: o.width_m = 0.12, o.height_m = 0.07, o.length_m = 0.12; break;
+    case SynthClass::bin: o.width_m = 0.58, o.height_m = 1.10, o.length_m = 0.74; break;
+    case SynthClass::pedestrian: o.width_m = 0.50, o.height_m = 1.70, o.length_m = 0.50; break;
+    case SynthClass::car: o.width_m = 1.80, o.height_m = 1.50, o.length_m = 4.50; break;
+  }
+  return o;
+}
+
+void validate_synth_options(const StereoSynthOptions& o) {
+  require(o.width >= 16 && o.width <= 16384, "width", "16..16384 px", o.width);
+  require(o.height >= 16 && o.height <= 16384, "height", "16..16384 px", o.height);
+  require(o.hfov_deg > 1 && o.hfov_deg < 170, "hfov-deg", "a field of view in (1, 170) degrees", o.hfov_deg);
+  require(o.baseline_m > 0 && o.baseline_m <= 10, "baseline-m", "(0, 10] metres", o.baseline_m);
+  require(o.camera_height_m > 0 && o.camera_height_m <= 100, "camera-height-m", "(0, 100] metres", o.camera_height_m);
+  require(std::abs(o.pitch_rad) < 0.5, "pitch", "|pitch| < 0.5 rad (28.6 degrees)", o.pitch_rad);
+  require(std::abs(o.slope_deg) <= 10, "slope-deg", "a gentle slope, |slope| <= 10 degrees", o.slope_deg);
+  require(o.slope_start_m >= 0, "slope-start-m", ">= 0 metres", o.slope_start_m);
+  require(o.background_distance_m > 10 && o.background_distance_m <= 100000, "background-distance-m", "(10, 100000] metres",
+          o.background_distance_m);
+  require(o.samples_per_axis >= 1 && o.samples_per_axis <= 4, "samples", "1..4 per axis", o.samples_per_axis);
+  require(o.noise_sigma >= 0 && o.noise_sigma <= 100, "noise-sigma", "0..100 grey levels", o.noise_sigma);
+  require(o.right_gain > 0 && o.right_gain <= 4, "gain", "(0, 4]", o.right_gain);
+  require(std::abs(o.right_offset) <= 255, "offset", "-255..255 grey levels", o.right_offset);
+  require(o.threads >= 1 && o.threads <= 256, "threads", "1..256", o.threads);
+  for (const SynthObject& object : o.objects) {
+    require(object.width_m > 0 && object.height_m > 0 && object.length_m > 0, std::string("object ") + synth_class_name(object.object_class) + " size",
+            "positive metres", std::min({object.width_m, object.height_m, object.length_m}));
+    require(object.z_m > 0 && object.z_m < o.background_distance_m, std::string("object ") + synth_class_name(object.object_class) + " z",
+            "between the camera and the background", object.z_m);
+  }
+}
+
+std::vector<SynthObject> random_synth_objects(uint32_t seed) {
+  SplitMix random{uint64_t{seed} * 0x2545F4914F6CDD1Dull + 99};
+  const int count = 6 + static_cast<int>(random.next() % 9);
+  std::vector<SynthObject> objects;
+  for (int attempt = 0; attempt < 400 && static_cast<int>(objects.size()) < count; ++attempt) {
+    const auto object_class = static_cast<SynthClass>(random.next() % 7);
+    SynthObject o = synth_object(object_class, random.uniform(-5.0, 5.0), random.uniform(8.0, 80.0));
+    const double radius = 0.5 * std::hypot(o.width_m, o.length_m);
+    bool overlaps = false;
+    for (const SynthObject& other : objects) {
+      const double other_radius = 0.5 * std::hypot(other.width_m, other.length_m);
+      if (std::hypot(o.x_m - other.x_m, o.z_m - other.z_m) < radius + other_radius + 0.5) overlaps = true;
+    }
+    if (!overlaps) objects.push_back(o);
+  }
+  return objects;
+}
+
+std::vector<SynthObject> lineup_synth_objects(double distance_m) {
+  const SynthClass classes[] = {SynthClass::cone, SynthClass::can, SynthClass::box, SynthClass::tape_roll, SynthClass::bin,
+                                SynthClass::pedestrian};
+  std::vector<SynthObject> objects;
+  for (int i = 0; i < 6; ++i) objects.push_back(synth_object(classes[i], -3.0 + 1.2 * i, distance_m));
+  return objects;
+}
+
+double synth_road_disparity_px(const StereoSynthOptions& options, double u_px, double v_px) {
+  StereoSynthOptions no_objects = options;
+  no_objects.objects.clear();
+  const Renderer renderer(no_objects);
+  const double t = renderer.road().hit(renderer.camera().ray(u_px, v_px));
+  return std::isfinite(t) ? renderer.camera().focal_px * options.baseline_m / t : kInfinity;
+}
+
+StereoSynthScene render_stereo_synth(const StereoSynthOptions& options, const std::function<void(double)>& progress) {
+  validate_synth_options(options);
+  const Renderer renderer(options);
+  const int width = options.width, height = options.height, samples = options.samples_per_axis;
+  StereoSynthScene scene;
+  scene.focal_px = renderer.camera().focal_px;
+  cv::Mat views[2] = {cv::Mat(height, width, CV_8UC1), cv::Mat(height, width, CV_8UC1)};
+  cv::Mat colours[2];
+  if (options.colour) colours[0].create(height, width, CV_8UC3), colours[1].create(height, width, CV_8UC3);
+  scene.disparity_px.create(height, width, CV_32FC1);
+  scene.object_ids.create(height, width, CV_16UC1);
+  const double fb = scene.focal_px * options.baseline_m;
+
+  std::atomic<int> next_row{0}, rows_done{0};
+  std::mutex progress_mutex;
+  int reported_percent = -1;
+  auto work = [&] {
+    std::vector<Rgb> row(static_cast<size_t>(width));
+    for (;;) {
+      const int v = next_row.fetch_add(1);
+      if (v >= height) return;
+      for (int view = 0; view < 2; ++view) {
+        for (int u = 0; u < width; ++u) {
+          Rgb sum;
+          for (int j = 0; j < samples; ++j) {
+            for (int i = 0; i < samples; ++i) {
+              const Sample s = renderer.trace(view, u + (i + 0.5) / samples - 0.5, v + (j + 0.5) / samples - 0.5, u, v);
+              sum.r += s.colour.r, sum.g += s.colour.g, sum.b += s.colour.b;
+            }
+          }
+          row[static_cast<size_t>(u)] = sum * (1.0 / (samples * samples));
+          if (view == 0) {  // ground truth from the ray through the pixel centre
+            const Sample centre = renderer.trace(0, u, v, u, v);
+            scene.disparity_px.at<float>(v, u) = std::isfinite(centre.depth) ? static_cast<float>(fb / centre.depth)
+                                                                              : std::numeric_limits<float>::infinity();
+            scene.object_ids.at<uint16_t>(v, u) = static_cast<uint16_t>(centre.id);
+          }
+        }
+        // Sensor: the right camera's gain and offset, then noise, per view and row from its own
+        // seed so the result does not depend on which thread rendered the row.
+        SplitMix noise{mix64((uint64_t{options.seed} << 32) ^ (static_cast<uint64_t>(view) << 31) ^ static_cast<uint64_t>(v))};
+        const double gain = view == 1 ? options.right_gain : 1.0, offset = view == 1 ? options.right_offset : 0.0;
+        uint8_t* grey = views[view].ptr<uint8_t>(v);
+        for (int u = 0; u < width; ++u) {
+          const Rgb& c = row[static_cast<size_t>(u)];
+          const double n = options.noise_sigma > 0 ? options.noise_sigma * noise.gaussian() : 0.0;
+          grey[u] = to_u8(gain * (0.299 * c.r + 0.587 * c.g + 0.114 * c.b) + offset + n);
+          if (options.colour) {
+            cv::Vec3b& bgr = colours[view].at<cv::Vec3b>(v, u);
+            bgr = {to_u8(gain * c.b + offset + n), to_u8(gain * c.g + offset + n), to_u8(gain * c.r + offset + n)};
+          }
+        }
+      }
+      const int done = rows_done.fetch_add(1) + 1;
+      if (progress) {
+        const int percent = static_cast<int>(100LL * done / height);
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        if (percent != reported_percent) {
+          reported_percent = percent;
+          progress(static_cast<double>(done) / height);
+        }
+      }
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int i = 1; i < options.threads; ++i) threads.emplace_back(work);
+  work();
+  for (std::thread& thread : threads) thread.join();
+
+  scene.left = views[0];
+  scene.right = views[1];
+  scene.left_colour = colours[0];
+  scene.right_colour = colours[1];
+
+  // Truth per object: its pixels in the id image, and its base centre in the left camera frame.
+  for (size_t i = 0; i < renderer.placed().size(); ++i) {
+    const Placed& p = renderer.placed()[i];
+    SynthObjectTruth truth;
+    truth.id = static_cast<int>(i) + 1;
+    truth.object = p.object;
+    const Vec c = renderer.camera().to_camera({p.object.x_m, p.base_y, p.object.z_m}, 0.0);
+    truth.position_m[0] = c.x, truth.position_m[1] = c.y, truth.position_m[2] = c.z;
+    truth.distance_m = c.z;
+    truth.disparity_px = fb / c.z;
+    scene.objects.push_back(truth);
+  }
+  for (int v = 0; v < height; ++v) {
+    const uint16_t* ids = scene.object_ids.ptr<uint16_t>(v);
+    for (int u = 0; u < width; ++u) {
+      if (ids[u] == 0) continue;
+      SynthObjectTruth& t = scene.objects[ids[u] - 1u];
+      if (t.visible_pixels++ == 0) {
+        t.bbox_px[0] = t.bbox_px[2] = u, t.bbox_px[1] = t.bbox_px[3] = v;
+      } else {
+        t.bbox_px[0] = std::min(t.bbox_px[0], u), t.bbox_px[2] = std::max(t.bbox_px[2], u);
+        t.bbox_px[1] = std::min(t.bbox_px[1], v), t.bbox_px[3] = std::max(t.bbox_px[3], v);
+      }
+    }
+  }
+
+  StereoCalibration& calibration = scene.calibration;
+  for (CameraModel* camera : {&calibration.left, &calibration.right}) {
+    camera->width_px = width;
+    camera->height_px = height;
+    camera->fx_px = camera->fy_px = scene.focal_px;
+    camera->cx_px = renderer.camera().cx_px;
+    camera->cy_px = renderer.camera().cy_px;
+  }
+  calibration.translation_m = {-options.baseline_m, 0, 0};
+  calibration.already_rectified = true;
+  StereoRectification rectification;
+  const double f = scene.focal_px, cx = renderer.camera().cx_px, cy = renderer.camera().cy_px;
+  rectification.p1 = {f, 0, cx, 0, 0, f, cy, 0, 0, 0, 1, 0};
+  rectification.p2 = {f, 0, cx, -f * options.baseline_m, 0, f, cy, 0, 0, 0, 1, 0};
+  rectification.q = {1, 0, 0, -cx, 0, 1, 0, -cy, 0, 0, 0, f, 0, 0, 1 / options.baseline_m, 0};
+  calibration.rectification = rectification;
+  calibration.format = "opencv";
+  calibration.source = "lpstereo synth";
+  return scene;
+}
+
+namespace {
+
+void write_png(const std::filesystem::path& path, const cv::Mat& image) {
+  bool ok = false;
+  try {
+    ok = cv::imwrite(path.string(), image);
+  } catch (const cv::Exception&) {
+    ok = false;
+  }
+  if (!ok) throw std::runtime_error(path.string() + ": could not write the PNG");
+}
+
+void write_text(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream file(path, std::ios::binary);
+  file << text;
+  file.close();
+  if (!file) throw std::runtime_error(path.string() + ": could not write the file");
+}
+
+std::string number(double x) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.12e", x);
+  return buffer;
+}
+
+}  // namespace
+
+void write_stereo_synth(const std::string& directory, const StereoSynthScene& scene, const StereoSynthOptions& options) {
+  namespace fs = std::filesystem;
+  const fs::path target = fs::absolute(fs::path(directory)).lexically_normal();
+  const fs::path name = target.filename().empty() ? target.parent_path().filename() : target.filename();
+  const fs::path parent = target.filename().empty() ? target.parent_path().parent_path() : target.parent_path();
+  std::error_code error;
+  if (!fs::is_directory(parent, error)) {
+    throw std::runtime_error(directory + ": the parent folder " + parent.string() + " does not exist or is not a folder");
+  }
+  if (fs::exists(target, error) && !fs::is_directory(target, error)) {
+    throw std::runtime_error(directory + ": exists and is not a folder");
+  }
+  const std::string suffix = "." + std::to_string(::getpid());
+  const fs::path temporary = parent / ("." + name.string() + ".tmp" + suffix);
+  const fs::path old = parent / ("." + name.string() + ".old" + suffix);
+  fs::remove_all(temporary, error);
+  if (!fs::create_directory(temporary, error)) {
+    throw std::runtime_error(directory + ": could not create the temporary folder " + temporary.string() + ": " + error.message());
+  }
+  try {
+    write_png(temporary / "left.png", scene.left);
+    write_png(temporary / "right.png", scene.right);
+    if (!scene.left_colour.empty()) {
+      write_png(temporary / "left_colour.png", scene.left_colour);
+      write_png(temporary / "right_colour.png", scene.right_colour);
+    }
+    // KITTI: disparity x 256 in 16 bits, 0 = no ground truth; a disparity too large for the format
+    // (>= 256 px) has none either rather than a wrong one. Not io::write_kitti_disparity_png: that
+    // one takes s16 Q4 (1/16 px) and the truth keeps the format's full 1/256 px.
+    cv::Mat kitti(scene.disparity_px.size(), CV_16UC1);
+    for (int v = 0; v < kitti.rows; ++v) {
+      for (int u = 0; u < kitti.cols; ++u) {
+        const float d = scene.disparity_px.at<float>(v, u);
+        const double scaled = std::round(static_cast<double>(d) * 256.0);
+        kitti.at<uint16_t>(v, u) = std::isfinite(d) && d > 0 && scaled <= 65535 ? static_cast<uint16_t>(std::max(1.0, scaled)) : 0;
+      }
+    }
+    write_png(temporary / "disparity.png", kitti);
+    write_png(temporary / "object_ids.png", scene.object_ids);
+
+    nlohmann::json json;
+    json["width"] = options.width;
+    json["height"] = options.height;
+    json["focal_px"] = scene.focal_px;
+    json["baseline_m"] = options.baseline_m;
+    json["hfov_deg"] = options.hfov_deg;
+    json["camera_height_m"] = options.camera_height_m;
+    json["pitch_rad"] = options.pitch_rad;
+    json["slope_deg"] = options.slope_deg;
+    json["slope_start_m"] = options.slope_start_m;
+    json["background_distance_m"] = options.background_distance_m;
+    json["samples_per_pixel"] = options.samples_per_axis * options.samples_per_axis;
+    json["noise_sigma"] = options.noise_sigma;
+    json["right_gain"] = options.right_gain;
+    json["right_offset"] = options.right_offset;
+    json["seed"] = options.seed;
+    json["frame"] = "left camera: x right, y down, z forward, metres";
+    json["objects"] = nlohmann::json::array();
+    for (const SynthObjectTruth& t : scene.objects) {
+      nlohmann::json o;
+      o["id"] = t.id;
+      o["class"] = synth_class_name(t.object.object_class);
+      o["position_m"] = {t.position_m[0], t.position_m[1], t.position_m[2]};
+      o["road_position_m"] = {t.object.x_m, t.object.z_m};
+      o["size_m"] = {{"w", t.object.width_m}, {"h", t.object.height_m}, {"l", t.object.length_m}};
+      o["distance_m"] = t.distance_m;
+      o["disparity_px"] = t.disparity_px;
+      o["bbox_px"] = t.visible_pixels > 0 ? nlohmann::json{t.bbox_px[0], t.bbox_px[1], t.bbox_px[2], t.bbox_px[3]} : nlohmann::json();
+      o["visible_pixels"] = t.visible_pixels;
+      json["objects"].push_back(o);
+    }
+    write_text(temporary / "objects.json", json.dump(2) + "\n");
+
+    write_opencv_yaml((temporary / "calib.yaml").string(), scene.calibration,
+                      "lpstereo synth: rectified pinhole pair, baseline " + number(options.baseline_m) + " m");
+    const double f = scene.focal_px, cx = scene.calibration.left.cx_px, cy = scene.calibration.left.cy_px;
+    std::string kitti_text = "S_rect_02: " + number(options.width) + " " + number(options.height) + "\n";
+    kitti_text += "P_rect_02: " + number(f) + " 0 " + number(cx) + " 0 0 " + number(f) + " " + number(cy) + " 0 0 0 1 0\n";
+    kitti_text += "S_rect_03: " + number(options.width) + " " + number(options.height) + "\n";
+    kitti_text += "P_rect_03: " + number(f) + " 0 " + number(cx) + " " + number(-f * options.baseline_m) + " 0 " + number(f) + " " +
+                  number(cy) + " 0 0 0 1 0\n";
+    write_text(temporary / "calib_cam_to_cam.txt", kitti_text);
+
+    // Swap the finished folder in: the old one (if any) aside, the new one in place, the old one away.
+    const bool replacing = fs::exists(target, error);
+    if (replacing) {
+      fs::rename(target, old);
+    }
+    fs::rename(temporary, target);
+    if (replacing) fs::remove_all(old, error);
+  } catch (const fs::filesystem_error& e) {
+    fs::remove_all(temporary, error);
+    throw std::runtime_error(directory + ": " + e.what());
+  } catch (...) {
+    fs::remove_all(temporary, error);
+    throw;
+  }
+}
+
+}  // namespace lpstereo::io

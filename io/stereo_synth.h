@@ -1,0 +1,123 @@
+// A synthetic road scene rendered as a rectified stereo pair by ray casting, with exact ground truth
+// (docs/synth.md). For the obstacle detector's range test and false-positive runs, and for any test
+// or benchmark that needs a realistic pair with known geometry. (io/synthetic_scene.h is the small
+// analytic scene the kernel tests use; this one is a separate, richer component.)
+//
+// Geometry (DESIGN.md §4): camera frame x right, y down, z forward, metres. The "road frame" has its
+// origin at the left camera centre, X right, Y down (gravity), Z forward along the road; the camera
+// is pitched by pitch_rad about X (+ = looking down). The flat road is the plane Y = +camera_height_m;
+// with slope_deg != 0 it bends at slope_start_m into a plane rising (slope > 0) or falling ahead.
+// The right camera sits baseline_m to the right (road X = +B), same orientation: a rectified pair,
+// pinhole, square pixels, principal point at the image centre ((W - 1) / 2, (H - 1) / 2, pixel
+// centres at integers), focal length f = (W / 2) / tan(hfov / 2).
+//
+// Every pixel of each view is the mean of samples_per_axis^2 rays on a regular sub-pixel grid (anti-
+// aliased edges). The ground truth (left disparity, object id) comes from the ray through the pixel
+// centre: disparity = f * B / Z with Z the camera-frame depth of that hit, exact (no quantisation
+// until the KITTI file's 1/256 px). Sky (texture at infinity, the same in both views) has no ground
+// truth.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "io/calibration.h"
+
+namespace lpstereo::io {
+
+enum class SynthClass { cone, can, box, tape_roll, bin, pedestrian, car };
+
+// "cone", "can", "box", "tape_roll", "bin", "pedestrian", "car".
+const char* synth_class_name(SynthClass object_class);
+
+// One object standing on the road. Shapes (all vertical, axis along road Y, standing on the road
+// surface under their base centre): cone = truncated cone (top diameter 0.15 x width), can, tape
+// roll = cylinder (diameter = width_m), pedestrian = capsule (cylinder with a hemispherical top,
+// diameter = width_m), box, bin, car = axis-aligned box (width_m across X, length_m along Z).
+struct SynthObject {
+  SynthClass object_class = SynthClass::box;
+  double x_m = 0;        // base centre, road frame: lateral (+ = right of the left camera)
+  double z_m = 10;       // base centre, road frame: forward distance along the road
+  double width_m = 0.4;  // across the road (diameter for round shapes)
+  double height_m = 0.4;
+  double length_m = 0.4;  // along the road (boxes; round shapes use width_m)
+};
+
+// The standard test objects of the range test (issue 6): sizes in metres.
+SynthObject synth_object(SynthClass object_class, double x_m, double z_m);
+
+struct StereoSynthOptions {
+  int width = 1280;
+  int height = 576;
+  double hfov_deg = 60;          // horizontal field of view, degrees, (1, 170)
+  double baseline_m = 0.30;      // > 0
+  double camera_height_m = 1.5;  // above the road under the camera, > 0
+  double pitch_rad = 0;          // + = looking down, |pitch| < 0.5
+  double slope_deg = 0;          // road slope beyond slope_start_m (+ = uphill), |slope| <= 10
+  double slope_start_m = 20;     // where the slope starts, road Z
+  double background_distance_m = 400;  // the far background wall (road Z); the road ends there
+  int samples_per_axis = 2;      // anti-aliasing: samples_per_axis^2 rays per pixel, 1..4
+  double noise_sigma = 0;        // Gaussian sensor noise, grey levels (each view independently)
+  double right_gain = 1;         // the right camera's response: gain * value + offset, before noise
+  double right_offset = 0;       // grey levels
+  bool colour = false;           // also render BGR views (left_colour, right_colour)
+  uint32_t seed = 1;             // textures and noise (and random scenes, see random_synth_objects)
+  int threads = 2;               // rows are shared between this many threads
+  std::vector<SynthObject> objects;
+};
+
+// Throws std::invalid_argument "<option>: expected ..., got ..." for a value out of range.
+void validate_synth_options(const StereoSynthOptions& options);
+
+// A deterministic random scene: 6..14 objects of every class at random positions on the road
+// (8 .. 80 m ahead, within the road's 10.5 m width), not overlapping.
+std::vector<SynthObject> random_synth_objects(uint32_t seed);
+// The range-test row at distance_m (road Z of the base centres): cone 0.30 m, can 0.19 m, box
+// 0.43 m, tape roll 0.07 m, bin 1.10 m, pedestrian 1.70 m, 1.2 m apart across the road, centred on
+// the camera.
+std::vector<SynthObject> lineup_synth_objects(double distance_m);
+
+struct SynthObjectTruth {
+  int id = 0;  // the value in object_ids (1-based, in the order of options.objects)
+  SynthObject object;
+  double position_m[3] = {0, 0, 0};  // base centre in the LEFT CAMERA frame (x right, y down, z forward)
+  double distance_m = 0;             // camera-frame depth z of the base centre
+  double disparity_px = 0;           // f * B / distance_m
+  // The pixels that show the object (id image), inclusive [x0, y0, x1, y1]; visible_pixels = 0
+  // (fully occluded or outside the view) leaves it {-1, -1, -1, -1}.
+  int bbox_px[4] = {-1, -1, -1, -1};
+  int64_t visible_pixels = 0;
+};
+
+struct StereoSynthScene {
+  cv::Mat left, right;                // CV_8UC1
+  cv::Mat left_colour, right_colour;  // CV_8UC3 BGR when options.colour, else empty
+  cv::Mat disparity_px;               // CV_32FC1, left view, +inf = no ground truth (sky)
+  cv::Mat object_ids;                 // CV_16UC1, 0 = road, background or sky
+  std::vector<SynthObjectTruth> objects;
+  StereoCalibration calibration;      // the rectified pinhole pair (already_rectified)
+  double focal_px = 0;
+};
+
+// Renders the scene; `progress` (if set) is called with the fraction of rows done, from any thread,
+// one call at a time.
+StereoSynthScene render_stereo_synth(const StereoSynthOptions& options,
+                                     const std::function<void(double)>& progress = {});
+
+// The exact ground-truth disparity of the road at a left-view pixel centre (ignoring objects),
+// +inf where the ray does not meet the road before the background: the analytic reference.
+double synth_road_disparity_px(const StereoSynthOptions& options, double u_px, double v_px);
+
+// Writes left.png, right.png (grey; left_colour.png, right_colour.png too when rendered),
+// disparity.png (KITTI 16-bit, x 256, 0 = no ground truth), object_ids.png (16-bit), objects.json,
+// calib.yaml (OpenCV, io::write_opencv_yaml) and calib_cam_to_cam.txt (KITTI P_rect_02/03,
+// S_rect_02) into `directory`: first into a temporary sibling folder, renamed to `directory` when
+// every file is written (an existing `directory` is replaced). Throws std::runtime_error naming the
+// path on failure, leaving nothing behind.
+void write_stereo_synth(const std::string& directory, const StereoSynthScene& scene, const StereoSynthOptions& options);
+
+}  // namespace lpstereo::io
