@@ -9,6 +9,7 @@
 //   graph       verify | dot
 //   kernels     the kernels and ARM tasks this binary has
 //   rectify, check-rectification, calibrate   cameras (tools/geometry_commands.h)
+//   points, synth   point clouds (tools/points_command.h), synthetic scenes (tools/synth_command.h)
 //
 // Exit codes: 0 done; 1 bad input or a graph that fails verify (one line on stderr); 2 bad usage;
 // 3 over budget with --enforce.
@@ -44,6 +45,7 @@
 #include "tools/eval_command.h"
 #include "tools/geometry_commands.h"
 #include "tools/points_command.h"
+#include "tools/synth_command.h"
 
 namespace {
 
@@ -691,6 +693,7 @@ int main(int argc, char** argv) {
   // rectify, check-rectification, calibrate
   tools::GeometryCommands geometry(app);
   tools::PointsCommand points(app);  // points (tools/points_command.h)
+  tools::SynthCommand synth(app);    // synth (tools/synth_command.h)
 
   try {
     app.parse(argc, argv);
@@ -713,6 +716,7 @@ int main(int argc, char** argv) {
     if (*kernels) return run_kernels();
     if (geometry.selected()) return geometry.run();
     if (points.selected()) return points.run();
+    if (synth.selected()) return synth.run();
   } catch (const CommandError& error) {
     std::cerr << "lpstereo: " << error.what() << "\n";
     return error.exit_code;

@@ -1,0 +1,100 @@
+// lpstereo synth as a user meets it: a small lineup folder with every file, readable back; bad
+// values give one line and exit 2; an unwritable folder gives one line, exit 1 and nothing behind.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "io/calibration.h"
+#include "io/disparity_io.h"
+#include "tests/support/cli_runner.h"
+#include "tests/support/scratch_directory.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using lpstereo::testing::Result;
+using lpstereo::testing::run;
+
+int lines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
+
+class SynthCli : public ::testing::Test {
+ protected:
+  std::string path(const std::string& name) const { return scratch_.path(name); }
+  int entries() const {
+    int count = 0;
+    for (const auto& entry : fs::directory_iterator(scratch_.root())) {
+      (void)entry;
+      ++count;
+    }
+    return count;
+  }
+  lpstereo::testing::ScratchDirectory scratch_{"lpstereo_synth_cli"};
+};
+
+TEST_F(SynthCli, LineupFolderReadsBack) {
+  const Result result = run("synth -o " + path("scene") +
+                            " --width 320 --height 160 --hfov-deg 60 --baseline-m 0.3 --camera-height-m 1.5 --lineup 10 "
+                            "--noise-sigma 1 --gain 1.05 --offset -3 --colour");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("rendered in"), std::string::npos) << result.out;
+  for (const char* name : {"left.png", "right.png", "left_colour.png", "right_colour.png", "disparity.png", "object_ids.png",
+                           "objects.json", "calib.yaml", "calib_cam_to_cam.txt"}) {
+    EXPECT_TRUE(fs::is_regular_file(path("scene") + "/" + name)) << name;
+  }
+  std::ifstream file(path("scene") + "/objects.json");
+  const nlohmann::json json = nlohmann::json::parse(file);
+  ASSERT_EQ(json["objects"].size(), 6u);
+  EXPECT_EQ(json["objects"][3]["class"], "tape_roll");
+  EXPECT_NEAR(json["objects"][3]["size_m"]["h"].get<double>(), 0.07, 1e-12);
+  for (const auto& object : json["objects"]) {
+    EXPECT_NEAR(object["distance_m"].get<double>(), 10, 1e-9);
+    EXPECT_GT(object["visible_pixels"].get<int>(), 0) << object["class"];
+  }
+  const lpstereo::io::StereoCalibration kitti = lpstereo::io::load_stereo_calibration(path("scene") + "/calib_cam_to_cam.txt");
+  EXPECT_NEAR(kitti.baseline_m(), 0.3, 1e-9);
+  EXPECT_NEAR(kitti.focal_px(), json["focal_px"].get<double>(), 1e-6);
+  const cv::Mat disparity = lpstereo::io::read_kitti_disparity_png_px(path("scene") + "/disparity.png");
+  // The bottom row is road about 5.2 m ahead: d = f B / Z = 277.1 * 0.3 * 0.287 / 1.5 = 15.9 px.
+  EXPECT_NEAR(disparity.at<float>(159, 5), 277.128 * 0.3 * (79.5 / 277.128) / 1.5, 0.01);
+  EXPECT_EQ(entries(), 1);
+}
+
+TEST_F(SynthCli, EmptySceneHasNoObjects) {
+  const Result result = run("synth -o " + path("empty") + " --width 64 --height 32 --empty --slope-deg 2");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  std::ifstream file(path("empty") + "/objects.json");
+  EXPECT_EQ(nlohmann::json::parse(file)["objects"].size(), 0u);
+  const cv::Mat ids = cv::imread(path("empty") + "/object_ids.png", cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(cv::countNonZero(ids), 0);
+}
+
+TEST_F(SynthCli, BadValuesGiveOneLineAndExit2) {
+  for (const std::string arguments : {"--hfov-deg 0", "--baseline-m -1", "--width 8", "--noise-sigma -2", "--lineup -5",
+                                      "--slope-deg 30", "--samples 9", "--width abc", "--lineup 20 --empty"}) {
+    SCOPED_TRACE(arguments);
+    const Result result = run("synth -o " + path("bad") + " " + arguments);
+    EXPECT_EQ(result.exit_code, 2) << result.err;
+    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_FALSE(fs::exists(path("bad")));
+  }
+  const Result hfov = run("synth -o " + path("bad") + " --hfov-deg 200");
+  EXPECT_NE(hfov.err.find("hfov-deg"), std::string::npos) << hfov.err;
+  EXPECT_NE(hfov.err.find("200"), std::string::npos) << hfov.err;
+}
+
+TEST_F(SynthCli, UnwritableFolderGivesOneLineAndExit1) {
+  std::ofstream(path("file")) << "not a folder";
+  const Result result = run("synth --width 64 --height 32 -o " + path("file") + "/scene");
+  EXPECT_EQ(result.exit_code, 1) << result.err;
+  EXPECT_EQ(lines(result.err), 1) << result.err;
+  EXPECT_NE(result.err.find(path("file")), std::string::npos) << result.err;
+  EXPECT_EQ(entries(), 1);  // only the file itself: no temporary folder left
+}
+
+}  // namespace
