@@ -85,9 +85,12 @@ TEST(StereoSynth, SlopedRoadRisesBeyondTheSlopeStart) {
 
 TEST(StereoSynth, ObjectTruthMatchesItsPixelsAndPosition) {
   StereoSynthOptions options = small_options();
+  options.pitch_rad = 0.04;  // looking down: camera depth and road distance differ
   options.objects = io::lineup_synth_objects(12);
   const io::StereoSynthScene scene = io::render_stereo_synth(options);
   ASSERT_EQ(scene.objects.size(), 6u);
+  // The base centre (road X, 1.5 m down, 12 m ahead) in the pitched camera frame.
+  const double depth_m = 1.5 * std::sin(0.04) + 12 * std::cos(0.04);
   const double f = scene.focal_px, cx = 159.5, cy = 79.5;
   for (const io::SynthObjectTruth& truth : scene.objects) {
     SCOPED_TRACE(io::synth_class_name(truth.object.object_class));
@@ -101,8 +104,9 @@ TEST(StereoSynth, ObjectTruthMatchesItsPixelsAndPosition) {
         x0 = std::min(x0, u), x1 = std::max(x1, u), y0 = std::min(y0, v), y1 = std::max(y1, v);
         // The object's own depth range: its disparity lies between its back and its front.
         const double d = scene.disparity_px.at<float>(v, u);
+        // (the pitch tilts the object's top 0.04 x height towards the camera)
         EXPECT_GE(d, f * 0.3 / (truth.distance_m + truth.object.length_m) - 1e-3);
-        EXPECT_LE(d, f * 0.3 / (truth.distance_m - truth.object.length_m) + 1e-3);
+        EXPECT_LE(d, f * 0.3 / (truth.distance_m - truth.object.length_m - 0.04 * truth.object.height_m) + 1e-3);
       }
     }
     EXPECT_EQ(pixels, truth.visible_pixels);
@@ -118,8 +122,9 @@ TEST(StereoSynth, ObjectTruthMatchesItsPixelsAndPosition) {
     EXPECT_LE(u_base, truth.bbox_px[2] + 0.5);
     EXPECT_NEAR(v_base, truth.bbox_px[3], 1.5);
     EXPECT_NEAR(truth.bbox_px[3] - truth.bbox_px[1] + 1, f * truth.object.height_m / truth.distance_m, 2.5);
-    EXPECT_NEAR(truth.distance_m, 12.0, 1e-9);  // no pitch: depth = road distance
-    EXPECT_NEAR(truth.position_m[1], 1.5, 1e-9);
+    EXPECT_NEAR(truth.distance_m, depth_m, 1e-9);
+    EXPECT_NEAR(truth.position_m[1], 1.5 * std::cos(0.04) - 12 * std::sin(0.04), 1e-9);
+    EXPECT_NEAR(truth.disparity_px, f * 0.3 / depth_m, 1e-9);
   }
 }
 
