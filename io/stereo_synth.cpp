@@ -156,8 +156,9 @@ struct Placed {
 struct ObjectHit {
   double t = kInfinity;
   Vec normal;
-  double s = 0;       // texture coordinate around / across the surface, metres
-  double height = 0;  // height above the base, metres
+  double s = 0;       // texture coordinates on the surface, metres: around / across,
+  double r = 0;       // and up (continued across a top face, so the texture has no seam there)
+  double height = 0;  // height above the base, metres (the class's colour bands)
 };
 
 bool solve_quadratic(double a, double b, double c, double& t0, double& t1) {
@@ -191,7 +192,7 @@ void hit_round(const Placed& p, double ox, Vec d, double r0, double r1, double h
       best.t = t;
       best.normal = normalized({x, -q * k, z});
       best.s = std::atan2(x, -z) * std::max(r0, r1);
-      best.height = height;
+      best.r = best.height = height;
       break;
     }
   }
@@ -203,7 +204,8 @@ void hit_round(const Placed& p, double ox, Vec d, double r0, double r1, double h
         best.t = t;
         best.normal = {0, -1, 0};
         best.s = x;
-        best.height = h + z;  // a texture coordinate on the disc, continuing the side's
+        best.r = h + z;
+        best.height = h;
       }
     }
   }
@@ -220,7 +222,7 @@ void hit_sphere(const Placed& p, double ox, Vec d, double radius, double centre_
   best.t = t;
   best.normal = n;
   best.s = std::atan2(n.x, -n.z) * radius;
-  best.height = p.base_y - t * d.y;
+  best.r = best.height = p.base_y - t * d.y;
 }
 
 void hit_box(const Placed& p, double ox, Vec d, ObjectHit& best) {
@@ -252,9 +254,9 @@ void hit_box(const Placed& p, double ox, Vec d, ObjectHit& best) {
   const double hit[3] = {ox + t_near * d.x, t_near * d.y, t_near * d.z};
   best.t = t_near;
   best.normal = {axis == 0 ? double(sign) : 0, axis == 1 ? double(sign) : 0, axis == 2 ? double(sign) : 0};
-  best.height = p.base_y - hit[1];
+  best.r = best.height = p.base_y - hit[1];
   best.s = axis == 0 ? hit[2] : hit[0];
-  if (axis == 1) best.height = o.height_m + hit[2] - low[2];
+  if (axis == 1) best.r = o.height_m + hit[2] - low[2];
 }
 
 void hit_object(const Placed& p, double ox, Vec d, ObjectHit& best) {
@@ -284,7 +286,7 @@ Rgb object_albedo(const Placed& p, const ObjectHit& hit, double footprint) {
     case SynthClass::car: if (f > 0.6) base = {45, 50, 58}; break;                    // windows
     default: break;
   }
-  return base * (1.0 + texture(kObject, hit.s, hit.height, p.seed, footprint));
+  return base * (1.0 + texture(kObject, hit.s, hit.r, p.seed, footprint));
 }
 
 struct Sample {
@@ -764,10 +766,13 @@ void write_stereo_synth(const std::string& directory, const StereoSynthScene& sc
 
     // Swap the finished folder in: the old one (if any) aside, the new one in place, the old one away.
     const bool replacing = fs::exists(target, error);
-    if (replacing) {
-      fs::rename(target, old);
+    if (replacing) fs::rename(target, old);
+    try {
+      fs::rename(temporary, target);
+    } catch (...) {
+      if (replacing) fs::rename(old, target, error);  // put the previous folder back
+      throw;
     }
-    fs::rename(temporary, target);
     if (replacing) fs::remove_all(old, error);
   } catch (const fs::filesystem_error& e) {
     fs::remove_all(temporary, error);

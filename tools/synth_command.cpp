@@ -37,6 +37,10 @@ SynthCommand::SynthCommand(CLI::App& app) {
 }
 
 int SynthCommand::run() {
+  // The library checks radians; the user gave degrees, so the message must speak degrees.
+  if (!(std::abs(pitch_deg_) < 28.6)) {
+    throw CommandError(kExitUsage, "--pitch-deg: expected |pitch| < 28.6 degrees, got " + std::to_string(pitch_deg_));
+  }
   options_.pitch_rad = pitch_deg_ * 3.14159265358979323846 / 180.0;
   if (lineup_option_->count() > 0) {
     if (!(lineup_m_ > 0 && lineup_m_ < options_.background_distance_m)) {

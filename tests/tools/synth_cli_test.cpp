@@ -76,7 +76,7 @@ TEST_F(SynthCli, EmptySceneHasNoObjects) {
 
 TEST_F(SynthCli, BadValuesGiveOneLineAndExit2) {
   for (const std::string arguments : {"--hfov-deg 0", "--baseline-m -1", "--width 8", "--noise-sigma -2", "--lineup -5",
-                                      "--slope-deg 30", "--samples 9", "--width abc", "--lineup 20 --empty"}) {
+                                      "--slope-deg 30", "--samples 9", "--pitch-deg 40", "--width abc", "--lineup 20 --empty"}) {
     SCOPED_TRACE(arguments);
     const Result result = run("synth -o " + path("bad") + " " + arguments);
     EXPECT_EQ(result.exit_code, 2) << result.err;
