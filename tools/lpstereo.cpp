@@ -88,11 +88,14 @@ std::map<std::string, Plane> synthetic_inputs(const Graph& graph, const FrameSiz
   std::map<std::string, Plane> inputs;
   int index = 0;
   for (const GraphInputSpec& input : graph.spec().inputs) {
-    if (input.format.type != ElementType::u8) {
+    if (input.format.type == ElementType::u8) {
+      inputs[input.name] = (index++ % 2 == 0) ? scene.left : scene.right;
+    } else if (input.format.type == ElementType::s16 && input.format.fraction_bits == 4) {
+      inputs[input.name] = scene.disparity_q4;  // a disparity input: the scene's true disparity
+    } else {
       throw CommandError(kExitInput, "graph input '" + input.name + "' is " + format_name(input.format) +
-                                         "; synthetic frames exist for u8 inputs only");
+                                         "; synthetic frames exist for u8 views and s16q4 disparity inputs only");
     }
-    inputs[input.name] = (index++ % 2 == 0) ? scene.left : scene.right;
   }
   return inputs;
 }

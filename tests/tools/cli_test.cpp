@@ -103,6 +103,14 @@ TEST_F(Cli, ProfileReportsAGraphThatDoesNotFitTheSram) {
       << enforced.err;
 }
 
+// A graph whose input is a disparity map gets the synthetic scene's true disparity (s16 Q4).
+TEST_F(Cli, ProfileFeedsADisparityInputTheScenesTrueDisparity) {
+  const Result result = run("profile --graph road-profile --width 320 --height 160 --report " + path("r.json"));
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("v_disparity            vector v_disparity"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("road_profile           arm    road_profile"), std::string::npos) << result.out;
+}
+
 TEST_F(Cli, GraphVerifyAndDot) {
   Result verify = run("graph verify rectify-census --target cv1-class --width 3840 --height 1728");
   EXPECT_EQ(verify.exit_code, 0) << verify.err;
