@@ -344,6 +344,24 @@ double density_pct(const Plane& disparity_q4, int16_t invalid_q4) {
   return 100.0 * static_cast<double>(valid) / (static_cast<double>(disparity_q4.width()) * disparity_q4.height());
 }
 
+// The engine's graph profiled on a target in the chip's schedule: the single row-streaming SGM
+// passes (parallel_path_passes = false), which give the same bits as the host's two-passes-side-by-
+// side schedule but keep fewer W x H x D volumes in DRAM. Verified against the target's memory.
+host_sim::ProfileReport profile_engine_on_target(const arm::DisparityParameters& parameters, int width, int height,
+                                                 const host_sim::Target& target,
+                                                 const std::map<std::string, const Plane*>& inputs,
+                                                 const host_sim::ProfileOptions& options) {
+  arm::DisparityParameters chip = parameters;
+  chip.parallel_path_passes = false;
+  Graph graph(arm::DisparityEngine::graph_spec(chip));
+  VerifyOptions verify_options;
+  verify_options.frame_width = width;
+  verify_options.frame_height = height;
+  verify_options.memory = target.memory_budget();
+  graph.verify(verify_options);
+  return host_sim::profile_graph(graph, target, inputs, options);
+}
+
 // The built-in scene: disparity.png, disparity_color.png, the views, the truth and the profile on a
 // target, all into one folder.
 int run_disparity_synthetic(const DisparityOptions& options) {
@@ -365,13 +383,14 @@ int run_disparity_synthetic(const DisparityOptions& options) {
   const int scene_num_disparities = std::min(options.size.width, (scene.max_disparity_px + 1 + 15) / 16 * 16);
   const arm::DisparityParameters parameters = disparity_parameters(options, options.size.width, scene_num_disparities);
   const host_sim::Target target = host_sim::load_target(options.target_name.empty() ? "cv1-class" : options.target_name);
-  arm::DisparityEngine engine(options.size.width, options.size.height, parameters, target.memory_budget(), options.threads,
+  arm::DisparityEngine engine(options.size.width, options.size.height, parameters, MemoryBudget{}, options.threads,
                               kernel_backend(options));
   const Plane& disparity = engine.compute(scene.left, scene.right);
   const std::map<std::string, const Plane*> inputs = {{"left", &scene.left}, {"right", &scene.right}};
   host_sim::ProfileOptions profile_options;
   profile_options.fps_target = options.fps;
-  const host_sim::ProfileReport report = host_sim::profile_graph(engine.graph(), target, inputs, profile_options);
+  const host_sim::ProfileReport report =
+      profile_engine_on_target(parameters, options.size.width, options.size.height, target, inputs, profile_options);
 
   std::error_code error;
   std::filesystem::create_directories(options.out_directory, error);
@@ -459,8 +478,7 @@ int run_disparity_files(const DisparityOptions& options) {
   const arm::DisparityParameters parameters = disparity_parameters(options, left.width(), arm::DisparityParameters{}.num_disparities);
   std::optional<host_sim::Target> target;
   if (!options.target_name.empty()) target = host_sim::load_target(options.target_name);
-  arm::DisparityEngine engine(left.width(), left.height(), parameters, target ? target->memory_budget() : MemoryBudget{},
-                              options.threads, kernel_backend(options));
+  arm::DisparityEngine engine(left.width(), left.height(), parameters, MemoryBudget{}, options.threads, kernel_backend(options));
   const int16_t invalid_q4 = engine.invalid_disparity_q4();
   Plane disparity = engine.compute(left, right).clone();
   const double produced_pct = density_pct(disparity, invalid_q4);
@@ -473,7 +491,7 @@ int run_disparity_files(const DisparityOptions& options) {
   std::optional<host_sim::ProfileReport> report;
   if (target) {
     const std::map<std::string, const Plane*> inputs = {{"left", &left}, {"right", &right}};
-    report = host_sim::profile_graph(engine.graph(), *target, inputs, host_sim::ProfileOptions{});
+    report = profile_engine_on_target(parameters, left.width(), left.height(), *target, inputs, host_sim::ProfileOptions{});
   }
 
   const int min_disparity_px = parameters.min_disparity;

@@ -2,6 +2,8 @@
 // (one clear line on stderr, a non-zero exit, nothing half-written).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <sys/wait.h>
 
 #include <array>
@@ -52,6 +54,12 @@ TEST_F(Cli, MainJobWritesDisparityColourViewAndProfile) {
   const nlohmann::json json = nlohmann::json::parse(report);
   EXPECT_EQ(json["target"], "cv1-class");
   EXPECT_EQ(json["width"], 320);
+  // The profile is the chip's schedule (the same bits as the host's): 8-path SGM as the forward
+  // pass and the backward pass fused with the selection, not the host's two passes side by side.
+  std::vector<std::string> implementations;
+  for (const nlohmann::json& node : json["nodes"]) implementations.push_back(node["implementation"]);
+  EXPECT_NE(std::find(implementations.begin(), implementations.end(), "sgm_8path_backward"), implementations.end());
+  EXPECT_EQ(std::find(implementations.begin(), implementations.end(), "sgm_sums_select"), implementations.end());
   EXPECT_NE(result.out.find("synthetic scene: "), std::string::npos);
   EXPECT_TRUE(no_temporaries());
 }
