@@ -311,24 +311,7 @@ arm::DisparityParameters disparity_parameters(const DisparityOptions& options, i
   }
   parameters.min_disparity = options.min_disparity_px.value_or(0);
   parameters.num_disparities = options.num_disparities.value_or(default_num_disparities);
-  const std::string w = std::to_string(width);
-  if (parameters.num_disparities <= 0) {
-    throw CommandError(kExitUsage, "--num-disp: expected a positive number, got " + std::to_string(parameters.num_disparities));
-  }
-  if (parameters.num_disparities > width) {
-    throw CommandError(kExitInput, "--num-disp: expected at most " + w + " (the image width), got " +
-                                       std::to_string(parameters.num_disparities));
-  }
-  if (parameters.min_disparity <= -width) {
-    throw CommandError(kExitInput, "--min-disp: expected more than -" + w + " (minus the image width), got " +
-                                       std::to_string(parameters.min_disparity));
-  }
-  if (parameters.min_disparity + parameters.num_disparities > width) {
-    throw CommandError(kExitInput, "--min-disp + --num-disp: expected at most " + w + " (the image width), got " +
-                                       std::to_string(parameters.min_disparity) + " + " +
-                                       std::to_string(parameters.num_disparities) + " = " +
-                                       std::to_string(parameters.min_disparity + parameters.num_disparities));
-  }
+  tools::check_disparity_range(parameters.min_disparity, parameters.num_disparities, width);
   return parameters;
 }
 

@@ -54,6 +54,7 @@ int PointsCommand::run() const {
   // image size: a calibration for another size is refused here with its own line).
   const io::RectifiedGeometry geometry = io::compute_rectification_maps(calibration, left.width(), left.height()).geometry;
 
+  check_disparity_range(min_disparity_, num_disparities_, left.width());
   arm::DisparityParameters parameters;
   parameters.min_disparity = min_disparity_;
   parameters.num_disparities = num_disparities_;

@@ -145,6 +145,17 @@ TEST_F(PointsCli, BadInputGivesOneLineAndNoFile) {
   EXPECT_EQ(angles_only.exit_code, 2);
   EXPECT_NE(angles_only.err.find("--position-m"), std::string::npos) << angles_only.err;
   EXPECT_FALSE(fs::exists(path("cloud.ply")));
+  // The search range, checked as `lpstereo disparity` checks it: a non-positive count is usage (2),
+  // a range the image cannot hold is input (1).
+  const std::string calibrated = "points " + pair + " --calib " + path("calib.txt") + " -o " + path("cloud.ply");
+  const Result no_range = run(calibrated + " --num-disp 0");
+  EXPECT_EQ(no_range.exit_code, 2) << no_range.err;
+  EXPECT_EQ(no_range.err.rfind("lpstereo: --num-disp: expected a positive number, got 0", 0), 0u) << no_range.err;
+  const Result too_wide = run(calibrated + " --min-disp 100 --num-disp 120");
+  EXPECT_EQ(too_wide.exit_code, 1) << too_wide.err;
+  EXPECT_EQ(lines(too_wide.err), 1) << too_wide.err;
+  EXPECT_NE(too_wide.err.find("--min-disp + --num-disp: expected at most"), std::string::npos) << too_wide.err;
+  EXPECT_FALSE(fs::exists(path("cloud.ply")));
 }
 
 }  // namespace
