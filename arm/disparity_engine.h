@@ -3,13 +3,19 @@
 // census, matching and refinement; see graphs/ for the same graphs as files), verifies it against a
 // target's memory, and runs it frame after frame with the ARM-side scheduler.
 //
-// The default is semi-global matching on census Hamming costs: census of both views, then
-//   paths = 4: sgm_4path, one row-streaming pass (left, top-left, top, top-right);
-//   paths = 8: sgm_8path_forward (those 4 paths, per-pixel sums to a W*D x H u16 buffer) then
-//              sgm_8path_backward (right, bottom-right, bottom, bottom-left, rows bottom up);
+// The default is semi-global matching on census Hamming costs: census of both views, then, in the
+// host's schedule (parallel_path_passes, the default), two passes of paths side by side that each
+// write their path sums, then sgm_sums_select:
+//   paths = 8: sgm_8path_forward (left, top-left, top, top-right) beside sgm_8path_backward_sums
+//              (right, bottom-right, bottom, bottom-left, rows bottom up);
+//   paths = 4: sgm_4path_row_pair_sums (left, top-left) beside sgm_4path_column_pair_sums (top,
+//              top-right);
+// or, in the chip's schedule (parallel_path_passes = false, the same bits): sgm_4path, one
+// row-streaming pass, or sgm_8path_forward then sgm_8path_backward fused with the selection;
 //   paths = 0: census_wta_disparity, no aggregation (the baseline; census 5x5 only).
-// Both SGM graphs end in winner takes all with the uniqueness ratio, the parabola sub-pixel step
-// and the left-right check (kernels/sgm_core.h, kernels/sgm_reference.h).
+// Every SGM graph ends in winner takes all with the uniqueness ratio, the parabola sub-pixel step
+// and the left-right check (kernels/sgm_core.h, kernels/sgm_reference.h), then the 3x3 median and
+// the speckle filter unless they are switched off.
 //
 // multires = true: two matching passes with the same paths, census and penalties, fused by
 // disparity_fuse_multires (graphs/disparity-multires-wta.json is the same shape with WTA matchers):
