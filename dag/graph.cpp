@@ -689,7 +689,7 @@ void Graph::phase_memory_placement() {
     }
     node.sram_working_set_bytes = tile_working_set_bytes(node, buffers_, node.tile_width, node.tile_height);
     if (memory.sram_bytes > 0 && node.sram_working_set_bytes > memory.sram_bytes) {
-      throw VerifyError(kPhaseMemory, "node '" + node.spec.name + "': SRAM working set of a " +
+      throw SramBudgetError(kPhaseMemory, "node '" + node.spec.name + "': SRAM working set of a " +
                                           std::to_string(node.tile_width) + "x" + std::to_string(node.tile_height) +
                                           " tile is " + std::to_string(node.sram_working_set_bytes) +
                                           " bytes, target '" + memory.target_name + "' has " +

@@ -39,6 +39,13 @@ class VerifyError : public std::runtime_error {
   std::string phase_;
 };
 
+// Verify phase 4's refusal of a node whose tile working set exceeds the target's SRAM: a kind of
+// its own, so that a profile can still report what such a graph would cost.
+class SramBudgetError : public VerifyError {
+ public:
+  using VerifyError::VerifyError;
+};
+
 // A malformed graph file: what() = "FILE:LINE:COLUMN: ..." for syntax errors, "FILE: at PATH: ..."
 // for a value of the wrong kind.
 class GraphSpecError : public std::runtime_error {

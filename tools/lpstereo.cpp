@@ -67,9 +67,10 @@ void check_frame_size(const FrameSize& size) {
   }
 }
 
-Graph load_and_verify(const std::string& graph_name, const host_sim::Target& target, const FrameSize& size,
-                      bool check_sram = true) {
-  Graph graph(load_graph_spec(host_sim::find_data_file("graphs", graph_name)));
+// A graph verified for a target at a frame size. check_sram = false places the tiles as if the
+// SRAM were large enough (a profile of a graph that does not fit).
+Graph verified_for_target(const GraphSpec& spec, const host_sim::Target& target, const FrameSize& size, bool check_sram = true) {
+  Graph graph(spec);
   VerifyOptions options;
   options.frame_width = size.width;
   options.frame_height = size.height;
@@ -77,6 +78,11 @@ Graph load_and_verify(const std::string& graph_name, const host_sim::Target& tar
   if (!check_sram) options.memory.sram_bytes = 0;  // 0 = unchecked: tiles as if the SRAM were large enough
   graph.verify(options);
   return graph;
+}
+
+Graph load_and_verify(const std::string& graph_name, const host_sim::Target& target, const FrameSize& size,
+                      bool check_sram = true) {
+  return verified_for_target(load_graph_spec(host_sim::find_data_file("graphs", graph_name)), target, size, check_sram);
 }
 
 // Synthetic frames for every u8 input of a graph: the left/right views of the built-in scene.
@@ -128,8 +134,7 @@ int run_profile(const std::string& graph_name, const std::string& target_name, F
   const Graph graph = [&] {
     try {
       return load_and_verify(graph_name, target, size);
-    } catch (const VerifyError& error) {
-      if (error.phase().rfind("verify phase 4", 0) != 0 || std::string(error.what()).find("of SRAM") == std::string::npos) throw;
+    } catch (const SramBudgetError& error) {
       sram_refusal = error.what();
       return load_and_verify(graph_name, target, size, false);
     }
@@ -336,12 +341,7 @@ host_sim::ProfileReport profile_engine_on_target(const arm::DisparityParameters&
                                                  const host_sim::ProfileOptions& options) {
   arm::DisparityParameters chip = parameters;
   chip.parallel_path_passes = false;
-  Graph graph(arm::DisparityEngine::graph_spec(chip));
-  VerifyOptions verify_options;
-  verify_options.frame_width = width;
-  verify_options.frame_height = height;
-  verify_options.memory = target.memory_budget();
-  graph.verify(verify_options);
+  const Graph graph = verified_for_target(arm::DisparityEngine::graph_spec(chip), target, {width, height});
   return host_sim::profile_graph(graph, target, inputs, options);
 }
 

@@ -125,6 +125,14 @@ TEST(GraphVerifyMustFail, SramWorkingSetOverTheTargetNamesNodeAndBytes) {
   EXPECT_NE(message.find("verify phase 4 (memory placement)"), std::string::npos) << message;
   EXPECT_NE(message.find("node 'census': SRAM working set of a 1024x1024 tile is "), std::string::npos) << message;
   EXPECT_NE(message.find("target 'test-target' has 1048576 bytes of SRAM (over by "), std::string::npos) << message;
+  // Its own kind, which lpstereo profile catches to report the graph anyway.
+  Graph graph(spec_from(R"({
+    "name": "big", "inputs": [{"name": "image", "format": "u8"}],
+    "nodes": [
+      {"name": "census", "kernel": "census5x5", "inputs": {"input": "image"}, "outputs": {"output": "signature"},
+       "schedule": {"tile_width": 1024, "tile_height": 1024}}
+    ]})"));
+  EXPECT_THROW(graph.verify(options_for(1024, 1024, 1 << 20)), SramBudgetError);
 }
 
 TEST(GraphVerify, AutoTilingFitsTheSramShare) {
