@@ -160,6 +160,42 @@ TEST(Sgm8Path, ForwardAndBackwardMatchReferenceAcrossTileHeights) {
   }
 }
 
+// A disparity map (s16 Q4) of the image's size from a selecting kernel's scalar reference.
+Plane reference_disparity(const std::string& kernel_name, const std::vector<const Plane*>& inputs, const nlohmann::json& params,
+                          int width, int height) {
+  const KernelDescriptor& kernel = testing::kernel_named(kernel_name);
+  std::vector<PlaneShape> shapes;
+  std::vector<PlaneView> views;
+  for (const Plane* input : inputs) {
+    shapes.push_back({input->width(), input->height()});
+    views.push_back(input->view());
+  }
+  const PreparedKernel prepared = kernel.prepare(params, shapes);
+  Plane disparity(width, height, {ElementType::s16, 4});
+  kernel.reference(views, {disparity.view()}, prepared.params.get(), BorderMode::replicate, 0);
+  return disparity;
+}
+
+// sgm_sums_select over two sums planes, through the tile executor on the native (widest level) and
+// counting back ends, gives `expected` bit for bit.
+void expect_select_gives(const Plane& first_sums, const Plane& second_sums, const nlohmann::json& params, const Plane& expected,
+                         int tile_height) {
+  const KernelDescriptor& selector = testing::kernel_named("sgm_sums_select");
+  const PreparedKernel prepared = selector.prepare(
+      params, {{first_sums.width(), first_sums.height()}, {second_sums.width(), second_sums.height()}});
+  for (KernelBackend backend : {KernelBackend::native, KernelBackend::counting}) {
+    Plane actual(expected.width(), expected.height(), {ElementType::s16, 4});
+    VectorNodeBinding binding{&selector, prepared.params.get(), BorderMode::replicate, 0,
+                              {first_sums.view(), second_sums.view()}, {actual.view()}, prepared.input_halos};
+    run_vector_node(binding, expected.width(), tile_height, backend, simd::available_isas().back());
+    for (int y = 0; y < expected.height(); ++y) {
+      for (int x = 0; x < expected.width(); ++x) {
+        ASSERT_EQ(actual.at<int16_t>(x, y), expected.at<int16_t>(x, y)) << "x=" << x << " y=" << y;
+      }
+    }
+  }
+}
+
 // The host-parallel 8-path pair: the backward paths' sums on their own, and the selection from both
 // sums, against the reference at odd sizes across tile heights; and its output equals the two-pass
 // pair's (sgm_8path_forward + sgm_8path_backward) bit for bit, so the engine may pick either.
@@ -178,21 +214,8 @@ TEST(Sgm8Path, BackwardSumsAndSelectMatchReferenceAndTheTwoPassPair) {
     KernelCase select{"sgm_sums_select", params, {forward, backward}, 4};
     expect_all_back_ends_match_reference(select, {{45, 17}, {45, 4}, {45, 1}});
 
-    const KernelDescriptor& two_pass = testing::kernel_named("sgm_8path_backward");
-    const PreparedKernel two_pass_prepared =
-        two_pass.prepare(params, {{45, 17}, {45, 17}, {forward.width(), forward.height()}});
-    Plane expected(45, 17, {ElementType::s16, 4});
-    two_pass.reference({pair.left.view(), pair.right.view(), forward.view()}, {expected.view()},
-                       two_pass_prepared.params.get(), BorderMode::replicate, 0);
-    const KernelDescriptor& selector = testing::kernel_named("sgm_sums_select");
-    const PreparedKernel select_prepared = selector.prepare(params, {{forward.width(), 17}, {backward.width(), 17}});
-    Plane actual(45, 17, {ElementType::s16, 4});
-    VectorNodeBinding binding{&selector, select_prepared.params.get(), BorderMode::replicate, 0,
-                              {forward.view(), backward.view()}, {actual.view()}, select_prepared.input_halos};
-    run_vector_node(binding, 45, 5, KernelBackend::native, simd::available_isas().back());
-    for (int y = 0; y < 17; ++y) {
-      for (int x = 0; x < 45; ++x) ASSERT_EQ(actual.at<int16_t>(x, y), expected.at<int16_t>(x, y)) << "x=" << x << " y=" << y;
-    }
+    const Plane two_pass = reference_disparity("sgm_8path_backward", {&pair.left, &pair.right, &forward}, params, 45, 17);
+    expect_select_gives(forward, backward, params, two_pass, 5);
   }
 }
 
@@ -213,22 +236,8 @@ TEST(Sgm4Path, PathPairsAndSelectMatchReferenceAndTheSinglePass) {
     }
     const Plane row_sums = reference_sums("sgm_4path_row_pair_sums", pair.left, pair.right, forward_params(params));
     const Plane column_sums = reference_sums("sgm_4path_column_pair_sums", pair.left, pair.right, forward_params(params));
-    const KernelDescriptor& single = testing::kernel_named("sgm_4path");
-    const PreparedKernel single_prepared = single.prepare(params, {{43, 19}, {43, 19}});
-    Plane expected(43, 19, {ElementType::s16, 4});
-    single.reference({pair.left.view(), pair.right.view()}, {expected.view()}, single_prepared.params.get(),
-                     BorderMode::replicate, 0);
-    const KernelDescriptor& selector = testing::kernel_named("sgm_sums_select");
-    const PreparedKernel select_prepared = selector.prepare(params, {{row_sums.width(), 19}, {column_sums.width(), 19}});
-    for (KernelBackend backend : {KernelBackend::native, KernelBackend::counting}) {
-      Plane actual(43, 19, {ElementType::s16, 4});
-      VectorNodeBinding binding{&selector, select_prepared.params.get(), BorderMode::replicate, 0,
-                                {row_sums.view(), column_sums.view()}, {actual.view()}, select_prepared.input_halos};
-      run_vector_node(binding, 43, 7, backend, simd::available_isas().back());
-      for (int y = 0; y < 19; ++y) {
-        for (int x = 0; x < 43; ++x) ASSERT_EQ(actual.at<int16_t>(x, y), expected.at<int16_t>(x, y)) << "x=" << x << " y=" << y;
-      }
-    }
+    const Plane single_pass = reference_disparity("sgm_4path", {&pair.left, &pair.right}, params, 43, 19);
+    expect_select_gives(row_sums, column_sums, params, single_pass, 7);
   }
 }
 
