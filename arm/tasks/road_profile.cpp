@@ -21,12 +21,17 @@
 //      point (v, bin + min_disparity + 0.5), the bin's centre (the kernel floors d, so the centre is
 //      the unbiased estimate of a disparity spread over the bin);
 //   2. RANSAC (Fischler and Bolles 1981) over point pairs drawn by a fixed LCG (seed parameter, so
-//      frames and tests are deterministic): ransac_iterations candidates, each with slope > 0, scored
-//      by the number of points within inlier_threshold_px; ties keep the first;
+//      frames and tests are deterministic): ransac_iterations candidates; a candidate whose implied
+//      camera fails the plausibility gate below is skipped (otherwise the many rows of a far wall or
+//      the sky, one disparity each, outvote the road with a near-vertical line that the gate then
+//      refuses, and the frame is lost); the others are scored by the number of points within
+//      inlier_threshold_px; ties keep the first;
 //   3. least squares d = a v + b on the best candidate's inliers, then the inliers of the LS line
 //      (a second LS on them when the set changed), the RMS residual;
-//   4. confidence = 1000 * (inliers / points) * min(1, inliers / full_confidence_inliers), 0 when
-//      fewer than min_inliers or the gate refuses the line;
+//   4. confidence = 1000 * min(1, inliers / road rows) * min(1, inliers / full_confidence_inliers),
+//      road rows = the points below the fitted horizon (rows above it cannot show road: a sky or a
+//      far background there says nothing against the fit); 0 when fewer than min_inliers or the gate
+//      refuses the line;
 //   5. confidence >= min_confidence: write the fitted profile. Otherwise, if the delayed input
 //      "previous" holds a valid profile carried fewer than max_carried_frames times, write it again
 //      with carried = 1 and frames_carried + 1 (and this frame's confidence); else valid = 0.
@@ -44,10 +49,11 @@
 // max_abs_pitch_mrad (default 250), max_carried_frames (default 5), seed (default 1).
 //
 // Counted work (deterministic, ArmWork), with N bins, H rows, P points, K iterations, I inliers:
-//   scalar_ops   = 3 N H (peak scan: load, compare, select) + 12 K (pair draw, line) + 4 P per
-//                  candidate with slope > 0 (per point a multiply-add, an absolute value, a compare, a
-//                  count) + 8 P per inlier pass (LS sums and recount; two passes when a line was
-//                  found) + 64 (gate, record);
+//   scalar_ops   = 3 N H (peak scan: load, compare, select) + 12 K (pair draw, line) + 16 per
+//                  candidate from two distinct rows (the gate) + 4 P per candidate the gate passes
+//                  (per point a multiply-add, an absolute value, a compare, a count) + 8 P per inlier
+//                  pass (LS sums and recount; two passes when a line was found) + 2 P (road rows,
+//                  when a line was fitted) + 64 (gate, record);
 //   memory_bytes = 2 N H (the V-disparity plane) + 2 * 4 kRoadProfileWords (previous and output).
 #include "arm/tasks/road_profile.h"
 
@@ -150,6 +156,24 @@ struct Line {
   double at(double v) const { return slope * v + intercept; }
 };
 
+// The camera a road line implies (Labayrade eq. 6 inverted, see the header) and the plausibility gate.
+struct ImpliedCamera {
+  double horizon_row = 0.0, pitch_rad = 0.0, height_m = 0.0;
+  bool plausible = false;
+};
+
+ImpliedCamera implied_camera(const Line& line, const RoadProfileParams& p) {
+  ImpliedCamera camera;
+  if (!(line.slope > 0.0)) return camera;
+  camera.horizon_row = -line.intercept / line.slope;
+  camera.pitch_rad = std::atan((p.principal_row_px - camera.horizon_row) / p.focal_px);
+  camera.height_m = p.baseline_m * std::cos(camera.pitch_rad) / line.slope;
+  const double height_mm = camera.height_m * 1000.0;
+  camera.plausible = height_mm >= p.min_camera_height_mm && height_mm <= p.max_camera_height_mm &&
+                     std::abs(camera.pitch_rad) * 1000.0 <= p.max_abs_pitch_mrad;
+  return camera;
+}
+
 // Least squares d = a v + b; false when the rows do not determine a slope.
 bool least_squares(const std::vector<Point>& points, const std::vector<int>& indices, Line& line) {
   double sv = 0, sd = 0, svv = 0, svd = 0;
@@ -221,7 +245,11 @@ void run(const ArmTaskArgs& args) {
       Line candidate;
       candidate.slope = (points[j].d - points[i].d) / (points[j].v - points[i].v);
       candidate.intercept = points[i].d - candidate.slope * points[i].v;
-      if (!(candidate.slope > 0.0)) continue;  // a road's disparity grows towards the bottom
+      // A road's disparity grows towards the bottom, and only a plausible camera is a road: without
+      // the gate, the many rows of a far wall or the sky (one disparity: a near-vertical line in
+      // V-disparity) outvote the road and the frame is lost to a candidate refused afterwards.
+      ops += 16;
+      if (!implied_camera(candidate, p).plausible) continue;
       int score = 0;
       for (const Point& point : points) score += std::abs(point.d - candidate.at(point.v)) <= p.inlier_threshold_px ? 1 : 0;
       ops += 4ull * point_count;
@@ -255,20 +283,22 @@ void run(const ArmTaskArgs& args) {
   // 4. Gate and confidence.
   double camera_height_m = 0.0, pitch_rad = 0.0, horizon_row = 0.0, rms = 0.0;
   bool plausible = false;
+  int road_rows = 0;  // rows with a peak below the fitted horizon: the rows that could show road
   if (fitted && line.slope > 0.0 && inlier_count >= p.min_inliers) {
-    horizon_row = -line.intercept / line.slope;
-    pitch_rad = std::atan((p.principal_row_px - horizon_row) / p.focal_px);
-    camera_height_m = p.baseline_m * std::cos(pitch_rad) / line.slope;
-    const double height_mm = camera_height_m * 1000.0;
-    plausible = height_mm >= p.min_camera_height_mm && height_mm <= p.max_camera_height_mm &&
-                std::abs(pitch_rad) * 1000.0 <= p.max_abs_pitch_mrad;
+    const ImpliedCamera camera = implied_camera(line, p);
+    horizon_row = camera.horizon_row;
+    pitch_rad = camera.pitch_rad;
+    camera_height_m = camera.height_m;
+    plausible = camera.plausible;
     double squares = 0.0;
     for (int i : inliers) squares += std::pow(points[i].d - line.at(points[i].v), 2);
     rms = std::sqrt(squares / inlier_count);
+    for (const Point& point : points) road_rows += point.v > horizon_row ? 1 : 0;
+    ops += 2ull * point_count;
   }
   int confidence = 0;
-  if (plausible) {
-    const double ratio = static_cast<double>(inlier_count) / point_count;
+  if (plausible && road_rows > 0) {
+    const double ratio = std::min(1.0, static_cast<double>(inlier_count) / road_rows);
     const double support = std::min(1.0, static_cast<double>(inlier_count) / p.full_confidence_inliers);
     confidence = static_cast<int>(std::lround(1000.0 * ratio * support));
   }

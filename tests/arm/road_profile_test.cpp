@@ -197,6 +197,30 @@ TEST(RoadProfile, FitsOtherHeightsAndPitches) {
   }
 }
 
+// A far background (one disparity) on every row above the horizon, more rows than the road has (the
+// camera looks up, so the horizon is low): those rows' peaks form a near-vertical line in V-disparity
+// with more points than the road's line; the gate inside RANSAC keeps that implausible candidate from
+// winning, and the confidence counts only the rows below the horizon.
+TEST(RoadProfile, FindsTheRoadUnderAFarBackgroundThatCoversMoreRows) {
+  Camera camera;
+  camera.pitch_rad = -0.1;
+  constexpr double kBackgroundDisparityPx = 2.0;
+  Plane disparity = road_scene(camera, {}, 5);
+  int background_rows = 0;
+  for (int v = 0; v < kHeight; ++v) {
+    if (camera.road_disparity(v) >= kBackgroundDisparityPx) continue;
+    ++background_rows;
+    for (int u = 0; u < kWidth; ++u) disparity.at<int16_t>(u, v) = static_cast<int16_t>(kBackgroundDisparityPx * 16);
+  }
+  ASSERT_GT(background_rows, kHeight - background_rows);
+  const arm::RoadProfile profile = road_profile(v_disparity(disparity), task_params(camera));
+  print_fit("far background over most rows", profile, camera);
+  ASSERT_TRUE(profile.valid);
+  EXPECT_NEAR(profile.camera_height_mm, camera.height_m * 1000.0, 20.0);
+  EXPECT_NEAR(profile.pitch_rad, camera.pitch_rad, 0.003);
+  EXPECT_GT(profile.confidence, 800);
+}
+
 TEST(RoadProfileNoRoad, EmptyWallSkyUpsideDownAndImplausibleScenesGiveNone) {
   const Camera camera;
   Plane upside_down = road_scene(camera, {}, 9);  // the road at the top of the image
@@ -212,7 +236,9 @@ TEST(RoadProfileNoRoad, EmptyWallSkyUpsideDownAndImplausibleScenesGiveNone) {
   };
   std::vector<Scene> scenes;
   scenes.push_back({"all invalid", filled(kInvalid)});
-  scenes.push_back({"wall at 10 px", road_scene(camera, {{21.0, -100.0, 200.0, 100.0}}, 3)});
+  // A wall 4 m ahead across the view (52.5 px): only the 14 rows below its foot show road, fewer than
+  // min_inliers. (A wall far enough to leave the road many rows, 21 m say, rightly gives a road.)
+  scenes.push_back({"wall 4 m ahead", road_scene(camera, {{4.0, -100.0, 200.0, 100.0}}, 3)});
   scenes.push_back({"wall everywhere", filled(10 * 16 + 5)});
   scenes.push_back({"sky at 0.2 px", filled(3)});
   scenes.push_back({"upside down", std::move(flipped)});
