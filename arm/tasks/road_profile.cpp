@@ -32,9 +32,18 @@
 //      road rows = the points below the fitted horizon (rows above it cannot show road: a sky or a
 //      far background there says nothing against the fit); 0 when fewer than min_inliers or the gate
 //      refuses the line;
-//   5. confidence >= min_confidence: write the fitted profile. Otherwise, if the delayed input
+//   5. confidence >= min_confidence: write the fitted profile, with step 6. Otherwise, if the delayed input
 //      "previous" holds a valid profile carried fewer than max_carried_frames times, write it again
 //      with carried = 1 and frames_carried + 1 (and this frame's confidence); else valid = 0.
+//   6. a second segment for a road that climbs ahead (the issue's "piecewise profile for non-flat
+//      roads"): a climb is convex in V-disparity, so the other segment's rows have their peaks above
+//      the main line; RANSAC over those points (fit_second_segment below has the rules), least squares,
+//      at least min_far_inliers rows on its side of the crossing and min_inliers of the main line's on
+//      the other. The steeper line is the near segment (the record's slope, intercept, horizon, camera
+//      height and pitch, recomputed from it), the other the far one, used for rows above the crossing
+//      (kRoadFar* words; road_disparity_q4_at_row in road_profile.h is the per-row profile every
+//      consumer uses). A road that falls away ahead (a crest) is concave: its far rows lie below the
+//      line, where they are free space anyway, and no second segment is fitted.
 //
 // Ports: "v_disparity" u16 (num_bins x image height, kernels/v_disparity.cpp), "previous" s32 (this
 // task's own output read over a delayed edge; kRoadProfileWords x 1, all zero before the first
@@ -46,14 +55,18 @@
 // min_peak_count (px, default 20), ransac_iterations (default 200), inlier_threshold_px (default 1.0),
 // min_inliers (rows, default 20), full_confidence_inliers (rows, default 100), min_confidence
 // (0 .. 1000, default 300), min_camera_height_mm (default 300), max_camera_height_mm (default 4000),
-// max_abs_pitch_mrad (default 250), max_carried_frames (default 5), seed (default 1).
+// max_abs_pitch_mrad (default 250), max_carried_frames (default 5), min_far_inliers (rows, default
+// 40), max_road_slope_mrad (the far segment's pitch may exceed max_abs_pitch_mrad by this, default
+// 175), seed (default 1).
 //
 // Counted work (deterministic, ArmWork), with N bins, H rows, P points, K iterations, I inliers:
 //   scalar_ops   = 3 N H (peak scan: load, compare, select) + 12 K (pair draw, line) + 16 per
 //                  candidate from two distinct rows (the gate) + 4 P per candidate the gate passes
 //                  (per point a multiply-add, an absolute value, a compare, a count) + 8 P per inlier
 //                  pass (LS sums and recount; two passes when a line was found) + 2 P (road rows,
-//                  when a line was fitted) + 64 (gate, record);
+//                  when a line was fitted) + 64 (gate, record); with a written fit, step 6 adds 3 P
+//                  (points above the line) and, with A >= min_far_inliers of them, 12 K + 16 per
+//                  candidate from two rows + 5 A per candidate passing its gate + 13 A (refit) + I;
 //   memory_bytes = 2 N H (the V-disparity plane) + 2 * 4 kRoadProfileWords (previous and output).
 #include "arm/tasks/road_profile.h"
 
@@ -88,6 +101,11 @@ RoadProfile decode_road_profile(const Plane& record) {
   profile.point_count = word[kRoadPointCount];
   profile.rms_residual_px = word[kRoadRmsResidualQ8] / 256.0;
   profile.frames_carried = word[kRoadFramesCarried];
+  profile.far_valid = word[kRoadFarValid] != 0;
+  profile.far_slope = word[kRoadFarSlopeQ16] / 65536.0;
+  profile.far_intercept_px = word[kRoadFarInterceptQ16] / 65536.0;
+  profile.far_break_row = word[kRoadFarBreakRow];
+  profile.far_inlier_count = word[kRoadFarInlierCount];
   return profile;
 }
 
@@ -108,6 +126,8 @@ struct RoadProfileParams {
   int max_camera_height_mm = 4000;
   int max_abs_pitch_mrad = 250;
   int max_carried_frames = 5;
+  int min_far_inliers = 40;
+  int max_road_slope_mrad = 175;
   uint32_t seed = 1;
 };
 
@@ -122,7 +142,7 @@ PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShap
   check_param_names(params, {"min_disparity", "focal_px", "baseline_m", "principal_row_px", "min_peak_count",
                              "ransac_iterations", "inlier_threshold_px", "min_inliers", "full_confidence_inliers",
                              "min_confidence", "min_camera_height_mm", "max_camera_height_mm", "max_abs_pitch_mrad",
-                             "max_carried_frames", "seed"});
+                             "max_carried_frames", "min_far_inliers", "max_road_slope_mrad", "seed"});
   if (input_shapes.size() != 2) {
     throw KernelError("inputs: expected 2 (v_disparity, previous), got " + std::to_string(input_shapes.size()));
   }
@@ -143,6 +163,8 @@ PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShap
   p.max_camera_height_mm = param_int(params, "max_camera_height_mm", 4000, p.min_camera_height_mm, 1000000);
   p.max_abs_pitch_mrad = param_int(params, "max_abs_pitch_mrad", 250, 0, 1570);
   p.max_carried_frames = param_int(params, "max_carried_frames", 5, 0, 1 << 20);
+  p.min_far_inliers = param_int(params, "min_far_inliers", 40, 2, 1 << 20);
+  p.max_road_slope_mrad = param_int(params, "max_road_slope_mrad", 175, 0, 1570);
   p.seed = static_cast<uint32_t>(param_int(params, "seed", 1, 0, 0x7FFFFFFF));
   return PreparedKernel{prepared, {{kRoadProfileWords, 1}}};
 }
@@ -201,6 +223,96 @@ std::vector<int> inliers_of(const std::vector<Point>& points, const Line& line, 
 
 int32_t round_to_s32(double value) {
   return static_cast<int32_t>(std::llround(std::clamp(value, -2147483648.0, 2147483647.0)));
+}
+
+// Step 6: a second segment for a road whose slope changes ahead (a climb; see the header). The
+// profile of a climb is convex in V-disparity: whichever segment the main fit found, the rows of the
+// other one have their peaks ABOVE the main line. So the points: rows whose peak lies above the main
+// line by more than inlier_threshold_px. A candidate second line must differ in slope from the main
+// one by a factor in [1/4, 4] without being equal (a vertical structure in V-disparity, an obstacle or
+// a wall, has slope ~ 0 and is refused), with an implied pitch within max_abs_pitch_mrad +
+// max_road_slope_mrad; it is scored by its points within the threshold on its side of the crossing
+// row v_b: above it (v < v_b) when it is the less steep (the far part), below it when it is the
+// steeper (the near part). The steeper of the two is then the near segment, the other the far one.
+struct TwoSegments {
+  bool valid = false;
+  Line near, far;
+  int break_row = 0;          // rows v < break_row follow the far line
+  int second_inlier_count = 0;
+};
+
+TwoSegments fit_second_segment(const std::vector<Point>& points, const Line& main, const std::vector<int>& main_inliers,
+                               const RoadProfileParams& p, uint64_t& ops) {
+  TwoSegments result;
+  std::vector<Point> above;
+  for (const Point& point : points) {
+    if (point.d - main.at(point.v) > p.inlier_threshold_px) above.push_back(point);
+  }
+  ops += 3ull * points.size();
+  const int count = static_cast<int>(above.size());
+  if (count < p.min_far_inliers) return result;
+  const double max_pitch_rad = (p.max_abs_pitch_mrad + p.max_road_slope_mrad) / 1000.0;
+  auto crossing_row = [&](const Line& second) { return (second.intercept - main.intercept) / (main.slope - second.slope); };
+  auto acceptable = [&](const Line& second) {
+    if (!(second.slope >= main.slope / 4.0 && second.slope <= main.slope * 4.0)) return false;
+    if (std::abs(second.slope - main.slope) < 1e-3 * main.slope) return false;
+    const double pitch_rad = std::atan((p.principal_row_px + second.intercept / second.slope) / p.focal_px);
+    return std::abs(pitch_rad) <= max_pitch_rad;
+  };
+  auto on_its_side = [&](const Line& second, double v) {
+    const double crossing = crossing_row(second);
+    return second.slope < main.slope ? v < crossing + 1.0 : v > crossing - 1.0;
+  };
+  auto second_inliers = [&](const Line& second) {
+    std::vector<int> inliers;
+    for (int i = 0; i < count; ++i) {
+      if (on_its_side(second, above[i].v) && std::abs(above[i].d - second.at(above[i].v)) <= p.inlier_threshold_px) {
+        inliers.push_back(i);
+      }
+    }
+    return inliers;
+  };
+  uint32_t state = (p.seed + 1u) * 2654435761u + 1u;
+  auto draw = [&]() {
+    state = state * 1664525u + 1013904223u;  // the LCG of step 2
+    return static_cast<int>((uint64_t{state >> 8} * static_cast<uint64_t>(count)) >> 24);
+  };
+  Line best;
+  size_t best_score = 0;
+  for (int iteration = 0; iteration < p.ransac_iterations; ++iteration) {
+    const int i = draw();
+    const int j = draw();
+    ops += 12;
+    if (above[i].v == above[j].v) continue;
+    Line candidate;
+    candidate.slope = (above[j].d - above[i].d) / (above[j].v - above[i].v);
+    candidate.intercept = above[i].d - candidate.slope * above[i].v;
+    ops += 16;
+    if (!acceptable(candidate)) continue;
+    const size_t score = second_inliers(candidate).size();
+    ops += 5ull * count;
+    if (score > best_score) {
+      best_score = score;
+      best = candidate;
+    }
+  }
+  if (best_score < static_cast<size_t>(p.min_far_inliers)) return result;
+  std::vector<int> inliers = second_inliers(best);
+  Line second;
+  if (!least_squares(above, inliers, second) || !acceptable(second)) return result;
+  inliers = second_inliers(second);
+  ops += 13ull * count;
+  // The main line must keep min_inliers of its own support on its side of the crossing.
+  int main_support = 0;
+  for (int i : main_inliers) main_support += on_its_side(second, points[i].v) ? 0 : 1;
+  ops += main_inliers.size();
+  if (static_cast<int>(inliers.size()) < p.min_far_inliers || main_support < p.min_inliers) return result;
+  result.valid = true;
+  result.near = second.slope > main.slope ? second : main;
+  result.far = second.slope > main.slope ? main : second;
+  result.break_row = static_cast<int>(std::ceil(crossing_row(second)));
+  result.second_inlier_count = static_cast<int>(inliers.size());
+  return result;
 }
 
 void run(const ArmTaskArgs& args) {
@@ -319,6 +431,20 @@ void run(const ArmTaskArgs& args) {
     word[kRoadInlierCount] = inlier_count;
     word[kRoadPointCount] = point_count;
     word[kRoadRmsResidualQ8] = round_to_s32(rms * 256.0);
+    const TwoSegments segments = fit_second_segment(points, line, inliers, p, ops);
+    const ImpliedCamera near_camera = segments.valid ? implied_camera(segments.near, p) : ImpliedCamera{};
+    if (near_camera.plausible) {  // the camera stands on the near segment: its height and pitch
+      word[kRoadSlopeQ16] = round_to_s32(segments.near.slope * 65536.0);
+      word[kRoadInterceptQ16] = round_to_s32(segments.near.intercept * 65536.0);
+      word[kRoadHorizonRowQ8] = round_to_s32(near_camera.horizon_row * 256.0);
+      word[kRoadCameraHeightMm] = round_to_s32(near_camera.height_m * 1000.0);
+      word[kRoadPitchUrad] = round_to_s32(near_camera.pitch_rad * 1e6);
+      word[kRoadFarValid] = 1;
+      word[kRoadFarSlopeQ16] = round_to_s32(segments.far.slope * 65536.0);
+      word[kRoadFarInterceptQ16] = round_to_s32(segments.far.intercept * 65536.0);
+      word[kRoadFarBreakRow] = segments.break_row;
+      word[kRoadFarInlierCount] = segments.second_inlier_count;
+    }
   } else if (last[kRoadValid] != 0 && last[kRoadFramesCarried] < p.max_carried_frames) {
     std::memcpy(word, last, sizeof(int32_t) * kRoadProfileWords);
     word[kRoadCarried] = 1;

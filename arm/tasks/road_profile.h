@@ -25,7 +25,14 @@ enum RoadProfileWord : int {
   kRoadPointCount = 9,         // rows with a peak (count >= min_peak_count) fed to the fit
   kRoadRmsResidualQ8 = 10,     // RMS of the inliers' residuals, px of disparity, Q8
   kRoadFramesCarried = 11,     // consecutive frames this profile has been carried (0 = fitted now)
-  kRoadProfileWords = 12,
+  // A second, far segment for a road whose slope changes ahead (a climb): rows v < kRoadFarBreakRow
+  // follow d = far_slope v + far_intercept instead. kRoadFarValid 0: one line for every row.
+  kRoadFarValid = 12,
+  kRoadFarSlopeQ16 = 13,       // Q15.16, px of disparity per row
+  kRoadFarInterceptQ16 = 14,   // Q15.16, px
+  kRoadFarBreakRow = 15,       // first row (from the top) that follows the near line
+  kRoadFarInlierCount = 16,
+  kRoadProfileWords = 17,
 };
 
 struct RoadProfile {
@@ -41,7 +48,23 @@ struct RoadProfile {
   int point_count = 0;
   double rms_residual_px = 0.0;
   int frames_carried = 0;
+  bool far_valid = false;
+  double far_slope = 0.0;       // px / row
+  double far_intercept_px = 0.0;
+  int far_break_row = 0;        // rows above it (v < far_break_row) follow the far line
+  int far_inlier_count = 0;
 };
+
+// The road's disparity at image row v in Q4 (px * 16) from a valid record, exactly as every consumer
+// must compute it (the vldh_mask kernel, its scalar reference, the pictures): the line of the row's
+// segment in Q16, d_q16 = slope_q16 v + intercept_q16 in 64 bits, rounded to Q4 half up
+// ((d_q16 + 2^11) >> 12, arithmetic). |v| <= 2^20 and |words| < 2^31 keep d_q16 below 2^52.
+inline int64_t road_disparity_q4_at_row(const int32_t* record, int v) {
+  const bool far = record[kRoadFarValid] != 0 && v < record[kRoadFarBreakRow];
+  const int64_t slope_q16 = far ? record[kRoadFarSlopeQ16] : record[kRoadSlopeQ16];
+  const int64_t intercept_q16 = far ? record[kRoadFarInterceptQ16] : record[kRoadInterceptQ16];
+  return (slope_q16 * v + intercept_q16 + 2048) >> 12;
+}
 
 // Decodes the record plane (kRoadProfileWords x 1, s32). Throws std::runtime_error on another shape.
 RoadProfile decode_road_profile(const Plane& record);

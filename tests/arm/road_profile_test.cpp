@@ -221,6 +221,75 @@ TEST(RoadProfile, FindsTheRoadUnderAFarBackgroundThatCoversMoreRows) {
   EXPECT_GT(profile.confidence, 800);
 }
 
+// A road that climbs from row kBreakRow up (convex in V-disparity: above the crossing the far line,
+// less steep, lies above the near one). Both segments are found whichever the main fit took first;
+// the record's near line and camera are the near segment's; road_disparity_q4_at_row follows the far
+// line above the break. A flat road has no second segment.
+TEST(RoadProfile, FitsASecondSegmentWhereTheRoadClimbs) {
+  const Camera camera;
+  for (const double far_slope_ratio : {0.7, 0.5}) {
+    constexpr int kBreakRow = 330;
+    const double near_slope = camera.slope();
+    const double near_intercept = -near_slope * camera.horizon_row();
+    const double far_slope = far_slope_ratio * near_slope;
+    const double far_intercept = near_slope * kBreakRow + near_intercept - far_slope * kBreakRow;  // crosses at the break
+    Plane disparity = road_scene(camera, {}, 13);
+    std::mt19937 generator(17);
+    std::uniform_real_distribution<double> noise(-0.25, 0.25);
+    for (int v = 0; v < kBreakRow; ++v) {
+      const double d = far_slope * v + far_intercept;
+      for (int u = 0; u < kWidth; ++u) {
+        disparity.at<int16_t>(u, v) = d > 0.0 ? static_cast<int16_t>(std::lround((d + noise(generator)) * 16.0)) : kInvalid;
+      }
+    }
+    const Plane histogram = v_disparity(disparity);
+    const arm::RoadProfile profile = road_profile(histogram, task_params(camera));
+    print_fit("climb", profile, camera);
+    ASSERT_TRUE(profile.valid) << far_slope_ratio;
+    ASSERT_TRUE(profile.far_valid) << far_slope_ratio;
+    EXPECT_NEAR(profile.slope, near_slope, 0.003) << far_slope_ratio;
+    EXPECT_NEAR(profile.camera_height_mm, camera.height_m * 1000.0, 25.0) << far_slope_ratio;
+    EXPECT_NEAR(profile.far_slope, far_slope, 0.003) << far_slope_ratio;
+    EXPECT_NEAR(profile.far_break_row, kBreakRow, 4) << far_slope_ratio;
+
+    // The record's per-row profile: the far line above the break, the near line below.
+    Plane record(arm::kRoadProfileWords, 1, {ElementType::s32, 0});
+    const ArmTaskDescriptor* task = ArmTaskRegistry::instance().find("road_profile");
+    const PreparedKernel prepared = task->prepare(task_params(camera), {{histogram.width(), histogram.height()}, {arm::kRoadProfileWords, 1}});
+    Plane none(arm::kRoadProfileWords, 1, {ElementType::s32, 0});
+    for (int i = 0; i < arm::kRoadProfileWords; ++i) none.at<int32_t>(i, 0) = 0;
+    ArmWork work;
+    task->run(ArmTaskArgs{{&histogram, &none}, {&record}, prepared.params.get(), &work});
+    const int32_t* word = record.row<const int32_t>(0);
+    for (const int v : {kBreakRow - 60, kBreakRow + 60}) {
+      const double expected_px = v < kBreakRow ? far_slope * v + far_intercept : near_slope * v + near_intercept;
+      EXPECT_NEAR(arm::road_disparity_q4_at_row(word, v) / 16.0, expected_px, 0.3) << "row " << v;
+    }
+  }
+  const arm::RoadProfile flat = road_profile(v_disparity(road_scene(camera, kBoxes, 7)), task_params(camera));
+  ASSERT_TRUE(flat.valid);
+  EXPECT_FALSE(flat.far_valid);
+}
+
+// road_disparity_q4_at_row's arithmetic on a hand-made record: Q16 line, rounding half up to Q4.
+TEST(RoadProfile, RecordGivesTheRowDisparityInQ4RoundedHalfUp) {
+  int32_t word[arm::kRoadProfileWords] = {};
+  word[arm::kRoadValid] = 1;
+  word[arm::kRoadSlopeQ16] = 13107;          // 0.2 px per row (0.199996...)
+  word[arm::kRoadInterceptQ16] = -65536 * 100;
+  word[arm::kRoadFarValid] = 1;
+  word[arm::kRoadFarSlopeQ16] = 6554;        // ~0.1
+  word[arm::kRoadFarInterceptQ16] = -65536 * 50;
+  word[arm::kRoadFarBreakRow] = 500;
+  // Row 600: (13107 * 600 - 6553600 + 2048) >> 12 = (1310600 + 2048) >> 12 = 320 (20.0 px).
+  EXPECT_EQ(arm::road_disparity_q4_at_row(word, 600), (int64_t{13107} * 600 - 6553600 + 2048) >> 12);
+  EXPECT_EQ(arm::road_disparity_q4_at_row(word, 600), 320);
+  // Row 499 is above the break: the far line, (6554 * 499 - 3276800 + 2048) >> 12 = -2.
+  EXPECT_EQ(arm::road_disparity_q4_at_row(word, 499), (int64_t{6554} * 499 - 3276800 + 2048) >> 12);
+  word[arm::kRoadFarValid] = 0;  // one line again
+  EXPECT_EQ(arm::road_disparity_q4_at_row(word, 499), (int64_t{13107} * 499 - 6553600 + 2048) >> 12);
+}
+
 TEST(RoadProfileNoRoad, EmptyWallSkyUpsideDownAndImplausibleScenesGiveNone) {
   const Camera camera;
   Plane upside_down = road_scene(camera, {}, 9);  // the road at the top of the image
