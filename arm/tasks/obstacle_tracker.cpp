@@ -42,10 +42,15 @@
 //      every surviving track ages by one frame;
 //   5. each measurable obstacle left unmatched, in row order, starts a track with id next_id++ (ids
 //      increase and are never reused within a run; the next id is kept in the state header) while
-//      fewer than max_tracks are live; the rest are counted in kTracksRefusedThisFrame and untracked;
+//      fewer than max_tracks are live and the id fits (ids 1 .. 2^31 - 2, so the stored next id never
+//      overflows); the rest are counted in kTracksRefusedThisFrame and untracked;
 //   6. "tracked" = "obstacles" with kObstacleTrackId, kObstacleTrackAgeFrames and the velocity filled:
 //      the filter's (vx, 0, vz) in mm/s once the track has min_hits_for_velocity measurements (the
 //      creating one included), else 0; "tracks" = the header and the tracks in increasing id order.
+//
+// Integer ranges: ids 1 .. 2^31 - 2 (above), age and hits saturate at 2^31 - 1 (828 days at 30 fps),
+// misses <= max_missed_frames + 1; velocities are rounded to mm/s and clamped to s32 (a filter
+// velocity above 2.1e6 m/s would be a corrupt state, not a measurement).
 //
 // Ports: "obstacles" s32 kObstacleWords x max_obstacles (rows with kObstacleValid = 1 first),
 // "previous_tracks" s32 kTrackWords x (1 + max_tracks) (this task's own "tracks" over a delayed edge),
@@ -75,6 +80,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -88,6 +94,10 @@
 namespace lpstereo::arm {
 
 namespace {
+
+// Ids run 1 .. kLastTrackId; the next id is stored in an s32 word, so after kLastTrackId no new track
+// starts (a run of 2^31 - 2 tracks: at 100 new tracks per frame, 8 months at 30 fps).
+constexpr int kLastTrackId = std::numeric_limits<int32_t>::max() - 1;
 
 std::string shape_text(int width, int height) { return std::to_string(width) + "x" + std::to_string(height); }
 
@@ -249,6 +259,10 @@ void write_track(const Track& track, int32_t* row) {
   }
 }
 
+// The counters are s32 words: age and hits stop at INT32_MAX (2^31 - 1 frames, 828 days at 30 fps)
+// instead of wrapping.
+int saturating_increment(int counter) { return counter < std::numeric_limits<int32_t>::max() ? counter + 1 : counter; }
+
 int32_t round_to_s32(double value) {
   return static_cast<int32_t>(std::llround(std::clamp(value, -2147483648.0, 2147483647.0)));
 }
@@ -375,7 +389,7 @@ void run(const ArmTaskArgs& args) {
     const Matrix4 reduction = Matrix4::Identity() - gain * observation;
     const Matrix4 joseph = reduction * covariance * reduction.transpose() + gain * measurement.noise * gain.transpose();
     covariance_of(track) = 0.5 * (joseph + joseph.transpose());
-    track.hits += 1;
+    track.hits = saturating_increment(track.hits);
     track.misses = 0;
     track.pixels = measurement.pixels;
     track.last_distance_mm = measurement.distance_mm;
@@ -385,7 +399,7 @@ void run(const ArmTaskArgs& args) {
   std::vector<Track> surviving;
   for (int t = 0; t < static_cast<int>(live.size()); ++t) {
     Track& track = live[t];
-    track.age_frames += 1;
+    track.age_frames = saturating_increment(track.age_frames);
     if (!track_used[t]) track.misses += 1;
     if (track.misses <= p.max_missed_frames) surviving.push_back(track);
   }
@@ -396,7 +410,7 @@ void run(const ArmTaskArgs& args) {
   int created = 0;
   for (int m = 0; m < static_cast<int>(measurements.size()); ++m) {
     if (measurement_track[m] >= 0) continue;
-    if (static_cast<int>(surviving.size()) >= p.max_tracks) {
+    if (static_cast<int>(surviving.size()) >= p.max_tracks || next_id == kLastTrackId + 1) {
       ++refused;
       continue;
     }
@@ -432,7 +446,7 @@ void run(const ArmTaskArgs& args) {
   std::fill(header, header + kTrackWords, 0);
   header[kTracksNextId] = next_id;
   header[kTracksCount] = static_cast<int32_t>(surviving.size());
-  header[kTracksFramesProcessed] = previous_header[kTracksFramesProcessed] + 1;
+  header[kTracksFramesProcessed] = saturating_increment(previous_header[kTracksFramesProcessed]);
   header[kTracksRefusedThisFrame] = refused;
   for (int t = 0; t < p.max_tracks; ++t) {
     int32_t* row = tracks_out.row<int32_t>(1 + t);

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -403,6 +404,46 @@ TEST(ObstacleTracker, ObstaclesBeyondMaxTracksAreUntrackedAndCounted) {
   const arm::TrackState state = tracker.decoded();
   EXPECT_EQ(state.refused_this_frame, 1);
   EXPECT_EQ(state.tracks.size(), 2u);
+}
+
+// The s32 counters at their extremes: a track with age and hits at INT32_MAX keeps them (saturating,
+// no wrap), and with the last id (2^31 - 2) given out the next obstacle gets no track instead of an
+// id that would overflow the stored next id.
+TEST(ObstacleTracker, CountersSaturateAndIdsStopAtTheLastId) {
+  constexpr int32_t kMax = std::numeric_limits<int32_t>::max();
+  const ArmTaskDescriptor& task = tracker_task();
+  const PreparedKernel prepared = task.prepare(base_params(), {{arm::kObstacleWords, kMaxObstacles}, {arm::kTrackWords, 1}});
+  Plane previous(arm::kTrackWords, 65, {ElementType::s32, 0});
+  for (int r = 0; r < previous.height(); ++r) {
+    for (int w = 0; w < arm::kTrackWords; ++w) previous.at<int32_t>(w, r) = 0;
+  }
+  previous.at<int32_t>(arm::kTracksNextId, 0) = kMax;
+  previous.at<int32_t>(arm::kTracksCount, 0) = 1;
+  previous.at<int32_t>(arm::kTracksFramesProcessed, 0) = kMax;
+  int32_t* row = previous.row<int32_t>(1);
+  row[arm::kTrackId] = kMax - 1;
+  row[arm::kTrackAgeFrames] = kMax;
+  row[arm::kTrackHits] = kMax;
+  row[arm::kTrackPixels] = 500;
+  row[arm::kTrackLastDistanceMm] = 20000;
+  row[arm::kTrackZM] = arm::track_word(20.0f);
+  for (int word : {arm::kTrackCovariance00, arm::kTrackCovariance11, arm::kTrackCovariance22, arm::kTrackCovariance33}) {
+    row[word] = arm::track_word(0.01f);
+  }
+  const Plane obstacles = obstacle_plane({{0.0, 20.0, 500}, {5.0, 30.0, 500}});
+  Plane tracked(arm::kObstacleWords, kMaxObstacles, {ElementType::s32, 0});
+  Plane next(arm::kTrackWords, 65, {ElementType::s32, 0});
+  task.run(ArmTaskArgs{{&obstacles, &previous}, {&tracked, &next}, prepared.params.get(), nullptr});
+  EXPECT_EQ(word(tracked, 0, arm::kObstacleTrackId), kMax - 1);
+  EXPECT_EQ(word(tracked, 0, arm::kObstacleTrackAgeFrames), kMax);
+  EXPECT_EQ(word(tracked, 1, arm::kObstacleTrackId), 0);
+  const arm::TrackState state = arm::decode_tracks(next);
+  EXPECT_EQ(state.next_id, kMax);
+  EXPECT_EQ(state.frames_processed, kMax);
+  EXPECT_EQ(state.refused_this_frame, 1);
+  ASSERT_EQ(state.tracks.size(), 1u);
+  EXPECT_EQ(state.tracks[0].hits, kMax);
+  EXPECT_EQ(state.tracks[0].age_frames, kMax);
 }
 
 // The counted work of the header's closed form on two frames: frame 1 starts two tracks (T = 0,
