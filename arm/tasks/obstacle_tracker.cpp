@@ -8,19 +8,19 @@
 // "discrete white noise acceleration model") on the ground plane, state s = (x, z, vx, vz) in the
 // camera frame (m, m/s), period T = frame_period_s:
 //     F = [1 0 T 0; 0 1 0 T; 0 0 1 0; 0 0 0 1],
-//     Q = accel_sigma_mps2^2 [T^4/4 I, T^3/2 I; T^3/2 I, T^2 I]          (Bar-Shalom eq. 6.3.2-4)
+//     Q = accel_sigma_mps2^2 [T^4/4 I, T^3/2 I; T^3/2 I, T^2 I]          (Bar-Shalom §6.3.2)
 // The measurement is the obstacle's foot point m = (kObstaclePositionXMm, kObstacleDistanceMm) / 1000,
 // H = [I 0]. Its noise grows with distance: stereo depth z = f B / d, so by first-order propagation of
-// the disparity error sigma_d (Chang, Chatterjee 1990; Gallup et al. 2008, "Variable baseline /
-// resolution stereo", CVPR, eq. 1)
+// the disparity error sigma_d (Chang, Chatterjee 1990, "Quantization error analysis in stereo
+// vision"; Gallup et al. 2008, "Variable baseline/resolution stereo", CVPR, §3)
 //     sigma_z = z^2 / (f B) * sigma_d,
 // with f = focal_px, B = baseline_m, sigma_d = disparity_sigma_px; and x = (u - u0) z / f at a fixed
 // image column u moves with z as dx/dz = x / z, plus lateral_sigma_m for the centroid's own jitter:
 //     R = [lateral_sigma_m^2 + (x/z)^2 sigma_z^2, (x/z) sigma_z^2; (x/z) sigma_z^2, sigma_z^2],
 // evaluated at the measurement (z clamped to >= 0.1 m). A new track starts at s = (m, 0, 0) with
 // P = [R 0; 0 initial_speed_sigma_mps^2 I]. The update uses the Joseph form
-// P = (I - K H) P (I - K H)^T + K R K^T, symmetric and positive by construction after the binary32
-// round trip of the state plane.
+// P = (I - K H) P (I - K H)^T + K R K^T (Bucy, Joseph 1968), which keeps P positive
+// semi-definite despite rounding, then symmetrises it (the state plane stores the upper triangle).
 //
 // Steps, per frame:
 //   1. decode "previous_tracks" (all zero before the first frame: no tracks, next id 1) and predict
