@@ -117,6 +117,10 @@ const std::vector<GoldenCase>& golden_cases() {
       // -160 to 320 over the 61 rows): rows above 20 - 8 cast no vote; tolerance 200 Q4 in a 3-row window.
       {"vldh_mask", {{"min_disparity", -3}, {"window_rows", 3}, {"min_count", 2}, {"match_tolerance_q4", 200}, {"rows_above_horizon", 8}},
        BorderMode::replicate, {{97, 61}, {12, 1}}, 0xe3874c1900bdf6d8ull},
+      // Disparity -100 .. 1099 (Q4) across [1.5, 60) px in 40 rows (k = 1.5), masks 0 .. 3 (3: no
+      // vote), 5-column cells (the last one 2 columns wide): positive, negative (0) and mixed cells.
+      {"advanced_u_disparity", {{"columns_per_cell", 5}, {"grid_rows", 40}, {"min_disparity_px", 1.5}, {"max_disparity_px", 60.0}, {"exponent_k", 1.5}, {"obstacle_weight", 3}, {"free_weight", 2}},
+       BorderMode::replicate, {{97, 61}, {97, 61}}, 0x9b6d840661bf2124ull},
       // Inputs -100 .. 1099 (Q4): the invalid marker -64, d <= 0, the range and above it (> 976).
       {"disparity_to_points", {{"baseline_m", 0.12}, {"focal_px", 700.5}, {"u0_px", 48.3}, {"v0_px", 30.7}, {"min_disparity", -3}, {"num_disparities", 64}},
        BorderMode::replicate, {{97, 61}}, 0xb5e2659b9254767full},
