@@ -61,7 +61,8 @@ Plane disparity_map(int width, int height, ptrdiff_t stride, uint32_t seed, int 
   return plane;
 }
 
-const std::vector<std::pair<int, int>> kTileShapes = {{64, 479}, {64, 16}, {7, 5}, {1, 1}, {200, 3}};
+// Single-pixel tiles run on a smaller map (MatchesReferenceOnRandomBitsAndTinyImages).
+const std::vector<std::pair<int, int>> kTileShapes = {{64, 479}, {64, 16}, {7, 5}, {200, 3}, {631, 1}};
 
 TEST(VldhMask, MatchesReferenceAtOddSizeInPaddedBuffer) {
   struct Setting {
@@ -96,6 +97,10 @@ TEST(VldhMask, MatchesReferenceOnRandomBitsAndTinyImages) {
   random_bits.inputs.push_back(random_plane(203, 9, {ElementType::s16, 4}, 203 * 2 + 10, 52));
   random_bits.inputs.push_back(road_record({1, 100000, -50000, -700}));
   expect_all_back_ends_match_reference(random_bits, {{16, 8}, {3, 2}});
+  KernelCase single_pixel_tiles{"vldh_mask", {{"window_rows", 6}, {"min_count", 2}}, {}, 5};
+  single_pixel_tiles.inputs.push_back(disparity_map(67, 23, 67 * 2 + 8, 55, 0, 0.15));
+  single_pixel_tiles.inputs.push_back(road_record({1, 6554, -39321, 2560}));
+  expect_all_back_ends_match_reference(single_pixel_tiles, {{1, 1}, {1, 7}});
   for (auto [width, height] : std::vector<std::pair<int, int>>{{1, 1}, {2, 3}, {33, 2}, {65, 1}, {8, 1}, {31, 4}}) {
     KernelCase test_case{"vldh_mask", {{"window_rows", 3}, {"min_count", 2}}, {}, 4};
     test_case.inputs.push_back(disparity_map(width, height, width * 2 + 6, 53, 0, 0.2));
