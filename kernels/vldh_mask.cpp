@@ -35,6 +35,8 @@
 //     margin plus a share of the road disparity (disparity noise grows with disparity), int64.
 //   kMaskObstacle (2) if count >= min_count and D > road_q4(v) + margin_q4(v) (the threshold is
 //     clamped to the s16 range, which changes no comparison with a valid s16 D); else kMaskFree (1).
+//     Every pixel that passes is marked, not only the first maximum up a column: thesis 003 §4.2.2
+//     keeps all maxima so that the mask shows the obstacle's shape and not only its foot.
 // Every value is exact integer arithmetic: no rounding but the two documented above, no saturation.
 // Overflow: |D(u, v + j) - D| is taken as absdiff of the u16 values D ^ 0x8000 (order preserving,
 // exact for any two s16 values, no wrap); count <= N <= 32 fits any lane; the per-row threshold is
