@@ -45,24 +45,25 @@
 //
 // Vector schedule: per output row, scalar per-row set-up (record words read once per tile, the row's
 // threshold and whether the row votes: the vector engine's scalar unit, not counted), then chunks of
-// L = B::kLanesU16 pixels (the last one partial: load_partial / store_partial):
-//   d = D(u, v), valid = d > 16 min - 1, db = d ^ 0x8000, count = 1 (j = 0: itself)
+// L = B::kLanesU16 pixels (the last one partial: load_partial / store_partial), branch-free: a row
+// that does not vote runs the same ops with row_votes = 0, so the cost is data-independent:
+//   d = D(u, v), valid = (d > 16 min - 1) & row_votes, db = d ^ 0x8000, count = 1 (j = 0: itself)
 //   for j = 1 .. J(v) - 1, J(v) = min(N, H - v): dj = D(u, v + j);
 //     count -= (absdiff(dj ^ 0x8000, db) < tolerance + 1) & (dj > 16 min - 1)
 //   obstacle = (count > min_count - 1) & (d > threshold(v)) & valid
 //   mask16 = (0 - valid) - obstacle (0, 1 or 2), narrowed to u8 with saturation, stored (L bytes).
 // Cost per chunk of a voting row (J = J(v)):
 //   load    = J
-//   logic   = 2 J + 1    (xor per row loaded, and per neighbour, and twice for obstacle)
+//   logic   = 2 J + 2    (the row gate, xor per row loaded, and per neighbour, twice for obstacle)
 //   arith   = 2 J        (absdiff and count per neighbour, 2 for the mask)
 //   compare = 2 J + 1    (valid, tolerance and validity per neighbour, count and threshold)
 //   permute = 1          (narrow)
 //   store   = 1
-// per voting row: permute 1 (broadcast of the threshold); per chunk of a row that does not vote
-// (road invalid, or above the region): store 1. Per tile: permute 7 (constant broadcasts).
-// On cv1-class (L = 32, 0.125 cycle per ALU op, 0.25 per load/store/permute) with N = 4: 26 ALU ops
-// + 4 loads + 2 permute/store per 32 pixels, about 4.75 cycles, 0.15 cycle a pixel: at 3840 x 1728
-// with every row voting 0.99 M cycles, 1.2 ms at 800 MHz (rows above the region cost a store only).
+// per row: permute 2 (broadcasts of the threshold and the row gate). Per tile: permute 6 (constants).
+// On cv1-class (L = 32, 0.125 cycle per ALU op, 0.25 per load/store/permute) with N = 4: 27 ALU ops
+// + 4 loads + 2 permute/store per 32 pixels, about 4.9 cycles, 0.15 cycle a pixel: at 3840 x 1728
+// 1.0 M cycles, 1.3 ms at 800 MHz, whatever the road record says (lpstereo profile --graph
+// obstacle-mask measures 1.02 M cycles, 1.27 ms).
 // tests/kernels/vldh_mask_test.cpp checks these counts in closed form.
 #include <algorithm>
 #include <cstdint>
@@ -128,7 +129,6 @@ inline RoadRow road_row(const RoadLine& line, const VldhMaskParams& params, int6
 
 template <class B>
 void vldh_mask_body(const TileArgs& args) {
-  using VU8 = typename B::VU8;
   using VU16 = typename B::VU16;
   using VS16 = typename B::VS16;
   constexpr int kLanes = B::kLanesU16;
@@ -147,18 +147,16 @@ void vldh_mask_body(const TileArgs& args) {
   const VU16 min_count_minus_one = B::set1_u16(static_cast<uint16_t>(params.min_count - 1));
   const VU16 one = B::set1_u16(1);
   const VU16 zero = B::set1_u16(0);
-  const VU8 no_vote = B::set1_u8(kMaskNoVote);
 
   for (int y = 0; y < destination.height; ++y) {
     uint8_t* out_row = plane_row<uint8_t>(destination, y);
     const int64_t image_row = int64_t{args.tile_y} + y;
     const RoadRow road = road_row(line, params, image_row);
-    if (!road.votes) {
-      for (int chunk = 0; chunk < full_chunks; ++chunk) B::store_partial(out_row + chunk * kLanes, no_vote, kLanes);
-      if (tail > 0) B::store_partial(out_row + full_chunks * kLanes, no_vote, tail);
-      continue;
-    }
+    // Branch-free: a row that does not vote runs the same ops with its validity gated to zero, so
+    // the cost does not depend on the road record (a frame's budget is its worst case, and the
+    // simulator may count one tile per shape).
     const VS16 threshold = B::set1_s16(road.threshold_q4);
+    const VU16 row_votes = B::set1_u16(road.votes ? 0xFFFF : 0);
     const int rows_in_window = static_cast<int>(std::min<int64_t>(params.window_rows, args.image_height - image_row));
     auto mask_chunk = [&](int x, int lanes) {
       auto load_row = [&](int j) {
@@ -166,7 +164,7 @@ void vldh_mask_body(const TileArgs& args) {
         return lanes == kLanes ? B::load(source) : B::load_partial(source, lanes);
       };
       const VS16 centre = load_row(0);
-      const VS16 valid = B::cmpgt(centre, below_valid);
+      const VU16 valid = B::bit_and(B::as_u16(B::cmpgt(centre, below_valid)), row_votes);
       const VU16 centre_biased = B::bit_xor(B::as_u16(centre), sign_bit);
       VU16 count = one;
       for (int j = 1; j < rows_in_window; ++j) {
@@ -175,9 +173,9 @@ void vldh_mask_body(const TileArgs& args) {
         const VU16 match = B::bit_and(B::cmpgt(tolerance_plus_one, difference), B::as_u16(B::cmpgt(neighbour, below_valid)));
         count = B::sub(count, match);
       }
-      const VU16 obstacle = B::bit_and(B::bit_and(B::cmpgt(count, min_count_minus_one), B::as_u16(B::cmpgt(centre, threshold))),
-                                       B::as_u16(valid));
-      const VU16 mask = B::sub(B::sub(zero, B::as_u16(valid)), obstacle);  // 0, 1 (free) or 2 (obstacle)
+      const VU16 obstacle =
+          B::bit_and(B::bit_and(B::cmpgt(count, min_count_minus_one), B::as_u16(B::cmpgt(centre, threshold))), valid);
+      const VU16 mask = B::sub(B::sub(zero, valid), obstacle);  // 0, 1 (free) or 2 (obstacle)
       B::store_partial(out_row + x, B::narrow_sat_u8(mask, zero), lanes);
     };
     for (int chunk = 0; chunk < full_chunks; ++chunk) mask_chunk(chunk * kLanes, kLanes);
