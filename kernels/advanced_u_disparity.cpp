@@ -35,7 +35,8 @@
 // maps); a cell sums columns_per_cell <= 64 column totals in u32 lanes (<= 64 x 65535 < 2^23) and
 // weights them: obstacle_weight n_obstacle <= 255 x 2^22 < 2^31 and so is the free term, so the s32
 // difference is exact and narrow_sat_u16 (s32 -> u16, clamping to [0, 65535]) is the clamp of the
-// semantics. tests/kernels/advanced_u_disparity_test.cpp runs 65535 rows of one weighted column
+// semantics. The width needs no limit: nothing sums across cells, and scratch offsets stay within a
+// tile's strip. tests/kernels/advanced_u_disparity_test.cpp runs 65535 rows of one weighted column
 // into one cell (no wrap, saturates at 65535) and 300 rows (a second band) with exact totals.
 //
 // Vector schedule. The contract has gather but no scatter (as in v_disparity), so a pixel cannot add
