@@ -9,15 +9,21 @@
 //   "road" s32 record of kRoadProfileWords x 1 (arm/tasks/road_profile.h; PortAccess::whole: every
 //   tile reads the whole 48-byte record); output "mask" u8 of the disparity's size.
 // Parameters (prepare refuses others and out-of-range values, KernelError naming the parameter):
-//   min_disparity (int px, the map's, -2047 .. 2047, default 0), window_rows N (1 .. 32, default 4),
-//   match_tolerance_q4 (0 .. 255, default 4), min_count (1 .. window_rows, default 3),
-//   road_margin_q4 (0 .. 1023, default 8), road_margin_per_mille (0 .. 1000, default 20),
-//   rows_above_horizon (0 .. 4096, default 64).
+//   min_disparity (int px, the map's, -2047 .. 2047, default 0), window_rows N (1 .. 32, default 6),
+//   match_tolerance_q4 (0 .. 255, default 6), min_count (1 .. window_rows, default 6),
+//   road_margin_q4 (0 .. 1023, default 2), road_margin_per_mille (0 .. 1000, default 5),
+//   rows_above_horizon (0 .. 4096, default 64). The defaults are the 4K range test's (docs/obstacles.md):
+//   6 rows of one disparity within 0.375 px is more than the ~5-row plateaus of SGM's staircase on a
+//   road sloping 0.2 px per row, and still less than the 5.8 rows of a 0.07 m object at 40 m plus the
+//   road row under it; the margin (0.125 px + 0.5 %) is small because the road line is fitted over
+//   hundreds of rows and the vertical test, not the margin, keeps the road out.
 //
 // Formats. Disparity D: s16 Q4 (value / 16 px); valid means D >= 16 min_disparity, so the invalid
 // marker (min_disparity - 1) * 16 (DESIGN.md §4) and anything below the map's range is invalid.
 // Road record words (s32): kRoadValid (1 = a road), kRoadSlopeQ16 / kRoadInterceptQ16 (Q15.16 px
-// per row / px: d(v) = slope v + intercept), kRoadHorizonRowQ8 (Q23.8 row). Mask: u8, 0 / 1 / 2.
+// per row / px: d(v) = slope v + intercept), kRoadHorizonRowQ8 (Q23.8 row), and the far segment of a
+// climb (kRoadFarValid, kRoadFarSlopeQ16, kRoadFarInterceptQ16, kRoadFarBreakRow: rows above the break
+// follow the far line). Mask: u8, 0 / 1 / 2.
 //
 // Semantics for pixel (u, v), v the row in the full image, H the image height, D = D(u, v):
 //   kMaskNoVote (0) if the record is not valid (kRoadValid != 1: never a made-up road), or D is
@@ -29,12 +35,18 @@
 //     obstacle whose disparity sits on a bin edge into two half-counted bins (a 1/16 px noise
 //     flips pixels across the edge); a centred bin counts every pixel within the tolerance.
 //     Rows past the image bottom are never counted (the halo the executor fills is not read).
-//   road_q4(v) = floor((slope_q16 v + intercept_q16 + 2048) / 4096): the road's disparity in Q4,
-//     Q16 -> Q4 rounded half up, exact in int64 (|slope_q16 v| < 2^31 2^16).
+//   road_q4(v) = floor((slope_q16 v + intercept_q16 + 2048) / 4096) of the row's segment (the far one
+//     for v < far break row when the record has one): the road's disparity in Q4, Q16 -> Q4 rounded
+//     half up, exact in int64 (|slope_q16 v| < 2^31 2^16); arm::road_disparity_q4_at_row is the contract.
 //   margin_q4(v) = road_margin_q4 + floor(road_margin_per_mille max(road_q4(v), 0) / 1000): a fixed
 //     margin plus a share of the road disparity (disparity noise grows with disparity), int64.
+//   kMaskFree (1) if count < min_count: not a vertical structure (the road, noise);
 //   kMaskObstacle (2) if count >= min_count and D > road_q4(v) + margin_q4(v) (the threshold is
-//     clamped to the s16 range, which changes no comparison with a valid s16 D); else kMaskFree (1).
+//     clamped to the s16 range, which changes no comparison with a valid s16 D);
+//   kMaskNoVote (0) if count >= min_count but D is within the margin: a vertical structure at the
+//     road's own disparity is the foot of an obstacle, not free space (counting it free would let the
+//     AUD cell's free votes cancel a small obstacle's few rows above the margin: a 0.07 m object at
+//     40 m has 2-4 rows above it and 2-4 at its foot).
 //     Every pixel that passes is marked, not only the first maximum up a column: thesis 003 §4.2.2
 //     keeps all maxima so that the mask shows the obstacle's shape and not only its foot.
 // Every value is exact integer arithmetic: no rounding but the two documented above, no saturation.
@@ -50,20 +62,21 @@
 //   d = D(u, v), valid = (d > 16 min - 1) & row_votes, db = d ^ 0x8000, count = 1 (j = 0: itself)
 //   for j = 1 .. J(v) - 1, J(v) = min(N, H - v): dj = D(u, v + j);
 //     count -= (absdiff(dj ^ 0x8000, db) < tolerance + 1) & (dj > 16 min - 1)
-//   obstacle = (count > min_count - 1) & (d > threshold(v)) & valid
-//   mask16 = (0 - valid) - obstacle (0, 1 or 2), narrowed to u8 with saturation, stored (L bytes).
+//   vertical = (count > min_count - 1) & valid,  obstacle = vertical & (d > threshold(v))
+//   mask16 = (0 - valid) + vertical - 2 obstacle (as u16 lanes with true = 0xFFFF: 1 for a valid pixel,
+//   0 when vertical, 2 when also above the margin), narrowed to u8 with saturation, stored (L bytes).
 // Cost per chunk of a voting row (J = J(v)):
 //   load    = J
 //   logic   = 2 J + 2    (the row gate, xor per row loaded, and per neighbour, twice for obstacle)
-//   arith   = 2 J        (absdiff and count per neighbour, 2 for the mask)
+//   arith   = 2 J + 2    (absdiff and count per neighbour, 4 for the mask)
 //   compare = 2 J + 1    (valid, tolerance and validity per neighbour, count and threshold)
 //   permute = 1          (narrow)
 //   store   = 1
 // per row: permute 2 (broadcasts of the threshold and the row gate). Per tile: permute 6 (constants).
-// On cv1-class (L = 32, 0.125 cycle per ALU op, 0.25 per load/store/permute) with N = 4: 27 ALU ops
-// + 4 loads + 2 permute/store per 32 pixels, about 4.9 cycles, 0.15 cycle a pixel: at 3840 x 1728
-// 1.0 M cycles, 1.3 ms at 800 MHz, whatever the road record says (lpstereo profile --graph
-// obstacle-mask measures 1.02 M cycles, 1.27 ms).
+// On cv1-class (L = 32, 0.125 cycle per ALU op, 0.25 per load/store/permute) with N = 6: 41 ALU ops
+// + 6 loads + 2 permute/store per 32 pixels, about 7.1 cycles, 0.22 cycle a pixel: at 3840 x 1728
+// about 1.5 M cycles, 1.9 ms at 800 MHz, whatever the road record says (lpstereo profile --graph
+// obstacle-mask measures it).
 // tests/kernels/vldh_mask_test.cpp checks these counts in closed form.
 #include <algorithm>
 #include <cstdint>
@@ -82,15 +95,19 @@ constexpr int kWordValid = 0;
 constexpr int kWordSlopeQ16 = 3;
 constexpr int kWordInterceptQ16 = 4;
 constexpr int kWordHorizonRowQ8 = 5;
-constexpr int kRecordWords = 12;
+constexpr int kWordFarValid = 12;
+constexpr int kWordFarSlopeQ16 = 13;
+constexpr int kWordFarInterceptQ16 = 14;
+constexpr int kWordFarBreakRow = 15;
+constexpr int kRecordWords = 17;
 
 struct VldhMaskParams {
   int min_disparity = 0;
-  int window_rows = 4;
-  int match_tolerance_q4 = 4;
-  int min_count = 3;
-  int road_margin_q4 = 8;
-  int road_margin_per_mille = 20;
+  int window_rows = 6;
+  int match_tolerance_q4 = 6;
+  int min_count = 6;
+  int road_margin_q4 = 2;
+  int road_margin_per_mille = 5;
   int rows_above_horizon = 64;
 };
 
@@ -103,6 +120,8 @@ struct RoadRow {
 struct RoadLine {
   bool valid = false;
   int64_t slope_q16 = 0, intercept_q16 = 0;
+  bool far_valid = false;  // rows above far_break_row follow the far segment (a climb ahead)
+  int64_t far_slope_q16 = 0, far_intercept_q16 = 0, far_break_row = 0;
   int64_t first_row = 0;  // the first image row that can hold obstacles
 };
 
@@ -112,6 +131,10 @@ inline RoadLine read_road_line(const PlaneView& record, const VldhMaskParams& pa
   line.valid = words[kWordValid] == 1;
   line.slope_q16 = words[kWordSlopeQ16];
   line.intercept_q16 = words[kWordInterceptQ16];
+  line.far_valid = words[kWordFarValid] != 0;
+  line.far_slope_q16 = words[kWordFarSlopeQ16];
+  line.far_intercept_q16 = words[kWordFarInterceptQ16];
+  line.far_break_row = words[kWordFarBreakRow];
   // ceil(x / 256) = -floor(-x / 256); >> is arithmetic (floor) on int64 in C++20.
   const int64_t first_row_q8 = int64_t{words[kWordHorizonRowQ8]} - int64_t{256} * params.rows_above_horizon;
   line.first_row = -((-first_row_q8) >> 8);
@@ -121,7 +144,10 @@ inline RoadLine read_road_line(const PlaneView& record, const VldhMaskParams& pa
 inline RoadRow road_row(const RoadLine& line, const VldhMaskParams& params, int64_t row) {
   RoadRow result;
   result.votes = line.valid && row >= line.first_row;
-  const int64_t road_q4 = (line.slope_q16 * row + line.intercept_q16 + 2048) >> 12;  // Q16 -> Q4, half up
+  // arm::road_disparity_q4_at_row's arithmetic (the record's contract): Q16 -> Q4, half up.
+  const bool far = line.far_valid && row < line.far_break_row;
+  const int64_t road_q4 =
+      ((far ? line.far_slope_q16 : line.slope_q16) * row + (far ? line.far_intercept_q16 : line.intercept_q16) + 2048) >> 12;
   const int64_t margin_q4 = params.road_margin_q4 + params.road_margin_per_mille * std::max<int64_t>(road_q4, 0) / 1000;
   result.threshold_q4 = static_cast<int16_t>(std::clamp<int64_t>(road_q4 + margin_q4, -32768, 32767));
   return result;
@@ -173,9 +199,11 @@ void vldh_mask_body(const TileArgs& args) {
         const VU16 match = B::bit_and(B::cmpgt(tolerance_plus_one, difference), B::as_u16(B::cmpgt(neighbour, below_valid)));
         count = B::sub(count, match);
       }
-      const VU16 obstacle =
-          B::bit_and(B::bit_and(B::cmpgt(count, min_count_minus_one), B::as_u16(B::cmpgt(centre, threshold))), valid);
-      const VU16 mask = B::sub(B::sub(zero, valid), obstacle);  // 0, 1 (free) or 2 (obstacle)
+      const VU16 vertical = B::bit_and(B::cmpgt(count, min_count_minus_one), valid);
+      const VU16 obstacle = B::bit_and(vertical, B::as_u16(B::cmpgt(centre, threshold)));
+      // valid: 1, minus 1 when vertical (0: a vertical structure within the road margin, the foot of
+      // an obstacle: no vote), plus 1 when also above the margin (2).
+      const VU16 mask = B::sub(B::add(B::sub(zero, valid), vertical), B::add(obstacle, obstacle));
       B::store_partial(out_row + x, B::narrow_sat_u8(mask, zero), lanes);
     };
     for (int chunk = 0; chunk < full_chunks; ++chunk) mask_chunk(chunk * kLanes, kLanes);
@@ -198,6 +226,8 @@ namespace {
 
 static_assert(kWordValid == arm::kRoadValid && kWordSlopeQ16 == arm::kRoadSlopeQ16 &&
               kWordInterceptQ16 == arm::kRoadInterceptQ16 && kWordHorizonRowQ8 == arm::kRoadHorizonRowQ8 &&
+              kWordFarValid == arm::kRoadFarValid && kWordFarSlopeQ16 == arm::kRoadFarSlopeQ16 &&
+              kWordFarInterceptQ16 == arm::kRoadFarInterceptQ16 && kWordFarBreakRow == arm::kRoadFarBreakRow &&
               kRecordWords == arm::kRoadProfileWords);
 
 void vldh_mask_counting(const TileArgs& args) { vldh_mask_body<simd::Counting>(args); }
@@ -213,10 +243,7 @@ void vldh_mask_reference(const std::vector<PlaneView>& inputs, const std::vector
   const double horizon_row = words[arm::kRoadHorizonRowQ8] / 256.0;  // exact: a Q8 value is a double
   const int min_valid_q4 = 16 * params.min_disparity;
   for (int v = 0; v < disparity.height; ++v) {
-    const int64_t road_numerator = int64_t{words[arm::kRoadSlopeQ16]} * v + words[arm::kRoadInterceptQ16];
-    // round(numerator / 4096) half up, written as a floor division of a non-negative-safe form
-    int64_t road_q4 = road_numerator + 2048;
-    road_q4 = road_q4 >= 0 ? road_q4 / 4096 : -((-road_q4 + 4095) / 4096);
+    const int64_t road_q4 = arm::road_disparity_q4_at_row(words, v);  // the record's own per-row profile
     const int64_t margin_q4 = params.road_margin_q4 + params.road_margin_per_mille * (road_q4 > 0 ? road_q4 : 0) / 1000;
     const int64_t threshold_q4 = road_q4 + margin_q4;
     const bool row_votes = road_valid && static_cast<double>(v) >= horizon_row - params.rows_above_horizon;
@@ -229,7 +256,7 @@ void vldh_mask_reference(const std::vector<PlaneView>& inputs, const std::vector
           const int dj = plane_row<const int16_t>(disparity, v + j)[u];
           if (dj >= min_valid_q4 && std::abs(dj - d) <= params.match_tolerance_q4) ++count;
         }
-        value = count >= params.min_count && d > threshold_q4 ? kMaskObstacle : kMaskFree;
+        value = count < params.min_count ? kMaskFree : (d > threshold_q4 ? kMaskObstacle : kMaskNoVote);
       }
       plane_row<uint8_t>(destination, v)[u] = value;
     }
@@ -244,11 +271,11 @@ PreparedKernel vldh_mask_prepare(const nlohmann::json& params, const std::vector
   }
   auto prepared = std::make_shared<VldhMaskParams>();
   prepared->min_disparity = param_int(params, "min_disparity", 0, -2047, 2047);
-  prepared->window_rows = param_int(params, "window_rows", 4, 1, 32);
-  prepared->match_tolerance_q4 = param_int(params, "match_tolerance_q4", 4, 0, 255);
-  prepared->min_count = param_int(params, "min_count", 3, 1, prepared->window_rows);
-  prepared->road_margin_q4 = param_int(params, "road_margin_q4", 8, 0, 1023);
-  prepared->road_margin_per_mille = param_int(params, "road_margin_per_mille", 20, 0, 1000);
+  prepared->window_rows = param_int(params, "window_rows", 6, 1, 32);
+  prepared->match_tolerance_q4 = param_int(params, "match_tolerance_q4", 6, 0, 255);
+  prepared->min_count = param_int(params, "min_count", 6, 1, prepared->window_rows);
+  prepared->road_margin_q4 = param_int(params, "road_margin_q4", 2, 0, 1023);
+  prepared->road_margin_per_mille = param_int(params, "road_margin_per_mille", 5, 0, 1000);
   prepared->rows_above_horizon = param_int(params, "rows_above_horizon", 64, 0, 4096);
   const PlaneShape& record = input_shapes[1];
   if (record.width != arm::kRoadProfileWords || record.height != 1) {
@@ -270,7 +297,7 @@ KernelDescriptor make_vldh_mask() {
   descriptor.ports = {{"disparity", PortDirection::input, {ElementType::s16, 4}, PortAccess::window},
                       {"road", PortDirection::input, {ElementType::s32, 0}, PortAccess::whole},
                       {"mask", PortDirection::output, {ElementType::u8, 0}, PortAccess::window}};
-  descriptor.halo = {0, 0, 0, 3};  // the default window_rows; prepare sets the node's own
+  descriptor.halo = {0, 0, 0, 5};  // the default window_rows; prepare sets the node's own
   // Rows past the bottom are never read as data (v + j < H), so both modes give the same bits.
   descriptor.border_modes = {BorderMode::replicate, BorderMode::constant};
   descriptor.prepare = vldh_mask_prepare;

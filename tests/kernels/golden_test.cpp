@@ -14,6 +14,7 @@
 #include <set>
 
 #include "arm/disparity_engine.h"
+#include "arm/tasks/road_profile.h"
 #include "dag/remap_table.h"
 #include "dag/tile_executor.h"
 #include "io/synthetic_scene.h"
@@ -48,12 +49,17 @@ Plane golden_input(const PortSpec& port, PlaneShape shape, uint32_t seed) {
   Plane plane(shape.width, shape.height, port.format, 0);
   if (port.name == "road") {
     // A road profile record (arm/tasks/road_profile.h): valid, d(v) = 0.5 v - 10 px (Q16 slope
-    // 32768, intercept -655360), horizon row 20 (Q8 5120); the other words zero.
+    // 32768, intercept -655360), horizon row 20 (Q8 5120), and a far segment (a climb) above row 40:
+    // d(v) = 0.25 v (Q16 16384, intercept 0), which meets the near line there; the other words zero.
     for (int x = 0; x < shape.width; ++x) plane.at<int32_t>(x, 0) = 0;
-    plane.at<int32_t>(0, 0) = 1;
-    plane.at<int32_t>(3, 0) = 32768;
-    plane.at<int32_t>(4, 0) = -655360;
-    plane.at<int32_t>(5, 0) = 5120;
+    plane.at<int32_t>(arm::kRoadValid, 0) = 1;
+    plane.at<int32_t>(arm::kRoadSlopeQ16, 0) = 32768;
+    plane.at<int32_t>(arm::kRoadInterceptQ16, 0) = -655360;
+    plane.at<int32_t>(arm::kRoadHorizonRowQ8, 0) = 5120;
+    plane.at<int32_t>(arm::kRoadFarValid, 0) = 1;
+    plane.at<int32_t>(arm::kRoadFarSlopeQ16, 0) = 16384;
+    plane.at<int32_t>(arm::kRoadFarInterceptQ16, 0) = 0;
+    plane.at<int32_t>(arm::kRoadFarBreakRow, 0) = 40;
     return plane;
   }
   std::mt19937 words(seed);
@@ -116,7 +122,7 @@ const std::vector<GoldenCase>& golden_cases() {
       // Disparity -100 .. 1099 (Q4; the invalid marker -64) against the road 0.5 v - 10 px (road_q4 from
       // -160 to 320 over the 61 rows): rows above 20 - 8 cast no vote; tolerance 200 Q4 in a 3-row window.
       {"vldh_mask", {{"min_disparity", -3}, {"window_rows", 3}, {"min_count", 2}, {"match_tolerance_q4", 200}, {"rows_above_horizon", 8}},
-       BorderMode::replicate, {{97, 61}, {12, 1}}, 0xe3874c1900bdf6d8ull},
+       BorderMode::replicate, {{97, 61}, {arm::kRoadProfileWords, 1}}, 0x9779b22e15486644ull},
       // Disparity -100 .. 1099 (Q4) across [1.5, 60) px in 40 rows (k = 1.5), masks 0 .. 3 (3: no
       // vote), 5-column cells (the last one 2 columns wide): positive, negative (0) and mixed cells.
       {"advanced_u_disparity", {{"columns_per_cell", 5}, {"grid_rows", 40}, {"min_disparity_px", 1.5}, {"max_disparity_px", 60.0}, {"exponent_k", 1.5}, {"obstacle_weight", 3}, {"free_weight", 2}},

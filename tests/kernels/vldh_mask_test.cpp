@@ -130,8 +130,8 @@ Plane road_and_box_scene() {
 // slope 0.25 px/row = 16384 Q16, intercept -5 px = -327680 Q16, horizon row 20 = 5120 Q8.
 const RoadRecord kSceneRoad{1, 16384, -327680, 5120};
 
-// Expected by hand, defaults (N = 4, tolerance 4, min_count 3, margin 8 + 20 per mille), rows above
-// the horizon: 10:
+// Expected by hand, with N = 4, tolerance 4, min_count 3, margin 8 + 20 per mille, rows above the
+// horizon 10 (kSceneParams):
 //   rows 0 .. 9: above horizon - 10: no vote.
 //   wall rows 10 .. 19 (D = 32, threshold 4 (v - 20) + 8 <= 4): count = wall rows in the window
 //     (the road's D <= 4 below row 20 is 28 or more away) = min(4, 20 - v): >= 3 up to row 17, so
@@ -140,16 +140,22 @@ const RoadRecord kSceneRoad{1, 16384, -327680, 5120};
 //   box pixels, t = v - 20: D = 276 > 4 t + 8 + floor(80 t / 1000) holds up to t = 65 (273) and not
 //     at t = 66 (277): rows 60 .. 85 are above the margin; their window counts are 4 (the rows below
 //     86 .. 89 are box, and row 90's road D = 280 is within the tolerance of 276): obstacle. Rows 86
-//     .. 89 are within the road margin (the box's foot): free.
+//     .. 89 are within the road margin; their counts are 4, 4, 3, 2 (rows 90 and 91 of the road below
+//     are 280 and 284, within 4 and 8 of 276): rows 86 .. 88 are vertical, the box's foot, no vote;
+//     row 89 is not (count 2): free.
+//   road pixels: D(v + 1) - D(v) = 4 <= 4, D(v + 2) - D(v) = 8: count 2 < 3, free.
 uint8_t expected_scene_mask(int u, int v) {
   if (v < 10) return kMaskNoVote;
   if (v < 20) return v <= 17 ? kMaskObstacle : kMaskFree;
-  if (u >= kBoxLeft && u <= kBoxRight && v >= kBoxTop && v <= kBoxBottom) return v <= 85 ? kMaskObstacle : kMaskFree;
+  if (u >= kBoxLeft && u <= kBoxRight && v >= kBoxTop && v <= kBoxBottom) return v <= 85 ? kMaskObstacle : (v <= 88 ? kMaskNoVote : kMaskFree);
   return kMaskFree;
 }
 
+const nlohmann::json kSceneParams = {{"window_rows", 4}, {"match_tolerance_q4", 4}, {"min_count", 3},
+                                     {"road_margin_q4", 8}, {"road_margin_per_mille", 20}, {"rows_above_horizon", 10}};
+
 TEST(VldhMask, FlatRoadWithABoxGivesTheMaskDerivedByHand) {
-  KernelCase test_case{"vldh_mask", {{"rows_above_horizon", 10}}, {}, 7};
+  KernelCase test_case{"vldh_mask", kSceneParams, {}, 7};
   test_case.inputs.push_back(road_and_box_scene());
   test_case.inputs.push_back(road_record(kSceneRoad));
   const std::vector<Plane> mask = expect_all_back_ends_match_reference(test_case, {{64, 16}, {13, 7}, {64, 120}});
@@ -190,7 +196,7 @@ TEST(VldhMask, ExtremeDisparitiesNeverWrap) {
     map.at<int16_t>(2, v) = 32767;
   }
   KernelCase test_case{"vldh_mask",
-                       {{"min_disparity", -2047}, {"match_tolerance_q4", 255}, {"min_count", 3}, {"road_margin_q4", 0},
+                       {{"min_disparity", -2047}, {"window_rows", 4}, {"match_tolerance_q4", 255}, {"min_count", 3}, {"road_margin_q4", 0},
                         {"road_margin_per_mille", 0}},
                        {}, 2};
   test_case.inputs.push_back(std::move(map));
@@ -229,7 +235,7 @@ TEST(VldhMask, CountedOpsEqualClosedForm) {
         const int64_t rows_in_window = std::min(shape.window_rows, shape.height - v);
         expected[simd::OpClass::load] += chunks * rows_in_window;
         expected[simd::OpClass::logic] += chunks * (2 * rows_in_window + 2);
-        expected[simd::OpClass::arith] += chunks * 2 * rows_in_window;
+        expected[simd::OpClass::arith] += chunks * (2 * rows_in_window + 2);
         expected[simd::OpClass::compare] += chunks * (2 * rows_in_window + 1);
         expected[simd::OpClass::permute] += chunks + 2;
         expected[simd::OpClass::store] += chunks;
@@ -265,7 +271,8 @@ TEST(VldhMaskMustFail, RefusesBadParametersAndRecords) {
     kernel.prepare(nlohmann::json::object(), {{10, 10}, {11, 1}});
     FAIL() << "expected KernelError";
   } catch (const KernelError& error) {
-    EXPECT_STREQ(error.what(), "input 'road': expected a 12 x 1 road profile record (arm/tasks/road_profile.h), got 11 x 1");
+    EXPECT_EQ(std::string(error.what()), "input 'road': expected a " + std::to_string(arm::kRoadProfileWords) +
+                                             " x 1 road profile record (arm/tasks/road_profile.h), got 11 x 1");
   }
   const PreparedKernel prepared = kernel.prepare({{"window_rows", 9}, {"min_count", 2}}, shapes);
   ASSERT_EQ(prepared.input_halos.size(), 2u);
