@@ -46,12 +46,26 @@ Plane golden_input(const PortSpec& port, PlaneShape shape, uint32_t seed) {
     return make_synthetic_rectification_map(shape.width, shape.height, SyntheticRectification{});
   }
   Plane plane(shape.width, shape.height, port.format, 0);
+  if (port.name == "road") {
+    // A road profile record (arm/tasks/road_profile.h): valid, d(v) = 0.5 v - 10 px (Q16 slope
+    // 32768, intercept -655360), horizon row 20 (Q8 5120); the other words zero.
+    for (int x = 0; x < shape.width; ++x) plane.at<int32_t>(x, 0) = 0;
+    plane.at<int32_t>(0, 0) = 1;
+    plane.at<int32_t>(3, 0) = 32768;
+    plane.at<int32_t>(4, 0) = -655360;
+    plane.at<int32_t>(5, 0) = 5120;
+    return plane;
+  }
   std::mt19937 words(seed);
   for (int y = 0; y < shape.height; ++y) {
     for (int x = 0; x < shape.width; ++x) {
       const uint32_t word = static_cast<uint32_t>(words());
       switch (port.format.type) {
         case ElementType::u8:
+          if (port.name == "mask") {  // an obstacle mask: no vote, free, obstacle, and 3 (not a mask value)
+            plane.at<uint8_t>(x, y) = static_cast<uint8_t>(word % 4);
+            break;
+          }
           // A smooth ramp plus noise: structure for census and medians, ties for the comparisons.
           plane.at<uint8_t>(x, y) = static_cast<uint8_t>((x * 3 + y * 2) / 4 + (word & 0x1F));
           break;
@@ -99,6 +113,14 @@ const std::vector<GoldenCase>& golden_cases() {
       // Inputs -100 .. 1099 (Q4, integer parts -7 .. 68): the invalid marker -64 (bin -1), below
       // the bins, 40 bins (a partial 32-lane block) and above them.
       {"v_disparity", {{"min_disparity", -3}, {"num_bins", 40}}, BorderMode::replicate, {{97, 61}}, 0x8d71a94bed7f6205ull},
+      // Disparity -100 .. 1099 (Q4; the invalid marker -64) against the road 0.5 v - 10 px (road_q4 from
+      // -160 to 320 over the 61 rows): rows above 20 - 8 cast no vote; tolerance 200 Q4 in a 3-row window.
+      {"vldh_mask", {{"min_disparity", -3}, {"window_rows", 3}, {"min_count", 2}, {"match_tolerance_q4", 200}, {"rows_above_horizon", 8}},
+       BorderMode::replicate, {{97, 61}, {12, 1}}, 0xe3874c1900bdf6d8ull},
+      // Disparity -100 .. 1099 (Q4) across [1.5, 60) px in 40 rows (k = 1.5), masks 0 .. 3 (3: no
+      // vote), 5-column cells (the last one 2 columns wide): positive, negative (0) and mixed cells.
+      {"advanced_u_disparity", {{"columns_per_cell", 5}, {"grid_rows", 40}, {"min_disparity_px", 1.5}, {"max_disparity_px", 60.0}, {"exponent_k", 1.5}, {"obstacle_weight", 3}, {"free_weight", 2}},
+       BorderMode::replicate, {{97, 61}, {97, 61}}, 0x9b6d840661bf2124ull},
       // Inputs -100 .. 1099 (Q4): the invalid marker -64, d <= 0, the range and above it (> 976).
       {"disparity_to_points", {{"baseline_m", 0.12}, {"focal_px", 700.5}, {"u0_px", 48.3}, {"v0_px", 30.7}, {"min_disparity", -3}, {"num_disparities", 64}},
        BorderMode::replicate, {{97, 61}}, 0xb5e2659b9254767full},
