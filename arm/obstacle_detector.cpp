@@ -72,14 +72,14 @@ GraphSpec ObstacleDetector::graph_spec(const ObstacleParameters& p) {
   NodeSpec v_disparity = node("v_disparity", "v_disparity", "");
   v_disparity.inputs["disparity"] = {"disparity", false};
   v_disparity.outputs["histogram"] = "vdisp";
-  v_disparity.params = {{"min_disparity", p.min_disparity}, {"num_bins", p.v_disparity_bins}};
+  v_disparity.params = {{"min_disparity", p.v_disparity_min_px()}, {"num_bins", p.v_disparity_bin_count()}};
   spec.nodes.push_back(v_disparity);
 
   NodeSpec road = node("road_profile", "", "road_profile");
   road.inputs["v_disparity"] = {"vdisp", false};
   road.inputs["previous"] = {"road", true};
   road.outputs["profile"] = "road";
-  road.params = {{"min_disparity", p.min_disparity}, {"focal_px", p.focal_px}, {"baseline_m", p.baseline_m}};
+  road.params = {{"min_disparity", p.v_disparity_min_px()}, {"focal_px", p.focal_px}, {"baseline_m", p.baseline_m}};
   if (p.principal_point_y_px) road.params["principal_row_px"] = *p.principal_point_y_px;
   spec.nodes.push_back(road);
 

@@ -25,6 +25,7 @@
 // task's own (arm/tasks/road_profile.cpp): the graph passes only the camera and the map's range.
 #pragma once
 
+#include <algorithm>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -59,6 +60,15 @@ struct ObstacleParameters {
   // invalid value (min_disparity - 1) * 16, and the grid's top (see for_disparity_range).
   int min_disparity = 0;
   int v_disparity_bins = 128;      // V-disparity bins, 1 px each from min_disparity
+  // The V-disparity (and so the road fit) starts at max(min_disparity, road_min_disparity_px): the
+  // sky and the far background (d < 2 px, beyond f B / 2) cannot define the road line, and their
+  // near-zero bins, one per row over the whole upper image, let RANSAC fit a near-vertical line
+  // through them (bin noise 0 / 1 px gives it a slope > 0) that beats the road and then fails the
+  // height gate: no road at all (seen on `lpstereo synth` scenes). v_disparity allows a larger
+  // min_disparity than the map's (it only drops the near-zero bins).
+  int road_min_disparity_px = 2;
+  int v_disparity_min_px() const { return std::max(min_disparity, road_min_disparity_px); }
+  int v_disparity_bin_count() const { return std::max(1, v_disparity_bins - (v_disparity_min_px() - min_disparity)); }
   VldhSettings vldh;
   AudGridSettings grid;
   int grid_tile_columns = 16;      // advanced_u_disparity's tile width in cells (a 4K frame must not sit in SRAM)

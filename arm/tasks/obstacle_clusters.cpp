@@ -79,6 +79,27 @@
 
 namespace lpstereo::arm {
 
+std::vector<uint32_t> obstacle_cell_thresholds(const kernels::AudGridGeometry& geometry, int columns_per_cell,
+                                               int obstacle_weight, const ObstacleClusterSettings& settings,
+                                               double focal_px, double baseline_m) {
+  // T_r per row (eq. 4.3 with the two heights, see the header comment).
+  std::vector<uint32_t> thresholds(static_cast<size_t>(geometry.grid_rows));
+  for (int row = 0; row < geometry.grid_rows; ++row) {
+    const double disparity_px = kernels::aud_row_centre_disparity_px(geometry, row);
+    const double distance_m = focal_px * baseline_m / disparity_px;
+    const double min_height_m =
+        distance_m < settings.height_switch_distance_m ? settings.near_min_height_m : settings.far_min_height_m;
+    const double min_votes = std::max(1.0, min_height_m / baseline_m * disparity_px);
+    const double columns = settings.min_width_m > 0.0
+                               ? std::clamp(settings.min_width_m * disparity_px / baseline_m, 1.0, double(columns_per_cell))
+                               : 1.0;
+    // 1e-9 of slack: a product that is an integer up to rounding stays on it.
+    const double threshold = std::ceil(obstacle_weight * min_votes * columns - 1e-9);
+    thresholds[static_cast<size_t>(row)] = static_cast<uint32_t>(std::min(threshold, 65536.0));  // 65536: never
+  }
+  return thresholds;
+}
+
 namespace {
 
 struct ObstacleClustersParams {
@@ -136,10 +157,12 @@ PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShap
   p.baseline_m = required_positive(params, "baseline_m");
   p.principal_point_x_px = param_double(params, "principal_point_x_px", (disparity.width - 1) / 2.0, -1e6, 1e6);
   p.principal_point_y_px = param_double(params, "principal_point_y_px", (disparity.height - 1) / 2.0, -1e6, 1e6);
-  const double near_height_m = param_double(params, "near_min_height_m", defaults.near_min_height_m, 0.0, 100.0);
-  const double far_height_m = param_double(params, "far_min_height_m", defaults.far_min_height_m, 0.0, 100.0);
-  const double switch_m = param_double(params, "height_switch_distance_m", defaults.height_switch_distance_m, 0.0, 1e6);
-  const double min_width_m = param_double(params, "min_width_m", defaults.min_width_m, 0.0, 100.0);
+  ObstacleClusterSettings settings;
+  settings.near_min_height_m = param_double(params, "near_min_height_m", defaults.near_min_height_m, 0.0, 100.0);
+  settings.far_min_height_m = param_double(params, "far_min_height_m", defaults.far_min_height_m, 0.0, 100.0);
+  settings.height_switch_distance_m =
+      param_double(params, "height_switch_distance_m", defaults.height_switch_distance_m, 0.0, 1e6);
+  settings.min_width_m = param_double(params, "min_width_m", defaults.min_width_m, 0.0, 100.0);
   p.min_cells = param_int(params, "min_cells", defaults.min_cells, 1, 1 << 30);
   p.min_pixels = param_int(params, "min_pixels", defaults.min_pixels, 1, 1 << 30);
   p.max_obstacles = param_int(params, "max_obstacles", defaults.max_obstacles, 1, 65535);
@@ -156,19 +179,7 @@ PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShap
                       shape_text(grid));
   }
 
-  // T_r per row (eq. 4.3 with the two heights, see the header comment).
-  p.threshold.resize(static_cast<size_t>(p.grid_rows));
-  for (int row = 0; row < p.grid_rows; ++row) {
-    const double disparity_px = kernels::aud_row_centre_disparity_px(geometry, row);
-    const double distance_m = p.focal_px * p.baseline_m / disparity_px;
-    const double min_height_m = distance_m < switch_m ? near_height_m : far_height_m;
-    const double min_votes = std::max(1.0, min_height_m / p.baseline_m * disparity_px);
-    const double columns =
-        min_width_m > 0.0 ? std::clamp(min_width_m * disparity_px / p.baseline_m, 1.0, double(p.columns_per_cell)) : 1.0;
-    // 1e-9 of slack: a product that is an integer up to rounding stays on it.
-    const double threshold = std::ceil(obstacle_weight * min_votes * columns - 1e-9);
-    p.threshold[static_cast<size_t>(row)] = static_cast<uint32_t>(std::min(threshold, 65536.0));  // 65536: never
-  }
+  p.threshold = obstacle_cell_thresholds(geometry, p.columns_per_cell, obstacle_weight, settings, p.focal_px, p.baseline_m);
   // The grid row of each Q4 disparity in [boundary_q4[0], boundary_q4[R]), as a table.
   const std::vector<int32_t> boundaries = kernels::aud_row_boundaries_q4(geometry);
   p.first_row_q4 = boundaries.front();

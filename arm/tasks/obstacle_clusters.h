@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "kernels/advanced_u_disparity.h"
 
@@ -45,5 +46,12 @@ struct FeatureValidationSettings {
   int margin_px = 2;      // the bounding box grown by this on every side before counting keypoints
   int min_features = 1;   // records with fewer keypoints inside are dropped (thesis 003 §4.2.4)
 };
+
+// T_r of eq. 4.3 for every grid row r (the occupancy threshold of a cell in row r, 65536 = never):
+// what obstacle_clusters compares the grid with (the formula: arm/tasks/obstacle_clusters.cpp), also
+// for pictures of the grid.
+std::vector<uint32_t> obstacle_cell_thresholds(const kernels::AudGridGeometry& geometry, int columns_per_cell,
+                                               int obstacle_weight, const ObstacleClusterSettings& settings,
+                                               double focal_px, double baseline_m);
 
 }  // namespace lpstereo::arm

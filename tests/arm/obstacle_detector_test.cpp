@@ -115,7 +115,7 @@ TEST(ObstacleDetector, FindsTheBoxesOnTheRoadAtTheirDistances) {
   EXPECT_EQ(frame.grid->width(), (kWidth + 3) / 4);
   EXPECT_EQ(frame.grid->height(), 128);
   EXPECT_EQ(frame.mask->width(), kWidth);
-  EXPECT_EQ(frame.vdisp->width(), 64);
+  EXPECT_EQ(frame.vdisp->width(), 62);  // bins from road_min_disparity_px = 2 to 64
 }
 
 TEST(ObstacleDetector, TheRoadAloneGivesNoObstacle) {
