@@ -15,6 +15,10 @@
 // Advanced U-disparity grid as a top view (far at the top; cell value in grey, occupied cells white,
 // each obstacle's cells in its colour); --mask the VLDH mask (black no vote, green free, red obstacle);
 // --vdisp the V-disparity image with the fitted road line.
+// Tuning flags (defaults from arm::ObstacleParameters, the single source): --near-height-m,
+// --far-height-m, --switch-distance-m, --min-width-m, --min-cells, --min-pixels, --columns-per-cell,
+// --grid-rows, --grid-k, --obstacle-weight, --free-weight, --vldh-rows, --vldh-min-count,
+// --vldh-tolerance-q4, --road-margin-q4, --road-margin-per-mille.
 // Bad input (missing or unreadable files, a calibration without a baseline, image sizes that differ):
 // one line and exit 1 (2 for bad usage), no output file. An all-invalid disparity map or a scene
 // without a road (sky, wall): the road's confidence and an empty obstacle list, exit 0.
@@ -25,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "arm/obstacle_detector.h"
 #include "tools/disparity_options.h"
 
 namespace lpstereo::tools {
@@ -41,6 +46,7 @@ class ObstaclesCommand {
   std::vector<std::string> calibration_files_;
   std::string overlay_path_, grid_path_, mask_path_, vdisp_path_;
   DisparityEngineOptions engine_options_;
+  arm::ObstacleParameters detector_parameters_;  // the tuning flags write into it; defaults are its own
   int threads_ = 0;
 };
 

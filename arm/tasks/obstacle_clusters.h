@@ -37,7 +37,8 @@ struct ObstacleClusterSettings {
   // d / B, 1, columns_per_cell). See arm/tasks/obstacle_clusters.cpp.
   double min_width_m = 0.0;
   int min_cells = 2;        // clusters with fewer occupied cells are dropped (a 1-cell speck is noise)
-  int min_pixels = 8;       // clusters with fewer obstacle-mask pixels are dropped
+  int min_pixels = 20;      // clusters with fewer obstacle-mask pixels are dropped (road noise leaves
+                            // clusters of 8 .. 40 px at 1280x576; a 0.19 m can at 30 m has ~40)
   int max_obstacles = 64;   // record rows; with more clusters the nearest are kept
 };
 
