@@ -128,6 +128,31 @@ TEST(ObstacleDetector, TheRoadAloneGivesNoObstacle) {
   }
 }
 
+// The sky and the far background as a matcher sees them: valid disparities of 0 .. 1.25 px above the
+// horizon, so every upper row has its V-disparity peak in bin 0 or 1. With the camera pitched up
+// (horizon at row 310) those 310 rows outnumber the road's 170, and from bin 0 RANSAC takes a
+// near-vertical line through them (bins 0 and 1 give it a slope > 0) that the height gate then
+// refuses: no road (checked with road_min_disparity_px = 0). The V-disparity from
+// road_min_disparity_px = 2 leaves them out.
+TEST(ObstacleDetector, ASkyOfNearZeroDisparitiesDoesNotHideTheRoad) {
+  Camera camera;
+  camera.pitch_rad = -0.1;
+  Plane map = road_scene(camera, {{15.0, -1.0, 1.0, 1.0}}, 5);
+  std::mt19937 generator(9);
+  std::uniform_int_distribution<int> sky_q4(0, 20);
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      if (map.at<int16_t>(u, v) == kInvalid && v < camera.horizon_row() + 2) map.at<int16_t>(u, v) = static_cast<int16_t>(sky_q4(generator));
+    }
+  }
+  arm::ObstacleDetector detector(kWidth, kHeight, parameters(camera), {}, 2);
+  const arm::ObstacleFrame frame = detector.run(map, no_left());
+  ASSERT_TRUE(frame.road.valid);
+  EXPECT_NEAR(frame.road.camera_height_mm, 1500, 30);
+  ASSERT_EQ(frame.obstacles.size(), 1u);
+  EXPECT_NEAR(frame.obstacles[0].distance_m, 15.0, 0.5);
+}
+
 TEST(ObstacleDetector, NoRoadGivesNoObstaclesAndConfidenceZero) {
   const Camera camera;
   arm::ObstacleDetector detector(kWidth, kHeight, parameters(camera), {}, 2);
