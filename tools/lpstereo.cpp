@@ -10,6 +10,7 @@
 //   kernels     the kernels and ARM tasks this binary has
 //   rectify, check-rectification, calibrate   cameras (tools/geometry_commands.h)
 //   points, synth   point clouds (tools/points_command.h), synthetic scenes (tools/synth_command.h)
+//   obstacles   the obstacle detector on a rectified pair (tools/obstacles_command.h)
 //
 // Exit codes: 0 done; 1 bad input or a graph that fails verify (one line on stderr); 2 bad usage;
 // 3 over budget with --enforce.
@@ -42,8 +43,10 @@
 #include "io/synthetic_scene.h"
 #include "kernels/simd/isa.h"
 #include "tools/command_error.h"
+#include "tools/disparity_options.h"
 #include "tools/eval_command.h"
 #include "tools/geometry_commands.h"
+#include "tools/obstacles_command.h"
 #include "tools/points_command.h"
 #include "tools/synth_command.h"
 
@@ -167,7 +170,8 @@ int run_profile(const std::string& graph_name, const std::string& target_name, F
   return 0;
 }
 
-struct DisparityOptions {
+// The matcher options (--min-disp, --num-disp, --paths, ...) are the shared ones (tools/disparity_options.h).
+struct DisparityOptions : tools::DisparityEngineOptions {
   // LEFT RIGHT -o OUT
   std::string left_path, right_path, output_path, format, color_path, report_path;
   bool fill = false;
@@ -178,20 +182,8 @@ struct DisparityOptions {
   double fps = 30;
   // both
   std::string target_name;  // empty: cv1-class for --synthetic, no profile otherwise
-  std::optional<int> min_disparity_px, num_disparities;
   int threads = 0;
-  // the matcher (arm::DisparityParameters; its defaults are the command's)
-  int paths = arm::DisparityParameters{}.paths;
-  std::optional<int> p1, p2;
-  std::string census = arm::DisparityParameters{}.census_width == 9 ? "9x7" : "5x5";
-  std::string subpixel = arm::DisparityParameters{}.subpixel ? "on" : "off";
-  std::string lr_check = arm::DisparityParameters{}.lr_max_diff >= 0 ? std::to_string(arm::DisparityParameters{}.lr_max_diff) : "off";
-  int uniqueness_percent = arm::DisparityParameters{}.uniqueness_percent;
-  std::string median = arm::DisparityParameters{}.median ? "on" : "off";
-  int speckle_size_px = arm::DisparityParameters{}.speckle_max_size_px;
-  int speckle_range_px = arm::DisparityParameters{}.speckle_max_difference_px;
   std::string backend = "native";
-  std::string multires = "off";
   // LEFT RIGHT only: calibration (one file or A,B), rectify with it, the right-view map
   std::vector<std::string> calibration_files;
   bool rectify = false;
@@ -290,36 +282,6 @@ void write_disparity_file(const std::string& path, const std::string& format, co
   if (format == "s16") io::write_s16_raw(path, disparity_q4);
 }
 
-// The search range for a width-pixel image, checked: one line naming the flag, expected and actual.
-arm::DisparityParameters disparity_parameters(const DisparityOptions& options, int width, int default_num_disparities) {
-  arm::DisparityParameters parameters;
-  parameters.paths = options.paths;
-  parameters.census_width = options.census == "9x7" ? 9 : 5;
-  if (options.p1) parameters.p1 = *options.p1;
-  if (options.p2) parameters.p2 = *options.p2;
-  parameters.subpixel = options.subpixel == "on";
-  parameters.uniqueness_percent = options.uniqueness_percent;
-  parameters.median = options.median == "on";
-  parameters.speckle_max_size_px = options.speckle_size_px;
-  parameters.speckle_max_difference_px = options.speckle_range_px;
-  parameters.multires = options.multires == "on";
-  if (options.lr_check == "off") {
-    parameters.lr_max_diff = -1;
-  } else {
-    try {
-      size_t used = 0;
-      parameters.lr_max_diff = std::stoi(options.lr_check, &used);
-      if (used != options.lr_check.size() || parameters.lr_max_diff < 0) throw std::invalid_argument("not a count");
-    } catch (const std::exception&) {
-      throw CommandError(kExitUsage, "--lr-check: expected a tolerance in px (0, 1, 2, ...) or off, got '" + options.lr_check + "'");
-    }
-  }
-  parameters.min_disparity = options.min_disparity_px.value_or(0);
-  parameters.num_disparities = options.num_disparities.value_or(default_num_disparities);
-  tools::check_disparity_range(parameters.min_disparity, parameters.num_disparities, width);
-  return parameters;
-}
-
 KernelBackend kernel_backend(const DisparityOptions& options) {
   return options.backend == "counting" ? KernelBackend::counting : KernelBackend::native;
 }
@@ -364,7 +326,7 @@ int run_disparity_synthetic(const DisparityOptions& options) {
   const io::SyntheticStereoScene scene = io::make_synthetic_stereo_scene(scene_options);
   // Default range: the scene's largest disparity, rounded up to a multiple of 16.
   const int scene_num_disparities = std::min(options.size.width, (scene.max_disparity_px + 1 + 15) / 16 * 16);
-  const arm::DisparityParameters parameters = disparity_parameters(options, options.size.width, scene_num_disparities);
+  const arm::DisparityParameters parameters = tools::disparity_parameters(options, options.size.width, scene_num_disparities);
   const host_sim::Target target = host_sim::load_target(options.target_name.empty() ? "cv1-class" : options.target_name);
   arm::DisparityEngine engine(options.size.width, options.size.height, parameters, MemoryBudget{}, options.threads,
                               kernel_backend(options));
@@ -458,7 +420,7 @@ int run_disparity_files(const DisparityOptions& options) {
       right = rectified.right;
     }
   }
-  const arm::DisparityParameters parameters = disparity_parameters(options, left.width(), arm::DisparityParameters{}.num_disparities);
+  const arm::DisparityParameters parameters = tools::disparity_parameters(options, left.width(), arm::DisparityParameters{}.num_disparities);
   std::optional<host_sim::Target> target;
   if (!options.target_name.empty()) target = host_sim::load_target(options.target_name);
   arm::DisparityEngine engine(left.width(), left.height(), parameters, MemoryBudget{}, options.threads, kernel_backend(options));
@@ -574,38 +536,9 @@ int main(int argc, char** argv) {
                         "px, +inf = invalid, rows bottom to top) or s16 (raw little-endian int16 x16, no header, "
                         "invalid = (min-disp - 1) * 16); default: from OUT's extension (.png .pfm .s16/.raw)")
       ->check(CLI::IsMember({"kitti", "pfm", "s16"}));
-  disparity->add_option("--min-disp", disparity_options.min_disparity_px, "smallest disparity searched, px (may be negative; default 0)");
-  disparity->add_option("--num-disp", disparity_options.num_disparities,
-                        "disparities searched: [min-disp, min-disp + num-disp) (default 64; --synthetic: the scene's range)");
-  disparity->add_option("--paths", disparity_options.paths, "SGM paths: 4 (one pass), 8 (two passes), 0 (census winner takes all)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({0, 4, 8}));
-  disparity->add_option("--p1", disparity_options.p1, "SGM penalty for a 1 px change, Hamming bits (default 5 for 5x5, 7 for 9x7)");
-  disparity->add_option("--p2", disparity_options.p2, "SGM penalty for larger changes, Hamming bits, >= p1, <= 4000 (default 45 / 50)");
-  disparity->add_option("--census", disparity_options.census, "census window")->capture_default_str()->check(CLI::IsMember({"5x5", "9x7"}));
-  disparity->add_option("--subpixel", disparity_options.subpixel, "parabola sub-pixel step (Q4)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"on", "off"}));
-  disparity->add_option("--lr-check", disparity_options.lr_check, "left-right check tolerance in px, or off")->capture_default_str();
-  disparity->add_option("--uniqueness", disparity_options.uniqueness_percent, "SGM uniqueness ratio in % (0 = off, <= 50)")
-      ->capture_default_str();
-  disparity->add_option("--median", disparity_options.median, "SGM: 3x3 median that keeps invalid pixels invalid")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"on", "off"}));
-  disparity->add_option("--speckle-size", disparity_options.speckle_size_px,
-                        "SGM: regions of at most this many pixels become invalid (cv::filterSpeckles; 0 = off)")
-      ->capture_default_str()
-      ->check(CLI::Range(0, 1 << 30));
-  disparity->add_option("--speckle-range", disparity_options.speckle_range_px,
-                        "SGM: neighbours within this many px belong to one speckle region")
-      ->capture_default_str()
-      ->check(CLI::Range(0, 4095));
-  disparity->add_option("--multires", disparity_options.multires,
-                        "on: full-resolution SGM over [min-disp, min-disp + min(num-disp, 128)) plus a half-resolution "
-                        "pass over the whole range, fused into one full-resolution map (arm/disparity_engine.h, "
-                        "docs/kernels.md); off: one full-resolution pass")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"on", "off"}));
+  tools::add_disparity_engine_options(
+      *disparity, disparity_options,
+      "disparities searched: [min-disp, min-disp + num-disp) (default 64; --synthetic: the scene's range)");
   disparity->add_option("--calib", disparity_options.calibration_files,
                         "calibration: OpenCV YAML/XML, KITTI calib, Middlebury calib.txt (two files as A,B: OpenCV "
                         "intrinsics + extrinsics, ROS camera_info or Kalibr left + right). With --rectify both views are "
@@ -697,6 +630,7 @@ int main(int argc, char** argv) {
   // rectify, check-rectification, calibrate
   tools::GeometryCommands geometry(app);
   tools::PointsCommand points(app);  // points (tools/points_command.h)
+  tools::ObstaclesCommand obstacles(app);  // obstacles (tools/obstacles_command.h)
   tools::SynthCommand synth(app);    // synth (tools/synth_command.h)
 
   try {
@@ -720,6 +654,7 @@ int main(int argc, char** argv) {
     if (*kernels) return run_kernels();
     if (geometry.selected()) return geometry.run();
     if (points.selected()) return points.run();
+    if (obstacles.selected()) return obstacles.run();
     if (synth.selected()) return synth.run();
   } catch (const CommandError& error) {
     std::cerr << "lpstereo: " << error.what() << "\n";

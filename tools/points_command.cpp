@@ -9,10 +9,10 @@
 
 #include "arm/disparity_engine.h"
 #include "arm/point_cloud.h"
-#include "io/calibration.h"
 #include "io/image_io.h"
 #include "io/rectification.h"
 #include "tools/command_error.h"
+#include "tools/rectified_pair.h"
 
 namespace lpstereo::tools {
 
@@ -37,22 +37,10 @@ PointsCommand::PointsCommand(CLI::App& app) {
 }
 
 int PointsCommand::run() const {
-  if (calibration_files_.size() > 2) {
-    throw CommandError(kExitUsage, "--calib: give one calibration file, or two (intrinsics + extrinsics, or left + right)");
-  }
-  const Plane left = io::read_luma_u8(left_);
-  const Plane right = io::read_luma_u8(right_);
-  if (left.width() != right.width() || left.height() != right.height()) {
-    throw CommandError(kExitInput, "image sizes differ: left " + left_ + " is " + std::to_string(left.width()) + "x" +
-                                       std::to_string(left.height()) + ", right " + right_ + " is " +
-                                       std::to_string(right.width()) + "x" + std::to_string(right.height()));
-  }
-  const io::StereoCalibration calibration = calibration_files_.size() == 1
-                                                ? io::load_stereo_calibration(calibration_files_[0])
-                                                : io::load_stereo_calibration(calibration_files_[0], calibration_files_[1]);
-  // The geometry of the rectified views, as `lpstereo rectify` made them (and checked against the
-  // image size: a calibration for another size is refused here with its own line).
-  const io::RectifiedGeometry geometry = io::compute_rectification_maps(calibration, left.width(), left.height()).geometry;
+  const RectifiedPair pair = read_rectified_pair(left_, right_, calibration_files_);
+  const Plane& left = pair.left;
+  const Plane& right = pair.right;
+  const io::RectifiedGeometry& geometry = pair.geometry;
 
   check_disparity_range(min_disparity_, num_disparities_, left.width());
   arm::DisparityParameters parameters;

@@ -1,0 +1,177 @@
+#include "arm/obstacle_detector.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "arm/scheduler.h"
+#include "kernels/kernel.h"
+
+namespace lpstereo::arm {
+
+namespace {
+
+void check_positive(const char* name, double value) {
+  if (!(value > 0.0) || !std::isfinite(value)) {
+    throw std::invalid_argument(std::string("obstacle parameter '") + name + "': expected a number > 0, got " +
+                                std::to_string(value));
+  }
+}
+
+NodeSpec node(const std::string& name, const std::string& kernel, const std::string& task) {
+  NodeSpec spec;
+  spec.name = name;
+  spec.kernel = kernel;
+  spec.task = task;
+  return spec;
+}
+
+}  // namespace
+
+ObstacleParameters ObstacleParameters::for_disparity_range(int min_disparity_px, int num_disparities) const {
+  ObstacleParameters result = *this;
+  result.min_disparity = min_disparity_px;
+  result.v_disparity_bins = num_disparities;
+  // The grid's rows end below d_max (exclusive): the largest disparity searched, with its sub-pixel
+  // part, is below min + num.
+  result.grid.geometry.max_disparity_px = std::max(result.grid.geometry.min_disparity_px + 1.0,
+                                                   static_cast<double>(min_disparity_px + num_disparities));
+  return result;
+}
+
+void add_keypoint_nodes(GraphSpec& spec, const ObstacleParameters& parameters) {
+  // The feature stage (branch features) plugs in here: harris_response on "left", harris_nms,
+  // select_keypoints into the record buffer "keypoints" (kKeypointWords x max_keypoints); brief256 is
+  // not needed for validation. Until those kernels exist the flag is refused.
+  (void)spec;
+  (void)parameters;
+  for (const char* kernel : {"harris_response", "harris_nms", "select_keypoints"}) {
+    if (KernelRegistry::instance().find(kernel) == nullptr && ArmTaskRegistry::instance().find(kernel) == nullptr) {
+      throw std::invalid_argument(std::string("obstacle parameter 'feature_validation': needs the kernel '") + kernel +
+                                  "' (feature stage), which this build does not have; run without feature validation");
+    }
+  }
+  throw std::invalid_argument(
+      "obstacle parameter 'feature_validation': the feature kernels are present but add_keypoint_nodes "
+      "(arm/obstacle_detector.cpp) does not wire them yet");
+}
+
+GraphSpec ObstacleDetector::graph_spec(const ObstacleParameters& p) {
+  check_positive("focal_px", p.focal_px);
+  check_positive("baseline_m", p.baseline_m);
+  GraphSpec spec;
+  spec.name = "obstacle-detector";
+  spec.description =
+      "obstacle detector after disparity: V-disparity, road profile (delayed edge), VLDH mask, Advanced U-disparity grid, "
+      "clusters";
+  spec.inputs = {{"disparity", {ElementType::s16, 4}}};
+
+  NodeSpec v_disparity = node("v_disparity", "v_disparity", "");
+  v_disparity.inputs["disparity"] = {"disparity", false};
+  v_disparity.outputs["histogram"] = "vdisp";
+  v_disparity.params = {{"min_disparity", p.v_disparity_min_px()}, {"num_bins", p.v_disparity_bin_count()}};
+  spec.nodes.push_back(v_disparity);
+
+  NodeSpec road = node("road_profile", "", "road_profile");
+  road.inputs["v_disparity"] = {"vdisp", false};
+  road.inputs["previous"] = {"road", true};
+  road.outputs["profile"] = "road";
+  road.params = {{"min_disparity", p.v_disparity_min_px()}, {"focal_px", p.focal_px}, {"baseline_m", p.baseline_m}};
+  if (p.principal_point_y_px) road.params["principal_row_px"] = *p.principal_point_y_px;
+  spec.nodes.push_back(road);
+
+  NodeSpec vldh = node("vldh_mask", "vldh_mask", "");
+  vldh.inputs["disparity"] = {"disparity", false};
+  vldh.inputs["road"] = {"road", false};
+  vldh.outputs["mask"] = "mask";
+  vldh.params = {{"min_disparity", p.min_disparity},
+                 {"window_rows", p.vldh.window_rows},
+                 {"match_tolerance_q4", p.vldh.match_tolerance_q4},
+                 {"min_count", p.vldh.min_count},
+                 {"road_margin_q4", p.vldh.road_margin_q4},
+                 {"road_margin_per_mille", p.vldh.road_margin_per_mille},
+                 {"rows_above_horizon", p.vldh.rows_above_horizon}};
+  spec.nodes.push_back(vldh);
+
+  // The grid's geometry goes to the kernel and to obstacle_clusters from the one struct.
+  const nlohmann::json grid_geometry = {{"columns_per_cell", p.grid.columns_per_cell},
+                                        {"grid_rows", p.grid.geometry.grid_rows},
+                                        {"min_disparity_px", p.grid.geometry.min_disparity_px},
+                                        {"max_disparity_px", p.grid.geometry.max_disparity_px},
+                                        {"exponent_k", p.grid.geometry.exponent_k},
+                                        {"obstacle_weight", p.grid.obstacle_weight}};
+  NodeSpec grid = node("advanced_u_disparity", "advanced_u_disparity", "");
+  grid.inputs["disparity"] = {"disparity", false};
+  grid.inputs["mask"] = {"mask", false};
+  grid.outputs["grid"] = "grid";
+  grid.params = grid_geometry;
+  grid.params["free_weight"] = p.grid.free_weight;
+  grid.tile_width = p.grid_tile_columns;
+  grid.tile_height = p.grid.geometry.grid_rows;
+  spec.nodes.push_back(grid);
+
+  NodeSpec clusters = node("obstacle_clusters", "", "obstacle_clusters");
+  clusters.inputs["grid"] = {"grid", false};
+  clusters.inputs["disparity"] = {"disparity", false};
+  clusters.inputs["mask"] = {"mask", false};
+  clusters.outputs["obstacles"] = p.feature_validation ? "clusters" : "obstacles";
+  clusters.params = grid_geometry;
+  clusters.params.update({{"focal_px", p.focal_px},
+                          {"baseline_m", p.baseline_m},
+                          {"near_min_height_m", p.clusters.near_min_height_m},
+                          {"far_min_height_m", p.clusters.far_min_height_m},
+                          {"height_switch_distance_m", p.clusters.height_switch_distance_m},
+                          {"min_width_m", p.clusters.min_width_m},
+                          {"min_cells", p.clusters.min_cells},
+                          {"min_pixels", p.clusters.min_pixels},
+                          {"max_obstacles", p.clusters.max_obstacles}});
+  if (p.principal_point_x_px) clusters.params["principal_point_x_px"] = *p.principal_point_x_px;
+  if (p.principal_point_y_px) clusters.params["principal_point_y_px"] = *p.principal_point_y_px;
+  spec.nodes.push_back(clusters);
+
+  if (p.feature_validation) {
+    spec.inputs.push_back({"left", {ElementType::u8, 0}});
+    add_keypoint_nodes(spec, p);
+    NodeSpec validation = node("obstacle_feature_validation", "", "obstacle_feature_validation");
+    validation.inputs["obstacles"] = {"clusters", false};
+    validation.inputs["keypoints"] = {"keypoints", false};
+    validation.outputs["validated"] = "obstacles";
+    validation.params = {{"margin_px", p.validation.margin_px}, {"min_features", p.validation.min_features}};
+    spec.nodes.push_back(validation);
+    spec.description += ", feature validation";
+  }
+  spec.outputs = {"obstacles", "road", "vdisp", "mask", "grid"};
+  return spec;
+}
+
+ObstacleDetector::ObstacleDetector(int width, int height, const ObstacleParameters& parameters, const MemoryBudget& memory,
+                                   int worker_threads)
+    : parameters_(parameters) {
+  graph_ = std::make_unique<Graph>(graph_spec(parameters));
+  VerifyOptions options;
+  options.frame_width = width;
+  options.frame_height = height;
+  options.memory = memory;
+  graph_->verify(options);
+  runner_ = std::make_unique<FrameRunner>(*graph_, worker_threads);
+}
+
+ObstacleDetector::~ObstacleDetector() = default;
+
+ObstacleFrame ObstacleDetector::run(const Plane& disparity, const Plane& left) {
+  std::map<std::string, const Plane*> inputs = {{"disparity", &disparity}};
+  if (parameters_.feature_validation) inputs["left"] = &left;
+  runner_->process(inputs);
+  ObstacleFrame frame;
+  frame.road = decode_road_profile(runner_->buffer("road"));
+  frame.obstacles = decode_obstacles(runner_->buffer("obstacles"));
+  frame.vdisp = &runner_->buffer("vdisp");
+  frame.mask = &runner_->buffer("mask");
+  frame.grid = &runner_->buffer("grid");
+  return frame;
+}
+
+}  // namespace lpstereo::arm

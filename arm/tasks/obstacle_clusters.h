@@ -1,0 +1,58 @@
+// The parameters of the obstacle stage's grid and its two ARM tasks, with their defaults: the one
+// place the defaults live. The ARM tasks "obstacle_clusters" (arm/tasks/obstacle_clusters.cpp) and
+// "obstacle_feature_validation" (arm/tasks/obstacle_feature_validation.cpp) take a missing parameter
+// from here, and arm/obstacle_detector.h aggregates these structs and passes every value to the
+// graph, so a graph file, the detector and the tasks agree.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "kernels/advanced_u_disparity.h"
+
+namespace lpstereo::arm {
+
+// The Advanced U-disparity grid (thesis 003 §4.2.3): the kernel "advanced_u_disparity" builds it and
+// obstacle_clusters reads it, so both must get the same values (the detector passes one struct to
+// both). Parameter names are the kernel's.
+struct AudGridSettings {
+  kernels::AudGridGeometry geometry;  // min_disparity_px, max_disparity_px, exponent_k, grid_rows
+  int columns_per_cell = 4;           // image columns summed into one grid column
+  int obstacle_weight = 2;            // vote of an obstacle-mask pixel
+  int free_weight = 1;                // penalty of a free-space pixel (thesis: free votes penalised)
+};
+
+// obstacle_clusters' own parameters (thresholds, cluster filters, output size).
+struct ObstacleClusterSettings {
+  // Y_min of eq. 4.3, two heights (thesis 003 §4.2.3: ~3 cm near the vehicle, ~30 cm far away).
+  double near_min_height_m = 0.03;
+  double far_min_height_m = 0.25;
+  // A cell whose row centre lies nearer than this uses near_min_height_m. Above 40 m because the
+  // issue's range test asks for 0.07 m objects at 40 m, with margin for a grid row's depth extent
+  // and the 10 % distance tolerance (a 40 m object measured at 44 m must still use the near height);
+  // below the cone test's 92 m, where the far height still lets a 0.30 m cone through.
+  double height_switch_distance_m = 50.0;
+  // Optional normalisation (0 = off, the thesis' per-column threshold): a minimum obstacle width; the
+  // threshold is multiplied by the columns an object that wide covers in the cell, clamp(min_width_m
+  // d / B, 1, columns_per_cell). See arm/tasks/obstacle_clusters.cpp.
+  double min_width_m = 0.0;
+  int min_cells = 2;        // clusters with fewer occupied cells are dropped (a 1-cell speck is noise)
+  int min_pixels = 20;      // clusters with fewer obstacle-mask pixels are dropped (road noise leaves
+                            // clusters of 8 .. 40 px at 1280x576; a 0.19 m can at 30 m has ~40)
+  int max_obstacles = 64;   // record rows; with more clusters the nearest are kept
+};
+
+// obstacle_feature_validation's parameters.
+struct FeatureValidationSettings {
+  int margin_px = 2;      // the bounding box grown by this on every side before counting keypoints
+  int min_features = 1;   // records with fewer keypoints inside are dropped (thesis 003 §4.2.4)
+};
+
+// T_r of eq. 4.3 for every grid row r (the occupancy threshold of a cell in row r, 65536 = never):
+// what obstacle_clusters compares the grid with (the formula: arm/tasks/obstacle_clusters.cpp), also
+// for pictures of the grid.
+std::vector<uint32_t> obstacle_cell_thresholds(const kernels::AudGridGeometry& geometry, int columns_per_cell,
+                                               int obstacle_weight, const ObstacleClusterSettings& settings,
+                                               double focal_px, double baseline_m);
+
+}  // namespace lpstereo::arm

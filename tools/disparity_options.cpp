@@ -1,0 +1,72 @@
+#include "tools/disparity_options.h"
+
+#include <stdexcept>
+
+#include "tools/command_error.h"
+
+namespace lpstereo::tools {
+
+void add_disparity_engine_options(CLI::App& command, DisparityEngineOptions& options, const std::string& num_disparities_help) {
+  command.add_option("--min-disp", options.min_disparity_px, "smallest disparity searched, px (may be negative; default 0)");
+  command.add_option("--num-disp", options.num_disparities, num_disparities_help);
+  command.add_option("--paths", options.paths, "SGM paths: 4 (one pass), 8 (two passes), 0 (census winner takes all)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({0, 4, 8}));
+  command.add_option("--p1", options.p1, "SGM penalty for a 1 px change, Hamming bits (default 5 for 5x5, 7 for 9x7)");
+  command.add_option("--p2", options.p2, "SGM penalty for larger changes, Hamming bits, >= p1, <= 4000 (default 45 / 50)");
+  command.add_option("--census", options.census, "census window")->capture_default_str()->check(CLI::IsMember({"5x5", "9x7"}));
+  command.add_option("--subpixel", options.subpixel, "parabola sub-pixel step (Q4)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"on", "off"}));
+  command.add_option("--lr-check", options.lr_check, "left-right check tolerance in px, or off")->capture_default_str();
+  command.add_option("--uniqueness", options.uniqueness_percent, "SGM uniqueness ratio in % (0 = off, <= 50)")
+      ->capture_default_str();
+  command.add_option("--median", options.median, "SGM: 3x3 median that keeps invalid pixels invalid")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"on", "off"}));
+  command.add_option("--speckle-size", options.speckle_size_px,
+                     "SGM: regions of at most this many pixels become invalid (cv::filterSpeckles; 0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1 << 30));
+  command.add_option("--speckle-range", options.speckle_range_px,
+                     "SGM: neighbours within this many px belong to one speckle region")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 4095));
+  command.add_option("--multires", options.multires,
+                     "on: full-resolution SGM over [min-disp, min-disp + min(num-disp, 128)) plus a half-resolution "
+                     "pass over the whole range, fused into one full-resolution map (arm/disparity_engine.h, "
+                     "docs/kernels.md); off: one full-resolution pass")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"on", "off"}));
+}
+
+arm::DisparityParameters disparity_parameters(const DisparityEngineOptions& options, int width, int default_num_disparities) {
+  arm::DisparityParameters parameters;
+  parameters.paths = options.paths;
+  parameters.census_width = options.census == "9x7" ? 9 : 5;
+  if (options.p1) parameters.p1 = *options.p1;
+  if (options.p2) parameters.p2 = *options.p2;
+  parameters.subpixel = options.subpixel == "on";
+  parameters.uniqueness_percent = options.uniqueness_percent;
+  parameters.median = options.median == "on";
+  parameters.speckle_max_size_px = options.speckle_size_px;
+  parameters.speckle_max_difference_px = options.speckle_range_px;
+  parameters.multires = options.multires == "on";
+  if (options.lr_check == "off") {
+    parameters.lr_max_diff = -1;
+  } else {
+    try {
+      size_t used = 0;
+      parameters.lr_max_diff = std::stoi(options.lr_check, &used);
+      if (used != options.lr_check.size() || parameters.lr_max_diff < 0) throw std::invalid_argument("not a count");
+    } catch (const std::exception&) {
+      throw CommandError(kExitUsage, "--lr-check: expected a tolerance in px (0, 1, 2, ...) or off, got '" + options.lr_check + "'");
+    }
+  }
+  parameters.min_disparity = options.min_disparity_px.value_or(0);
+  parameters.num_disparities = options.num_disparities.value_or(default_num_disparities);
+  check_disparity_range(parameters.min_disparity, parameters.num_disparities, width);
+  return parameters;
+}
+
+}  // namespace lpstereo::tools

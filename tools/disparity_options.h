@@ -1,0 +1,38 @@
+// The disparity engine's command-line options, shared by the commands that run the engine
+// (`lpstereo disparity`, `lpstereo obstacles`): one definition of --min-disp, --num-disp, --paths,
+// --p1, --p2, --census, --subpixel, --lr-check, --uniqueness, --median, --speckle-size,
+// --speckle-range and --multires, and one translation into arm::DisparityParameters with the checks.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <optional>
+#include <string>
+
+#include "arm/disparity_engine.h"
+
+namespace lpstereo::tools {
+
+struct DisparityEngineOptions {
+  std::optional<int> min_disparity_px, num_disparities;
+  // the matcher (arm::DisparityParameters; its defaults are the commands')
+  int paths = arm::DisparityParameters{}.paths;
+  std::optional<int> p1, p2;
+  std::string census = arm::DisparityParameters{}.census_width == 9 ? "9x7" : "5x5";
+  std::string subpixel = arm::DisparityParameters{}.subpixel ? "on" : "off";
+  std::string lr_check = arm::DisparityParameters{}.lr_max_diff >= 0 ? std::to_string(arm::DisparityParameters{}.lr_max_diff) : "off";
+  int uniqueness_percent = arm::DisparityParameters{}.uniqueness_percent;
+  std::string median = arm::DisparityParameters{}.median ? "on" : "off";
+  int speckle_size_px = arm::DisparityParameters{}.speckle_max_size_px;
+  int speckle_range_px = arm::DisparityParameters{}.speckle_max_difference_px;
+  std::string multires = "off";
+};
+
+// Adds the options to `command`; num_disparities_help is --num-disp's help (its default differs).
+void add_disparity_engine_options(CLI::App& command, DisparityEngineOptions& options, const std::string& num_disparities_help);
+
+// The engine's parameters for an image `width` px wide; --num-disp defaults to
+// default_num_disparities. Throws CommandError (one line naming the flag, expected and actual).
+arm::DisparityParameters disparity_parameters(const DisparityEngineOptions& options, int width, int default_num_disparities);
+
+}  // namespace lpstereo::tools

@@ -1,0 +1,266 @@
+#include "tools/obstacles_command.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "arm/disparity_engine.h"
+#include "arm/obstacle_detector.h"
+#include "dag/atomic_file.h"
+#include "io/image_io.h"
+#include "io/rectification.h"
+#include "kernels/obstacle_mask.h"
+#include "tools/command_error.h"
+#include "tools/rectified_pair.h"
+
+namespace lpstereo::tools {
+
+namespace {
+
+// Red (near) through yellow and green to blue (far), by distance: 0 .. 10 .. 40 .. 150 m and beyond.
+cv::Scalar distance_colour(double distance_m) {
+  const double stops_m[] = {0.0, 10.0, 40.0, 150.0};
+  const cv::Vec3d colours[] = {{0, 0, 255}, {0, 255, 255}, {0, 200, 0}, {255, 80, 0}};  // BGR
+  if (distance_m >= stops_m[3]) return cv::Scalar(colours[3][0], colours[3][1], colours[3][2]);
+  int segment = 0;
+  while (distance_m > stops_m[segment + 1]) ++segment;
+  const double t = std::clamp((distance_m - stops_m[segment]) / (stops_m[segment + 1] - stops_m[segment]), 0.0, 1.0);
+  const cv::Vec3d colour = colours[segment] * (1.0 - t) + colours[segment + 1] * t;
+  return cv::Scalar(colour[0], colour[1], colour[2]);
+}
+
+std::string distance_label(double distance_m) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f m", distance_m);
+  return text;
+}
+
+cv::Mat overlay_picture(const std::string& left_path, const std::vector<arm::Obstacle>& obstacles) {
+  cv::Mat picture = io::decode_image(left_path, cv::IMREAD_COLOR);
+  if (picture.depth() != CV_8U) picture.convertTo(picture, CV_8U, 1.0 / 256);
+  const int thickness = std::max(1, picture.cols / 640);
+  const double font_scale = 0.4 * thickness;
+  for (const arm::Obstacle& obstacle : obstacles) {
+    const cv::Scalar colour = distance_colour(obstacle.distance_m);
+    const cv::Point top_left(obstacle.bbox_px[0], obstacle.bbox_px[1]);
+    cv::rectangle(picture, top_left, cv::Point(obstacle.bbox_px[2], obstacle.bbox_px[3]), colour, thickness);
+    cv::putText(picture, distance_label(obstacle.distance_m), top_left + cv::Point(0, -3 * thickness), cv::FONT_HERSHEY_SIMPLEX,
+                font_scale, colour, thickness, cv::LINE_AA);
+  }
+  return picture;
+}
+
+// The grid as a top view: row 0 (far) at the top, `scale` px per cell; grey = the cell's votes (log),
+// white = occupied (at or above its row's eq. 4.3 threshold), each obstacle's occupied cells in its colour.
+cv::Mat grid_picture(const Plane& grid, const arm::ObstacleParameters& parameters, const std::vector<arm::Obstacle>& obstacles) {
+  const std::vector<uint32_t> thresholds =
+      arm::obstacle_cell_thresholds(parameters.grid.geometry, parameters.grid.columns_per_cell, parameters.grid.obstacle_weight,
+                                    parameters.clusters, parameters.focal_px, parameters.baseline_m);
+  const int scale = std::max(1, 1024 / std::max(grid.width(), grid.height()));
+  cv::Mat picture(grid.height() * scale, grid.width() * scale, CV_8UC3, cv::Scalar(0, 0, 0));
+  for (int r = 0; r < grid.height(); ++r) {
+    for (int c = 0; c < grid.width(); ++c) {
+      const uint16_t votes = grid.at<uint16_t>(c, r);
+      cv::Scalar colour;
+      if (votes >= thresholds[static_cast<size_t>(r)]) {
+        colour = cv::Scalar(255, 255, 255);
+        for (const arm::Obstacle& obstacle : obstacles) {
+          if (c >= obstacle.cell_box[0] && c <= obstacle.cell_box[2] && r >= obstacle.cell_box[1] && r <= obstacle.cell_box[3]) {
+            colour = distance_colour(obstacle.distance_m);
+          }
+        }
+      } else {
+        const double grey = votes == 0 ? 0.0 : 40.0 + 120.0 * std::log1p(votes) / std::log1p(65535.0);
+        colour = cv::Scalar(grey, grey, grey);
+      }
+      cv::rectangle(picture, cv::Rect(c * scale, r * scale, scale, scale), colour, cv::FILLED);
+    }
+  }
+  return picture;
+}
+
+cv::Mat mask_picture(const Plane& mask) {
+  cv::Mat picture(mask.height(), mask.width(), CV_8UC3);
+  for (int v = 0; v < mask.height(); ++v) {
+    for (int u = 0; u < mask.width(); ++u) {
+      const uint8_t value = mask.at<uint8_t>(u, v);
+      picture.at<cv::Vec3b>(v, u) = value == kernels::kMaskObstacle ? cv::Vec3b(0, 0, 255)
+                                    : value == kernels::kMaskFree   ? cv::Vec3b(0, 110, 0)
+                                                                    : cv::Vec3b(0, 0, 0);
+    }
+  }
+  return picture;
+}
+
+// V-disparity: bins across (scaled to at least 256 px), rows down; grey = log count; the road line in red.
+cv::Mat vdisp_picture(const Plane& vdisp, const arm::RoadProfile& road, int min_disparity) {
+  const int scale = std::max(1, 256 / vdisp.width());
+  cv::Mat grey(vdisp.height(), vdisp.width(), CV_8UC1);
+  uint16_t largest = 1;
+  for (int v = 0; v < vdisp.height(); ++v) {
+    for (int b = 0; b < vdisp.width(); ++b) largest = std::max(largest, vdisp.at<uint16_t>(b, v));
+  }
+  for (int v = 0; v < vdisp.height(); ++v) {
+    for (int b = 0; b < vdisp.width(); ++b) {
+      grey.at<uint8_t>(v, b) = static_cast<uint8_t>(std::lround(255.0 * std::log1p(vdisp.at<uint16_t>(b, v)) / std::log1p(largest)));
+    }
+  }
+  cv::Mat picture;
+  cv::resize(grey, picture, cv::Size(vdisp.width() * scale, vdisp.height()), 0, 0, cv::INTER_NEAREST);
+  cv::cvtColor(picture, picture, cv::COLOR_GRAY2BGR);
+  if (road.valid) {
+    // d(v) = slope v + intercept; bin b holds [b + min, b + min + 1) px, so x = (d - min) * scale.
+    const auto x_of = [&](double v) { return (road.slope * v + road.intercept_px - min_disparity) * scale; };
+    const double v0 = 0, v1 = vdisp.height() - 1;
+    cv::line(picture, cv::Point2d(x_of(v0), v0), cv::Point2d(x_of(v1), v1), cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
+  }
+  return picture;
+}
+
+nlohmann::json road_json(const arm::RoadProfile& road) {
+  if (!road.valid) return {{"valid", false}, {"confidence", road.confidence}};
+  return {{"valid", true},
+          {"carried", road.carried},
+          {"confidence", road.confidence},
+          {"slope_px_per_row", road.slope},
+          {"intercept_px", road.intercept_px},
+          {"horizon_row_px", road.horizon_row},
+          {"camera_height_m", road.camera_height_mm / 1000.0},
+          {"pitch_rad", road.pitch_rad},
+          {"inlier_rows", road.inlier_count},
+          {"point_rows", road.point_count},
+          {"rms_residual_px", road.rms_residual_px}};
+}
+
+nlohmann::json obstacle_json(const arm::Obstacle& obstacle, bool features_counted) {
+  return {{"id", obstacle.id},
+          {"bbox_px", {obstacle.bbox_px[0], obstacle.bbox_px[1], obstacle.bbox_px[2], obstacle.bbox_px[3]}},
+          {"disparity", obstacle.disparity_px},
+          {"distance_m", obstacle.distance_m},
+          {"position_m", {obstacle.position_m[0], obstacle.position_m[1], obstacle.position_m[2]}},
+          {"width_m", obstacle.width_m},
+          {"height_m", obstacle.height_m},
+          {"pixels", obstacle.pixels},
+          {"features", features_counted ? nlohmann::json(obstacle.features) : nlohmann::json(nullptr)},
+          {"track_id", nullptr},
+          {"velocity_mps", nullptr}};
+}
+
+}  // namespace
+
+ObstaclesCommand::ObstaclesCommand(CLI::App& app) {
+  command_ = app.add_subcommand("obstacles",
+                                "obstacles in front of the vehicle from a rectified pair: disparity engine, then V-disparity road "
+                                "profile, VLDH mask, Advanced U-disparity grid and clusters (arm/obstacle_detector.h)");
+  command_->add_option("left", left_, "rectified left image")->required();
+  command_->add_option("right", right_, "rectified right image, same size")->required();
+  command_->add_option("--calib", calibration_files_,
+                       "calibration file, or two (intrinsics + extrinsics, or left + right); its rectified geometry gives "
+                       "focal length, baseline and principal point")
+      ->required();
+  command_->add_option("-o,--output", output_, "obstacle JSON file to write")->required();
+  command_->add_option("--overlay", overlay_path_, "also write the left image with the obstacles' boxes and distances (PNG)");
+  command_->add_option("--grid", grid_path_, "also write the Advanced U-disparity grid as a top view (PNG)");
+  command_->add_option("--mask", mask_path_, "also write the VLDH obstacle mask (PNG)");
+  command_->add_option("--vdisp", vdisp_path_, "also write the V-disparity image with the road line (PNG)");
+  command_->add_option("--threads", threads_, "worker threads (0 = one per hardware thread)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 256));
+  add_disparity_engine_options(*command_, engine_options_,
+                               "disparities searched: [min-disp, min-disp + num-disp) (default 64)");
+  // Tuning (arm/obstacle_detector.h, arm/tasks/obstacle_clusters.h, kernels/vldh_mask.cpp say what each does).
+  arm::ObstacleParameters& p = detector_parameters_;
+  command_->add_option("--near-height-m", p.clusters.near_min_height_m, "eq. 4.3: smallest obstacle height near the vehicle, m")
+      ->capture_default_str();
+  command_->add_option("--far-height-m", p.clusters.far_min_height_m, "eq. 4.3: smallest obstacle height far away, m")
+      ->capture_default_str();
+  command_->add_option("--switch-distance-m", p.clusters.height_switch_distance_m, "eq. 4.3: where far begins, m")
+      ->capture_default_str();
+  command_->add_option("--min-width-m", p.clusters.min_width_m, "smallest obstacle width for the cell threshold, m (0 = off)")
+      ->capture_default_str();
+  command_->add_option("--min-cells", p.clusters.min_cells, "clusters with fewer grid cells are dropped")->capture_default_str();
+  command_->add_option("--min-pixels", p.clusters.min_pixels, "clusters with fewer mask pixels are dropped")->capture_default_str();
+  command_->add_option("--columns-per-cell", p.grid.columns_per_cell, "image columns per grid cell")->capture_default_str();
+  command_->add_option("--grid-rows", p.grid.geometry.grid_rows, "grid rows (log-scaled in disparity, eq. 4.2)")->capture_default_str();
+  command_->add_option("--grid-k", p.grid.geometry.exponent_k, "eq. 4.2's k (> 1: more rows far away)")->capture_default_str();
+  command_->add_option("--obstacle-weight", p.grid.obstacle_weight, "grid vote of an obstacle pixel")->capture_default_str();
+  command_->add_option("--free-weight", p.grid.free_weight, "grid penalty of a free-space pixel")->capture_default_str();
+  command_->add_option("--vldh-rows", p.vldh.window_rows, "VLDH window: rows below a pixel")->capture_default_str();
+  command_->add_option("--vldh-min-count", p.vldh.min_count, "VLDH: rows of the window that must match")->capture_default_str();
+  command_->add_option("--vldh-tolerance-q4", p.vldh.match_tolerance_q4, "VLDH: match tolerance, 1/16 px")->capture_default_str();
+  command_->add_option("--road-margin-q4", p.vldh.road_margin_q4, "VLDH: height above the road's disparity, 1/16 px")
+      ->capture_default_str();
+  command_->add_option("--road-margin-per-mille", p.vldh.road_margin_per_mille, "VLDH: plus this share of the road's disparity")
+      ->capture_default_str();
+}
+
+int ObstaclesCommand::run() const {
+  const RectifiedPair pair = read_rectified_pair(left_, right_, calibration_files_);
+  const Plane& left = pair.left;
+  const Plane& right = pair.right;
+  const io::RectifiedGeometry& geometry = pair.geometry;
+  const std::string calibration_name = calibration_files_[0] + (calibration_files_.size() == 2 ? "," + calibration_files_[1] : "");
+  if (!(geometry.baseline_m > 0.0) || !std::isfinite(geometry.baseline_m)) {
+    throw CommandError(kExitInput, "calibration " + calibration_name +
+                                       ": expected a stereo baseline > 0 m (the right camera's translation), got " +
+                                       std::to_string(geometry.baseline_m) + " m");
+  }
+  if (geometry.projection != io::RectifiedProjection::pinhole) {
+    throw CommandError(kExitInput, "calibration " + calibration_name + ": expected a pinhole rectification, got latitude-longitude");
+  }
+
+  const arm::DisparityParameters disparity_parameters =
+      tools::disparity_parameters(engine_options_, left.width(), arm::DisparityParameters{}.num_disparities);
+  arm::DisparityEngine engine(left.width(), left.height(), disparity_parameters, {}, threads_);
+  const auto started = std::chrono::steady_clock::now();
+  const Plane& disparity = engine.compute(left, right);
+  const auto disparity_done = std::chrono::steady_clock::now();
+
+  arm::ObstacleParameters parameters = detector_parameters_;
+  parameters.focal_px = geometry.focal_px;
+  parameters.baseline_m = geometry.baseline_m;
+  parameters.principal_point_x_px = geometry.cx_left_px;
+  parameters.principal_point_y_px = geometry.cy_px;
+  parameters = parameters.for_disparity_range(disparity_parameters.min_disparity, disparity_parameters.num_disparities);
+  arm::ObstacleDetector detector(left.width(), left.height(), parameters, {}, threads_);
+  const arm::ObstacleFrame frame = detector.run(disparity, left);
+  const auto obstacles_done = std::chrono::steady_clock::now();
+  const auto milliseconds = [](auto duration) { return std::chrono::duration<double, std::milli>(duration).count(); };
+  const double disparity_ms = milliseconds(disparity_done - started);
+  const double obstacle_stage_ms = milliseconds(obstacles_done - disparity_done);
+
+  nlohmann::json obstacles = nlohmann::json::array();
+  for (const arm::Obstacle& obstacle : frame.obstacles) obstacles.push_back(obstacle_json(obstacle, parameters.feature_validation));
+  const nlohmann::json output = {
+      {"width", left.width()}, {"height", left.height()}, {"road", road_json(frame.road)}, {"obstacles", obstacles}};
+  write_file_atomically(output_, output.dump(2) + "\n");
+  if (!overlay_path_.empty()) io::write_image(overlay_path_, overlay_picture(left_, frame.obstacles));
+  if (!grid_path_.empty()) io::write_image(grid_path_, grid_picture(*frame.grid, parameters, frame.obstacles));
+  if (!mask_path_.empty()) io::write_image(mask_path_, mask_picture(*frame.mask));
+  if (!vdisp_path_.empty()) io::write_image(vdisp_path_, vdisp_picture(*frame.vdisp, frame.road, parameters.v_disparity_min_px()));
+
+  int64_t valid = 0;
+  const int16_t invalid_q4 = engine.invalid_disparity_q4();
+  for (int v = 0; v < disparity.height(); ++v) {
+    for (int u = 0; u < disparity.width(); ++u) valid += disparity.at<int16_t>(u, v) != invalid_q4 ? 1 : 0;
+  }
+  const double density_pct = 100.0 * static_cast<double>(valid) / (static_cast<double>(left.width()) * left.height());
+  if (frame.road.valid) {
+    std::printf("%zu obstacles; road: camera height %.2f m, pitch %.4f rad, confidence %d%s; disparity density %.1f %% -> %s\n",
+                frame.obstacles.size(), frame.road.camera_height_mm / 1000.0, frame.road.pitch_rad, frame.road.confidence,
+                frame.road.carried ? " (carried)" : "", density_pct, output_.c_str());
+  } else {
+    std::printf("no road found (confidence %d, disparity density %.1f %%): no obstacles -> %s\n", frame.road.confidence,
+                density_pct, output_.c_str());
+  }
+  // First frame of a fresh engine and detector: includes their first-touch costs.
+  std::printf("disparity %.1f ms, obstacle stage %.1f ms (first frame, %d threads)\n", disparity_ms, obstacle_stage_ms, threads_);
+  return 0;
+}
+
+}  // namespace lpstereo::tools

@@ -1,0 +1,53 @@
+// lpstereo obstacles LEFT RIGHT --calib C [--calib C2] -o OBST.json [--overlay FILE.png] [--grid FILE.png]
+//     [--mask FILE.png] [--vdisp FILE.png] [--min-disp M --num-disp N --paths ... (the disparity options)]
+// The rectified pair through the disparity engine, then the obstacle detector (arm/obstacle_detector.h)
+// with the calibration's rectified focal length, baseline and principal point. Output (issue 6):
+//   {"width", "height",
+//    "road": {"valid", "carried", "confidence", "slope_px_per_row", "intercept_px", "horizon_row_px",
+//             "camera_height_m", "pitch_rad", "inlier_rows", "point_rows", "rms_residual_px"}
+//            -- only {"valid": false, "confidence"} when there is no road: never a made-up one,
+//    "obstacles": [{"id", "bbox_px": [x0, y0, x1, y1], "disparity", "distance_m", "position_m": [x, y, z],
+//                   "width_m", "height_m", "pixels", "features", "track_id", "velocity_mps"}]}
+// camera frame (x right, y down, z forward), metres; position_m is the bounding box's bottom centre
+// (the foot); bbox_px inclusive. Single-frame mode: "features" is null (no feature validation in this
+// build), "track_id" and "velocity_mps" are null (not tracked).
+// Pictures: --overlay the left image with the boxes coloured by distance and labelled; --grid the
+// Advanced U-disparity grid as a top view (far at the top; cell value in grey, occupied cells white,
+// each obstacle's cells in its colour); --mask the VLDH mask (black no vote, green free, red obstacle);
+// --vdisp the V-disparity image with the fitted road line.
+// Tuning flags (defaults from arm::ObstacleParameters, the single source): --near-height-m,
+// --far-height-m, --switch-distance-m, --min-width-m, --min-cells, --min-pixels, --columns-per-cell,
+// --grid-rows, --grid-k, --obstacle-weight, --free-weight, --vldh-rows, --vldh-min-count,
+// --vldh-tolerance-q4, --road-margin-q4, --road-margin-per-mille.
+// Bad input (missing or unreadable files, a calibration without a baseline, image sizes that differ):
+// one line and exit 1 (2 for bad usage), no output file. An all-invalid disparity map or a scene
+// without a road (sky, wall): the road's confidence and an empty obstacle list, exit 0.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+#include <vector>
+
+#include "arm/obstacle_detector.h"
+#include "tools/disparity_options.h"
+
+namespace lpstereo::tools {
+
+class ObstaclesCommand {
+ public:
+  explicit ObstaclesCommand(CLI::App& app);
+  bool selected() const { return command_ != nullptr && command_->parsed(); }
+  int run() const;  // throws CommandError (one line) on bad input
+
+ private:
+  CLI::App* command_ = nullptr;
+  std::string left_, right_, output_;
+  std::vector<std::string> calibration_files_;
+  std::string overlay_path_, grid_path_, mask_path_, vdisp_path_;
+  DisparityEngineOptions engine_options_;
+  arm::ObstacleParameters detector_parameters_;  // the tuning flags write into it; defaults are its own
+  int threads_ = 0;
+};
+
+}  // namespace lpstereo::tools
