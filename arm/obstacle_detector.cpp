@@ -1,5 +1,7 @@
 #include "arm/obstacle_detector.h"
 
+#include <cstdio>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -30,6 +32,21 @@ NodeSpec node(const std::string& name, const std::string& kernel, const std::str
 }
 
 }  // namespace
+
+std::string settings_text(const ObstacleParameters& p) {
+  char text[640];
+  std::snprintf(text, sizeof text,
+                "V-disparity from %d px; VLDH %d rows, %d matching within %d/16 px, road margin %d/16 px + %d per mille, "
+                "%d rows above the horizon; AUD %d columns per cell, %d rows over [%.1f, %.1f) px, k %.2f, weights +%d / -%d; "
+                "clusters: Y_min %.2f m to %.0f m then %.2f m, at least %d cell(s) and %d pixels; feature validation %s",
+                p.v_disparity_min_px(), p.vldh.window_rows, p.vldh.min_count, p.vldh.match_tolerance_q4,
+                p.vldh.road_margin_q4, p.vldh.road_margin_per_mille, p.vldh.rows_above_horizon, p.grid.columns_per_cell,
+                p.grid.geometry.grid_rows, p.grid.geometry.min_disparity_px, p.grid.geometry.max_disparity_px,
+                p.grid.geometry.exponent_k, p.grid.obstacle_weight, p.grid.free_weight, p.clusters.near_min_height_m,
+                p.clusters.height_switch_distance_m, p.clusters.far_min_height_m, p.clusters.min_cells,
+                p.clusters.min_pixels, p.feature_validation ? "on" : "off");
+  return text;
+}
 
 ObstacleParameters ObstacleParameters::for_disparity_range(int min_disparity_px, int num_disparities) const {
   ObstacleParameters result = *this;

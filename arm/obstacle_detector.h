@@ -28,6 +28,7 @@
 #include <algorithm>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "arm/tasks/obstacle_clusters.h"
@@ -42,16 +43,15 @@ class FrameRunner;
 
 // vldh_mask's parameters (kernels/vldh_mask.cpp documents each).
 struct VldhSettings {
-  // 6 / 5 (the kernel's own defaults are 4 / 3): on `lpstereo synth` road scenes at 1280x576 with
-  // noise 2, 4 / 3 marks the SGM map's staircase on the slanted road as vertical structure and gave
-  // ~33 clusters per obstacle-free frame; 6 / 5 gave 0.5, losing only objects under ~6 rows tall
-  // (report of the obstacle-clusters branch). N sets the smallest obstacle height in rows: scale it
-  // with the image height (at 3840x1728 the same objects are 3x taller in rows).
+  // The kernel's own defaults, chosen on the 4K range test (docs/obstacles.md "Tuning"): 6
+  // rows of one disparity within 6/16 px is more than the ~5-row plateaus of SGM's staircase on a road
+  // sloping 0.2 px per row, and no more than a 0.07 m object at 40 m shows (5.8 rows). A margin of
+  // 2/16 px + 0.5 % over a road line fitted on hundreds of rows; the vertical test keeps the road out.
   int window_rows = 6;             // N: rows below a pixel (itself included) that may share its disparity
-  int match_tolerance_q4 = 4;      // |D(u, v + j) - D(u, v)| <= this counts (Q4)
-  int min_count = 5;               // of the window_rows rows, this many must match
-  int road_margin_q4 = 8;          // a pixel must stand this far above the road's disparity (Q4) ...
-  int road_margin_per_mille = 20;  // ... plus this share of the road's disparity
+  int match_tolerance_q4 = 6;      // |D(u, v + j) - D(u, v)| <= this counts (Q4)
+  int min_count = 6;               // of the window_rows rows, this many must match
+  int road_margin_q4 = 2;          // a pixel must stand this far above the road's disparity (Q4) ...
+  int road_margin_per_mille = 5;   // ... plus this share of the road's disparity
   int rows_above_horizon = 64;     // rows above the horizon that may still hold obstacles
 };
 
@@ -85,6 +85,9 @@ struct ObstacleParameters {
   // range [min_disparity, min_disparity + num_disparities) px.
   ObstacleParameters for_disparity_range(int min_disparity_px, int num_disparities) const;
 };
+
+// One line naming every setting, for reports and benchmarks ("VLDH 6 rows, 6 matching within 6/16 px, ...").
+std::string settings_text(const ObstacleParameters& parameters);
 
 // One frame's results. The planes are the detector's buffers: valid until the next run().
 struct ObstacleFrame {

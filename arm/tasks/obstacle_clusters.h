@@ -16,8 +16,11 @@ namespace lpstereo::arm {
 // obstacle_clusters reads it, so both must get the same values (the detector passes one struct to
 // both). Parameter names are the kernel's.
 struct AudGridSettings {
-  kernels::AudGridGeometry geometry;  // min_disparity_px, max_disparity_px, exponent_k, grid_rows
-  int columns_per_cell = 4;           // image columns summed into one grid column
+  // min_disparity_px, max_disparity_px, exponent_k, grid_rows: 256 rows from 2 px (1.6 % of the
+  // disparity per row); 128 rows merged a 0.07 m object's cell at 40 m with twice as much road
+  // (free votes) on the 4K range test and lost it.
+  kernels::AudGridGeometry geometry{2.0, 128.0, 1.0, 256};
+  int columns_per_cell = 8;           // image columns summed into one grid column
   int obstacle_weight = 2;            // vote of an obstacle-mask pixel
   int free_weight = 1;                // penalty of a free-space pixel (thesis: free votes penalised)
 };
@@ -26,7 +29,7 @@ struct AudGridSettings {
 struct ObstacleClusterSettings {
   // Y_min of eq. 4.3, two heights (thesis 003 §4.2.3: ~3 cm near the vehicle, ~30 cm far away).
   double near_min_height_m = 0.03;
-  double far_min_height_m = 0.25;
+  double far_min_height_m = 0.20;
   // A cell whose row centre lies nearer than this uses near_min_height_m. Above 40 m because the
   // issue's range test asks for 0.07 m objects at 40 m, with margin for a grid row's depth extent
   // and the 10 % distance tolerance (a 40 m object measured at 44 m must still use the near height);
@@ -36,9 +39,10 @@ struct ObstacleClusterSettings {
   // threshold is multiplied by the columns an object that wide covers in the cell, clamp(min_width_m
   // d / B, 1, columns_per_cell). See arm/tasks/obstacle_clusters.cpp.
   double min_width_m = 0.0;
-  int min_cells = 2;        // clusters with fewer occupied cells are dropped (a 1-cell speck is noise)
-  int min_pixels = 20;      // clusters with fewer obstacle-mask pixels are dropped (road noise leaves
-                            // clusters of 8 .. 40 px at 1280x576; a 0.19 m can at 30 m has ~40)
+  int min_cells = 1;        // clusters with fewer occupied cells are dropped
+  int min_pixels = 3;       // clusters with fewer obstacle-mask pixels are dropped (a 0.07 m tape roll
+                            // at 40 m at 4K has only 3-10 pixels above the road margin; the specks of
+                            // road noise are removed by feature validation, docs/obstacles.md)
   int max_obstacles = 64;   // record rows; with more clusters the nearest are kept
 };
 

@@ -112,8 +112,9 @@ TEST(ObstacleDetector, FindsTheBoxesOnTheRoadAtTheirDistances) {
   }
   // The planes for pictures.
   ASSERT_NE(frame.grid, nullptr);
-  EXPECT_EQ(frame.grid->width(), (kWidth + 3) / 4);
-  EXPECT_EQ(frame.grid->height(), 128);
+  const arm::ObstacleParameters defaults;
+  EXPECT_EQ(frame.grid->width(), (kWidth + defaults.grid.columns_per_cell - 1) / defaults.grid.columns_per_cell);
+  EXPECT_EQ(frame.grid->height(), defaults.grid.geometry.grid_rows);
   EXPECT_EQ(frame.mask->width(), kWidth);
   EXPECT_EQ(frame.vdisp->width(), 62);  // bins from road_min_disparity_px = 2 to 64
 }
