@@ -8,9 +8,9 @@
 //   b = pair 32 w + b (1 when I(a) < I(b)).
 // Smoothing: BRIEF compares single pixels, so the image must be smoothed first (Calonder et al.
 //   §4.1: a 9x9 Gaussian, sigma 2, or any low-pass of similar width). graphs/features.json feeds
-//   it "median3x3" (the kernel set's existing 3x3 median: removes single-pixel noise, keeps
-//   edges); a wider Gaussian would be closer to Calonder's choice. The kernel samples the pixels
-//   it is given.
+//   it "gaussian5x5" (kernels/gaussian5x5.cpp: the 5x5 binomial, a Gaussian of sigma 1, exact and
+//   rounded); a wider one may be chained for noisier sensors. The kernel samples the pixels it is
+//   given.
 // Parameters: yaw_sector (0 .. 15, default 0): the pattern rotated by yaw_sector x 22.5 degrees.
 // Zero descriptors: a row whose record has kKeypointValid == 0, or whose keypoint is not in
 //   15 <= x < W - 15, 15 <= y < H - 15 (the 31 x 31 patch would leave the image). Images narrower or lower than 31 px give all-zero descriptors.

@@ -131,6 +131,7 @@ const std::vector<GoldenCase>& golden_cases() {
       {"harris_response", {{"window_size", 5}}, BorderMode::replicate, {{97, 61}}, 0xfe0ee533a9eb353full},
       // Raw random words: responses of every sign and size, the default threshold.
       {"harris_nms", {{"radius", 2}}, BorderMode::constant, {{97, 61}}, 0x28b080498a8d55f6ull},
+      {"gaussian5x5", nlohmann::json::object(), BorderMode::constant, {{97, 61}}, 0x1cac97398381bbb3ull},
       // 40 keypoints on a 97 x 61 image (see golden_input), sector 3.
       {"brief256", {{"yaw_sector", 3}}, BorderMode::replicate, {{97, 61}, {4, 40}}, 0x82fa07fab96d7ccbull},
       {"sgm_sums_select", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}, {"uniqueness_percent", 5}, {"subpixel", 1}, {"lr_max_diff", 1}}, BorderMode::replicate, {{97 * 40, 61}, {97 * 40, 61}}, 0xe8ebb4cbc8b52d59ull},
