@@ -31,29 +31,36 @@
 //   depends on a pixel outside the image, so it is the same for every border mode (both are
 //   accepted; the executor's halo is read but masked out).
 //
-// Vector schedule, per tile (w = window_size, h = w / 2, E = tile_height + 2h rows of gradients):
-//   A1. per gradient row, chunks of L16 = B::kLanesU16 pixels over columns [-h, tile_width + h):
-//       8 u8 loads (rows y-1, y+1 at columns x-1, x, x+1; row y at x-1, x+1), each widened to s16;
-//       Ix, Iy (5 arith and 2 shifts each); both widened to two s32 halves (4 permutes); 6 mullo
-//       (the three products, two halves); 6 stores to three product rows in scratch.
-//   A2. per gradient row, chunks of L32 = B::kLanesU32 pixels over [0, tile_width): per product w
-//       loads at x, x+1 .. x+2h and w - 1 adds (the horizontal box sum); one store into a ring of w
-//       rows in scratch (slot: gradient row mod w).
-//   B.  per output row (once the ring holds its w rows), chunks of L32 pixels: per product w loads
-//       and w - 1 adds (the vertical sum); 3 shifts (>> s); 4 mullo (a c, b b, t t, k_numerator x);
-//       4 arith (det, t, R, the lane column); 1 shift (>> k_shift); the border mask: 1 broadcast
-//       (the chunk's first column), 2 compares, 3 logic; 1 store.
+// Vector schedule, per tile (w = window_size, h = w / 2, E = tile_height + 2h rows of gradients,
+// L8 / L16 / L32 = B::kLanesU8 / U16 / U32):
+//   per tile, the column mask (-1 where r <= x < W - r) into scratch, chunks of L32 columns: 1
+//     broadcast, 1 add (lane index), 2 compares, 1 and, 1 store.
+//   A1. per gradient row, chunks of L8 pixels over columns [-h, tile_width + h): 8 u8 loads (rows
+//       y-1, y+1 at columns x-1, x, x+1; row y at x-1, x+1), each widened to two s16 halves (16
+//       permutes); per half Ix, Iy (5 arith and 2 shifts each) widened to two s32 quarters each
+//       (4 permutes), 6 mullo (the three products of two quarters), 6 stores to three product
+//       rows in scratch.
+//   A2. the first 2h gradient rows only, chunks of L32 over [0, tile_width): per product w loads at
+//       x, x+1 .. x+2h and w - 1 adds (the horizontal box sum), one store into a ring of w rows
+//       (slot: gradient row mod w).
+//   B.  every further gradient row gives output row y = e - 2h, chunks of L32: per product the
+//       horizontal sum as in A2 (w loads, w - 1 adds), stored into the ring (1 store), plus the
+//       ring's other w - 1 rows (w - 1 loads, w - 1 adds); 3 shifts (>> s); 4 mullo (a c, b b,
+//       t t, k_numerator x); 3 arith (det, t, R); 1 shift (>> k_shift); the border mask: 1 load
+//       (column mask) and 2 ands (row mask, R); 1 store. Per output row 1 broadcast (row mask).
 // Op count per tile (closed form, checked by tests/kernels/harris_response_test.cpp), with
-// C1 = ceil((tile_width + 2h) / L16), C2 = ceil(tile_width / L32), T = tile_height:
-//   load     = 1 + E C1 8 + E C2 3w + T C2 3w          (1: the lane index table)
-//   store    = E C1 6 + E C2 3 + T C2
-//   arith    = E C1 10 + E C2 3(w - 1) + T C2 (3(w - 1) + 4)
-//   shift    = E C1 4 + T C2 4
-//   multiply = E C1 6 + T C2 4
-//   permute  = 3 + E C1 12 + T + T C2                  (3: bounds and k_numerator; T: row masks)
-//   compare  = T C2 2
-//   logic    = T C2 3
-// Scratch: 4 bytes x (3 round_up(tile_width + 2h, 64) + 3 w round_up(tile_width, 64)).
+// C1 = ceil((tile_width + 2h) / L8), C2 = ceil(tile_width / L32), T = tile_height:
+//   load     = 1 + E C1 8 + 2h C2 3w + T C2 (3w + 3(w - 1) + 1)      (1: the lane index table)
+//   store    = C2 + E C1 12 + 2h C2 3 + T C2 4
+//   arith    = C2 + E C1 20 + 2h C2 3(w - 1) + T C2 (6(w - 1) + 3)
+//   shift    = E C1 8 + T C2 4
+//   multiply = E C1 12 + T C2 4
+//   permute  = 3 + C2 + E C1 24 + T                  (3: bounds and k_numerator; T: row masks)
+//   compare  = 2 C2
+//   logic    = C2 + T C2 2
+// On cv1-class (0.25 cycle per load, store, multiply, permute; 0.125 per arith, shift, compare,
+// logic) that is about 0.85 cycle a pixel with window 3 (5.66 M cycles at 3840 x 1728).
+// Scratch: 4 bytes x (3 round_up(tile_width + 2h, 64) + (3 w + 1) round_up(tile_width, 64)).
 #include <algorithm>
 #include <string>
 
@@ -101,6 +108,7 @@ void harris_response_tile(const TileArgs& args) {
   using VU8 = typename B::VU8;
   using VS16 = typename B::VS16;
   using VS32 = typename B::VS32;
+  constexpr int kLanes8 = B::kLanesU8;
   constexpr int kLanes16 = B::kLanesU16;
   constexpr int kLanes32 = B::kLanesU32;
   constexpr int kHalf = kWindow / 2;
@@ -121,49 +129,65 @@ void harris_response_tile(const TileArgs& args) {
   for (int p = 0; p < 3; ++p) products[p] = reinterpret_cast<int32_t*>(args.scratch) + p * product_stride;
   int32_t* ring = reinterpret_cast<int32_t*>(args.scratch) + 3 * product_stride;  // [product][slot][column]
   auto ring_row = [&](int product, int slot) { return ring + (product * kWindow + slot) * ring_stride; };
+  int32_t* column_mask = ring + 3 * kWindow * ring_stride;  // -1 where r <= x < W - r, else 0
 
   const VS32 lane_index = B::load(kLaneIndexS32);
   const VS32 low_bound = B::set1_s32(kRadius - 1);                  // x > r - 1
   const VS32 high_bound = B::set1_s32(args.image_width - kRadius);  // x < W - r
   const VS32 k_numerator = B::set1_s32(params.k_numerator);
+  for (int x = 0; x < width; x += kLanes32) {
+    const VS32 column = B::add(B::set1_s32(args.tile_x + x), lane_index);
+    store_clipped<B>(column_mask, x, width, B::bit_and(B::cmpgt(column, low_bound), B::cmplt(column, high_bound)));
+  }
+
+  // The horizontal box sum of product p at columns [x, x + L32) of the current product row.
+  auto horizontal_sum = [&](int p, int x) {
+    VS32 sum = load_clipped<B>(products[p], x, product_width);
+    for (int j = 1; j < kWindow; ++j) sum = B::add(sum, load_clipped<B>(products[p], x + j, product_width));
+    return sum;
+  };
 
   for (int e = 0; e < height + 2 * kHalf; ++e) {
     const int gradient_row = e - kHalf;  // tile-relative image row of this row of gradients
     const uint8_t* rows[3] = {plane_row<const uint8_t>(source, gradient_row - 1), plane_row<const uint8_t>(source, gradient_row),
                               plane_row<const uint8_t>(source, gradient_row + 1)};
-    // A1: gradients and their products.
-    for (int c = -kHalf; c < width + kHalf; c += kLanes16) {
-      auto pixels = [&](int row, int dx) {
-        const VU8 bytes = load_clipped<B>(rows[row], c + dx, readable_end);
-        return B::as_s16(B::widen_lo(bytes));
-      };
-      const VS16 top_left = pixels(0, -1), top = pixels(0, 0), top_right = pixels(0, 1);
-      const VS16 left = pixels(1, -1), right = pixels(1, 1);
-      const VS16 bottom_left = pixels(2, -1), bottom = pixels(2, 0), bottom_right = pixels(2, 1);
-      const VS16 gradient_x = B::sub(B::add(B::add(top_right, bottom_right), B::template shl<1>(right)),
-                                     B::add(B::add(top_left, bottom_left), B::template shl<1>(left)));
-      const VS16 gradient_y = B::sub(B::add(B::add(bottom_left, bottom_right), B::template shl<1>(bottom)),
-                                     B::add(B::add(top_left, top_right), B::template shl<1>(top)));
-      const VS32 x_halves[2] = {B::widen_lo(gradient_x), B::widen_hi(gradient_x)};
-      const VS32 y_halves[2] = {B::widen_lo(gradient_y), B::widen_hi(gradient_y)};
+    // A1: gradients and their products, L8 columns a chunk (two s16 halves, four s32 quarters).
+    for (int c = -kHalf; c < width + kHalf; c += kLanes8) {
+      VS16 taps[2][3][3];  // [half][row][dx + 1]; the centre tap taps[h][1][1] is not used
+      for (int row = 0; row < 3; ++row) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          if (row == 1 && dx == 0) continue;
+          const VU8 bytes = load_clipped<B>(rows[row], c + dx, readable_end);
+          taps[0][row][dx + 1] = B::as_s16(B::widen_lo(bytes));
+          taps[1][row][dx + 1] = B::as_s16(B::widen_hi(bytes));
+        }
+      }
       for (int half = 0; half < 2; ++half) {
-        const int column = c + kHalf + half * kLanes32;
-        store_clipped<B>(products[0], column, product_width, B::mullo(x_halves[half], x_halves[half]));
-        store_clipped<B>(products[1], column, product_width, B::mullo(y_halves[half], y_halves[half]));
-        store_clipped<B>(products[2], column, product_width, B::mullo(x_halves[half], y_halves[half]));
+        const auto& t = taps[half];
+        const VS16 gradient_x = B::sub(B::add(B::add(t[0][2], t[2][2]), B::template shl<1>(t[1][2])),
+                                       B::add(B::add(t[0][0], t[2][0]), B::template shl<1>(t[1][0])));
+        const VS16 gradient_y = B::sub(B::add(B::add(t[2][0], t[2][2]), B::template shl<1>(t[2][1])),
+                                       B::add(B::add(t[0][0], t[0][2]), B::template shl<1>(t[0][1])));
+        const VS32 x_quarters[2] = {B::widen_lo(gradient_x), B::widen_hi(gradient_x)};
+        const VS32 y_quarters[2] = {B::widen_lo(gradient_y), B::widen_hi(gradient_y)};
+        for (int quarter = 0; quarter < 2; ++quarter) {
+          const int column = c + kHalf + half * kLanes16 + quarter * kLanes32;
+          store_clipped<B>(products[0], column, product_width, B::mullo(x_quarters[quarter], x_quarters[quarter]));
+          store_clipped<B>(products[1], column, product_width, B::mullo(y_quarters[quarter], y_quarters[quarter]));
+          store_clipped<B>(products[2], column, product_width, B::mullo(x_quarters[quarter], y_quarters[quarter]));
+        }
       }
     }
-    // A2: horizontal box sums into the ring.
     const int slot = e % kWindow;
-    for (int x = 0; x < width; x += kLanes32) {
-      for (int p = 0; p < 3; ++p) {
-        VS32 sum = load_clipped<B>(products[p], x, product_width);
-        for (int j = 1; j < kWindow; ++j) sum = B::add(sum, load_clipped<B>(products[p], x + j, product_width));
-        store_clipped<B>(ring_row(p, slot), x, width, sum);
+    if (e < 2 * kHalf) {
+      // A2 (the first 2h rows): horizontal box sums into the ring.
+      for (int x = 0; x < width; x += kLanes32) {
+        for (int p = 0; p < 3; ++p) store_clipped<B>(ring_row(p, slot), x, width, horizontal_sum(p, x));
       }
+      continue;
     }
-    if (e < 2 * kHalf) continue;
-    // B: vertical sums, the response, the border mask.
+    // B: this row's horizontal sums (kept in the ring for the next rows) plus the ring's other
+    // w - 1 rows give the box sums; then the response and the border mask.
     const int y = e - 2 * kHalf;
     const int image_y = args.tile_y + y;
     const bool row_inside = image_y >= kRadius && image_y < args.image_height - kRadius;
@@ -172,8 +196,12 @@ void harris_response_tile(const TileArgs& args) {
     for (int x = 0; x < width; x += kLanes32) {
       VS32 sums[3];
       for (int p = 0; p < 3; ++p) {
-        sums[p] = load_clipped<B>(ring_row(p, 0), x, width);
-        for (int s = 1; s < kWindow; ++s) sums[p] = B::add(sums[p], load_clipped<B>(ring_row(p, s), x, width));
+        const VS32 newest = horizontal_sum(p, x);
+        store_clipped<B>(ring_row(p, slot), x, width, newest);
+        sums[p] = newest;
+        for (int s = 0; s < kWindow; ++s) {
+          if (s != slot) sums[p] = B::add(sums[p], load_clipped<B>(ring_row(p, s), x, width));
+        }
       }
       const VS32 a = B::template shr<kSumShift>(sums[0]);
       const VS32 c = B::template shr<kSumShift>(sums[1]);
@@ -182,8 +210,7 @@ void harris_response_tile(const TileArgs& args) {
       const VS32 trace = B::add(a, c);
       const VS32 trace_term = B::mullo(k_numerator, shift_right<B>(B::mullo(trace, trace), params.k_shift));
       const VS32 response = B::sub(determinant, trace_term);
-      const VS32 column = B::add(B::set1_s32(args.tile_x + x), lane_index);
-      const VS32 inside = B::bit_and(B::bit_and(B::cmpgt(column, low_bound), B::cmplt(column, high_bound)), row_mask);
+      const VS32 inside = B::bit_and(load_clipped<B>(column_mask, x, width), row_mask);
       store_clipped<B>(out_row, x, width, B::bit_and(response, inside));
     }
   }
@@ -278,7 +305,7 @@ KernelDescriptor make_harris_response() {
     const auto& params = *static_cast<const HarrisResponseParams*>(params_pointer);
     const int half = params.window_size / 2;
     return sizeof(int32_t) * (3 * static_cast<size_t>(round_up(tile_width + 2 * half, kRowAlign)) +
-                              3 * static_cast<size_t>(params.window_size) * round_up(tile_width, kRowAlign));
+                              (3 * static_cast<size_t>(params.window_size) + 1) * round_up(tile_width, kRowAlign));
   };
   descriptor.counting = harris_response_counting;
   descriptor.reference = harris_response_reference;

@@ -193,9 +193,9 @@ TEST(HarrisResponse, BorderModeNeverChangesTheResponse) {
   });
 }
 
-// The closed form of kernels/harris_response.cpp for the counting back end (L16 = 32, L32 = 16).
+// The closed form of kernels/harris_response.cpp for the counting back end (L8 = 64, L32 = 16).
 TEST(HarrisResponse, CountedOpsEqualClosedForm) {
-  static_assert(simd::Counting::kLanesU16 == 32 && simd::Counting::kLanesU32 == 16, "the closed form assumes 512-bit vectors");
+  static_assert(simd::Counting::kLanesU8 == 64 && simd::Counting::kLanesU32 == 16, "the closed form assumes 512-bit vectors");
   struct Shape {
     int width, height, tile_width, tile_height;
   };
@@ -207,16 +207,16 @@ TEST(HarrisResponse, CountedOpsEqualClosedForm) {
       const int64_t w = window, h = window / 2;
       simd::OpCounts expected;
       for (const TileRect& tile : make_tiles(shape.width, shape.height, shape.tile_width, shape.tile_height)) {
-        const int64_t rows = tile.height, extended_rows = tile.height + 2 * h;
-        const int64_t c1 = (tile.width + 2 * h + 31) / 32, c2 = (tile.width + 15) / 16;
-        expected[simd::OpClass::load] += 1 + extended_rows * c1 * 8 + extended_rows * c2 * 3 * w + rows * c2 * 3 * w;
-        expected[simd::OpClass::store] += extended_rows * c1 * 6 + extended_rows * c2 * 3 + rows * c2;
-        expected[simd::OpClass::arith] += extended_rows * c1 * 10 + extended_rows * c2 * 3 * (w - 1) + rows * c2 * (3 * (w - 1) + 4);
-        expected[simd::OpClass::shift] += extended_rows * c1 * 4 + rows * c2 * 4;
-        expected[simd::OpClass::multiply] += extended_rows * c1 * 6 + rows * c2 * 4;
-        expected[simd::OpClass::permute] += 3 + extended_rows * c1 * 12 + rows + rows * c2;
-        expected[simd::OpClass::compare] += rows * c2 * 2;
-        expected[simd::OpClass::logic] += rows * c2 * 3;
+        const int64_t rows = tile.height, extended_rows = tile.height + 2 * h, warm_up_rows = 2 * h;
+        const int64_t c1 = (tile.width + 2 * h + 63) / 64, c2 = (tile.width + 15) / 16;
+        expected[simd::OpClass::load] += 1 + extended_rows * c1 * 8 + warm_up_rows * c2 * 3 * w + rows * c2 * (3 * w + 3 * (w - 1) + 1);
+        expected[simd::OpClass::store] += c2 + extended_rows * c1 * 12 + warm_up_rows * c2 * 3 + rows * c2 * 4;
+        expected[simd::OpClass::arith] += c2 + extended_rows * c1 * 20 + warm_up_rows * c2 * 3 * (w - 1) + rows * c2 * (6 * (w - 1) + 3);
+        expected[simd::OpClass::shift] += extended_rows * c1 * 8 + rows * c2 * 4;
+        expected[simd::OpClass::multiply] += extended_rows * c1 * 12 + rows * c2 * 4;
+        expected[simd::OpClass::permute] += 3 + c2 + extended_rows * c1 * 24 + rows;
+        expected[simd::OpClass::compare] += 2 * c2;
+        expected[simd::OpClass::logic] += c2 + rows * c2 * 2;
       }
       EXPECT_TRUE(testing::op_counts_equal(expected, testing::count_ops(test_case, shape.tile_width, shape.tile_height)))
           << "window " << window << " " << shape.width << "x" << shape.height << " in tiles of " << shape.tile_width << "x"
