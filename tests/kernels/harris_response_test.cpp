@@ -20,15 +20,20 @@ using testing::expect_all_back_ends_match_reference;
 using testing::KernelCase;
 using testing::random_plane;
 
-const std::vector<std::pair<int, int>> kTileShapes = {{631, 479}, {64, 16}, {100, 37}, {7, 5}, {1, 1}};
+const std::vector<std::pair<int, int>> kTileShapes = {{631, 479}, {64, 16}, {100, 37}, {7, 5}};
 
 TEST(HarrisResponse, MatchesReferenceAtOddSizeInPaddedBuffer) {
-  for (const nlohmann::json& params : {nlohmann::json::object(), nlohmann::json{{"window_size", 5}},
-                                       nlohmann::json{{"window_size", 5}, {"k_numerator", 1}, {"k_shift", 4}},
-                                       nlohmann::json{{"k_numerator", 256}, {"k_shift", 8}}}) {
-    KernelCase test_case{"harris_response", params, {}, 12};
+  for (int window : {3, 5}) {
+    KernelCase test_case{"harris_response", {{"window_size", window}}, {}, 12};
     test_case.inputs.push_back(random_plane(631, 479, {ElementType::u8, 0}, 640, 21));
     expect_all_back_ends_match_reference(test_case, kTileShapes);
+  }
+  // Other k at a smaller odd size: the extreme k = 1 (256 / 2^8) and 1/16.
+  for (const nlohmann::json& params : {nlohmann::json{{"window_size", 5}, {"k_numerator", 1}, {"k_shift", 4}},
+                                       nlohmann::json{{"k_numerator", 256}, {"k_shift", 8}}}) {
+    KernelCase test_case{"harris_response", params, {}, 12};
+    test_case.inputs.push_back(random_plane(203, 97, {ElementType::u8, 0}, 224, 25));
+    expect_all_back_ends_match_reference(test_case, {{203, 97}, {64, 16}, {7, 5}});
   }
 }
 
@@ -37,7 +42,7 @@ TEST(HarrisResponse, TinyImages) {
     for (auto [width, height] : std::vector<std::pair<int, int>>{{1, 1}, {5, 5}, {7, 7}, {8, 3}, {65, 9}, {33, 2}}) {
       KernelCase test_case{"harris_response", {{"window_size", window}}, {}, 4};
       test_case.inputs.push_back(random_plane(width, height, {ElementType::u8, 0}, width + 5, 22));
-      expect_all_back_ends_match_reference(test_case, {{width, height}, {2, 1}, {3, 4}});
+      expect_all_back_ends_match_reference(test_case, {{width, height}, {2, 1}, {3, 4}, {1, 1}});
     }
   }
 }
