@@ -12,9 +12,9 @@
 //   R(x, y) > R(neighbour) for the neighbours BEFORE it in raster order (rows above, and the same
 //   row to its left) and R(x, y) >= R(neighbour) for those AFTER it. Ties thus go to the first
 //   pixel in raster order: a plateau of equal responses gives one corner, at its first pixel, as long
-//   as each of its other pixels has an equal neighbour before it within the radius (any plateau
-//   that is one connected blob no wider than it is tall does; a plateau shaped like a U opening
-//   upwards, whose two arms start on the same row more than `radius` apart, gives one per arm).
+//   as each of its other pixels has an equal neighbour before it within the radius, as in
+//   rectangles, straight lines and other convex plateaus; a plateau with two separate tops (a U
+//   opening upwards whose arms are more than `radius` apart) gives one corner per top.
 //   threshold >= 0, so harris_response's zero border band never holds a corner.
 // Border: neighbours outside the image are the executor's halo, per border mode: replicate (a copy
 //   of the edge pixel: equal, so a pixel of the first row or column, whose copies come BEFORE it, is
