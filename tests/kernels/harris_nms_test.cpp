@@ -82,7 +82,8 @@ std::vector<std::pair<int, int>> corner_positions(const Plane& mask) {
 
 // Plateaus by hand (threshold 10): a 3x3 block of 50 gives one corner at its first pixel; a
 // horizontal run of 7 equal values gives one, at its left end; a single peak next to an equal
-// value after it in raster order is kept (>= after), one with an equal value before it is not.
+// value after it in raster order is kept (>= after), one with an equal value before it is not; a
+// diagonal line gives one at its top; a U opening upwards gives one per arm (the documented limit).
 TEST(HarrisNms, PlateausGiveOneCornerAtTheirFirstPixel) {
   Plane response(40, 20, {ElementType::s32, 0});
   for (int y = 0; y < 20; ++y) {
@@ -94,10 +95,16 @@ TEST(HarrisNms, PlateausGiveOneCornerAtTheirFirstPixel) {
   for (int x = 15; x < 22; ++x) response.at<int32_t>(x, 10) = 70;
   response.at<int32_t>(30, 14) = 90;  // an equal pair on one row: the left one wins
   response.at<int32_t>(31, 14) = 90;
+  for (int i = 0; i < 4; ++i) response.at<int32_t>(28 - i, 2 + i) = 60;  // a line down and to the left: its top
+  for (int y = 2; y < 5; ++y) {  // a U opening upwards, arms 3 px apart: two tops, two corners
+    response.at<int32_t>(34, y) = 40;
+    response.at<int32_t>(37, y) = 40;
+  }
+  for (int x = 34; x < 38; ++x) response.at<int32_t>(x, 4) = 40;
   for (int radius : {1, 2}) {
     on_every_back_end([&](KernelBackend backend, simd::Isa isa, const std::string& label) {
       const Plane mask = run_kernel("harris_nms", response, {{"radius", radius}, {"threshold", 10}}, ElementType::u8, backend, isa);
-      const std::vector<std::pair<int, int>> expected = {{5, 5}, {15, 10}, {30, 14}};
+      const std::vector<std::pair<int, int>> expected = {{28, 2}, {34, 2}, {37, 2}, {5, 5}, {15, 10}, {30, 14}};
       EXPECT_EQ(corner_positions(mask), expected) << label << " radius " << radius;
     });
   }
