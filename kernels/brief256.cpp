@@ -1,5 +1,5 @@
 // brief256: BRIEF-256 binary descriptors (Calonder, Lepetit, Strecha, Fua, ECCV 2010) of the
-// keypoint list, sampled with the steered pattern of one yaw sector (thesis 003 ch. 3), u8 image +
+// keypoint list, sampled with the steered pattern of one yaw sector (thesis 003 §3.5, fig. 3.7), u8 image +
 // keypoint list -> u32 descriptors. Pattern, bit order and steering: kernels/brief_pattern.h.
 //
 // Ports: "image" u8 (PortAccess::whole: the keypoints are anywhere), "keypoints" s32 (the list of

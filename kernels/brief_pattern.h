@@ -1,5 +1,5 @@
 // The BRIEF-256 sampling pattern of kernel "brief256" (kernels/brief256.cpp) and its 16 steered
-// copies, one per yaw sector (thesis 003 ch. 3: the filter's yaw quantised into 16 sectors of 22.5
+// copies, one per yaw sector (thesis 003 §3.5, fig. 3.7: the filter's yaw quantised into 16 sectors of 22.5
 // degrees, the descriptor's sampling pattern rotated by the sector instead of computing a
 // rotation-invariant descriptor per feature).
 //

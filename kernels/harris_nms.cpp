@@ -1,5 +1,5 @@
 // harris_nms: non-maximum suppression of a corner response (kernels/harris_response.cpp), s32 -> u8
-// corner mask (thesis 003 ch. 3: Harris corners after non-maximum suppression).
+// corner mask (thesis 003 §3.5, fig. 3.7: Harris corners after non-maximum suppression).
 //
 // Ports: input "response" s32 (any Q format; window, halo = radius on every side), output "corners"
 //   u8 of the same size: 1 = corner, 0 = not (no other value).

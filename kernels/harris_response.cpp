@@ -1,5 +1,5 @@
 // harris_response: the Harris corner response (C. Harris, M. Stephens, "A combined corner and edge
-// detector", Alvey Vision Conference 1988; thesis 003 ch. 3), in fixed point, u8 -> s32.
+// detector", Alvey Vision Conference 1988; thesis 003 §3.5, fig. 3.7), in fixed point, u8 -> s32.
 //
 // Ports: input "image" u8 (window, halo r = 1 + window_size / 2 on every side: 2 or 3), output
 //   "response" s32 (Q format below) of the same size.

@@ -1,8 +1,9 @@
 // ARM task "select_keypoints": the keypoint list (arm/tasks/keypoint_record.h) from the Harris corner
 // mask (kernels/harris_nms.cpp) and response (kernels/harris_response.cpp): the strongest
-// per_cell_k corners of every cell of a grid, at most max_keypoints in all. Thesis 003 ch. 3 spreads
-// the features over the image this way so that localization is not dominated by one textured patch;
-// the obstacle detector (issue 6 item 5) reads the same list.
+// per_cell_k corners of every cell of a grid, at most max_keypoints in all. Bucketing by cells (as
+// libviso2 and ORB-SLAM do when they extract features) spreads the keypoints over the image so that
+// localization (thesis 003 §3.5) is not dominated by one textured patch; the thesis itself names no
+// selection rule. The obstacle detector's feature validation (issue 6 item 5) reads the same list.
 //
 // Model. Candidates are the pixels with corner mask 1 inside [border_px, W - border_px) x
 // [border_px, H - border_px) (border_px keeps the BRIEF patch inside the image: 16 for brief256's
