@@ -12,6 +12,9 @@
 //   rounded); a wider one may be chained for noisier sensors. The kernel samples the pixels it is
 //   given.
 // Parameters: yaw_sector (0 .. 15, default 0): the pattern rotated by yaw_sector x 22.5 degrees.
+//   Thesis 003 §3.5 picks the sector of the difference between the filter's yaw and the stored
+//   keyframe's yaw; the caller maps that difference to the image rotation its camera mounting gives
+//   (an image rotated by +s x 22.5 degrees in this header's sense is matched by sector s).
 // Zero descriptors: a row whose record has kKeypointValid == 0, or whose keypoint is not in
 //   15 <= x < W - 15, 15 <= y < H - 15 (the 31 x 31 patch would leave the image). Images narrower or lower than 31 px give all-zero descriptors.
 //   select_keypoints' default border_px = 16 keeps every listed keypoint usable.
