@@ -63,6 +63,16 @@ Plane golden_input(const PortSpec& port, PlaneShape shape, uint32_t seed) {
     return plane;
   }
   std::mt19937 words(seed);
+  if (port.name == "keypoints" && port.format.type == ElementType::s32) {
+    // A keypoint list (arm/tasks/keypoint_record.h: valid, x, y, response) over a 97 x 61 image:
+    // positions anywhere (some too near the border for a patch), every fifth row invalid.
+    for (int y = 0; y < shape.height; ++y) {
+      int32_t* record = plane.row<int32_t>(y);
+      record[0] = y % 5 == 4 ? 0 : 1;
+      for (int x = 1; x < shape.width; ++x) record[x] = static_cast<int32_t>(static_cast<uint32_t>(words()) % (x == 2 ? 61u : 97u));
+    }
+    return plane;
+  }
   for (int y = 0; y < shape.height; ++y) {
     for (int x = 0; x < shape.width; ++x) {
       const uint32_t word = static_cast<uint32_t>(words());
@@ -146,6 +156,12 @@ const std::vector<GoldenCase>& golden_cases() {
       {"sgm_4path_column_pair_sums_census64", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 61}, {97, 61}}, 0xc4b1077f5a193c01ull},
       {"sgm_8path_backward_sums", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 61}, {97, 61}}, 0x7b4b1d3f9218db9dull},
       {"sgm_8path_backward_sums_census64", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 61}, {97, 61}}, 0xfa203fec69c83cb2ull},
+      {"harris_response", {{"window_size", 5}}, BorderMode::replicate, {{97, 61}}, 0xfe0ee533a9eb353full},
+      // Raw random words: responses of every sign and size, the default threshold.
+      {"harris_nms", {{"radius", 2}}, BorderMode::constant, {{97, 61}}, 0x28b080498a8d55f6ull},
+      {"gaussian5x5", nlohmann::json::object(), BorderMode::constant, {{97, 61}}, 0x1cac97398381bbb3ull},
+      // 40 keypoints on a 97 x 61 image (see golden_input), sector 3.
+      {"brief256", {{"yaw_sector", 3}}, BorderMode::replicate, {{97, 61}, {4, 40}}, 0x82fa07fab96d7ccbull},
       {"sgm_sums_select", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}, {"uniqueness_percent", 5}, {"subpixel", 1}, {"lr_max_diff", 1}}, BorderMode::replicate, {{97 * 40, 61}, {97 * 40, 61}}, 0xe8ebb4cbc8b52d59ull},
   };
   return cases;
