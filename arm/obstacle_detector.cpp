@@ -51,7 +51,10 @@ std::string settings_text(const ObstacleParameters& p) {
 ObstacleParameters ObstacleParameters::for_disparity_range(int min_disparity_px, int num_disparities) const {
   ObstacleParameters result = *this;
   result.min_disparity = min_disparity_px;
-  result.v_disparity_bins = num_disparities;
+  // The V-disparity's cost grows with its bins (kernels/v_disparity.cpp: 10.6 ms at 3840x1728 for
+  // 128); the road line needs the middle distances, not the rows nearer than 128 px of disparity
+  // (the bottom tenth of a 4K frame), so at most kMaxVDisparityBins.
+  result.v_disparity_bins = std::min(num_disparities, kMaxVDisparityBins);
   // The grid's rows end below d_max (exclusive): the largest disparity searched, with its sub-pixel
   // part, is below min + num.
   result.grid.geometry.max_disparity_px = std::max(result.grid.geometry.min_disparity_px + 1.0,
@@ -60,20 +63,27 @@ ObstacleParameters ObstacleParameters::for_disparity_range(int min_disparity_px,
 }
 
 void add_keypoint_nodes(GraphSpec& spec, const ObstacleParameters& parameters) {
-  // The feature stage (branch features) plugs in here: harris_response on "left", harris_nms,
-  // select_keypoints into the record buffer "keypoints" (kKeypointWords x max_keypoints); brief256 is
-  // not needed for validation. Until those kernels exist the flag is refused.
-  (void)spec;
-  (void)parameters;
-  for (const char* kernel : {"harris_response", "harris_nms", "select_keypoints"}) {
-    if (KernelRegistry::instance().find(kernel) == nullptr && ArmTaskRegistry::instance().find(kernel) == nullptr) {
-      throw std::invalid_argument(std::string("obstacle parameter 'feature_validation': needs the kernel '") + kernel +
-                                  "' (feature stage), which this build does not have; run without feature validation");
-    }
-  }
-  throw std::invalid_argument(
-      "obstacle parameter 'feature_validation': the feature kernels are present but add_keypoint_nodes "
-      "(arm/obstacle_detector.cpp) does not wire them yet");
+  // The feature stage of graphs/features.json on the graph input "left" (brief256 is not needed to
+  // validate): the fixed-point Harris response, its 3x3 non-maximum suppression and the keypoint
+  // list, with the settings of ObstacleParameters::features.
+  const FeatureSettings& f = parameters.features;
+  NodeSpec response = node("harris_response", "harris_response", "");
+  response.inputs["image"] = {"left", false};
+  response.outputs["response"] = "harris";
+  response.params = {{"window_size", 3}, {"k_numerator", 3}, {"k_shift", 6}};
+  spec.nodes.push_back(response);
+  NodeSpec suppression = node("harris_nms", "harris_nms", "");
+  suppression.inputs["response"] = {"harris", false};
+  suppression.outputs["corners"] = "corners";
+  suppression.params = {{"radius", 1}, {"threshold", f.harris_threshold}};
+  spec.nodes.push_back(suppression);
+  NodeSpec selection = node("select_keypoints", "", "select_keypoints");
+  selection.inputs["corners"] = {"corners", false};
+  selection.inputs["response"] = {"harris", false};
+  selection.outputs["keypoints"] = "keypoints";
+  selection.params = {{"cell_size_px", f.cell_size_px}, {"per_cell_k", f.per_cell_k}, {"max_keypoints", f.max_keypoints},
+                      {"border_px", f.border_px}};
+  spec.nodes.push_back(selection);
 }
 
 GraphSpec ObstacleDetector::graph_spec(const ObstacleParameters& p) {
@@ -155,8 +165,10 @@ GraphSpec ObstacleDetector::graph_spec(const ObstacleParameters& p) {
     NodeSpec validation = node("obstacle_feature_validation", "", "obstacle_feature_validation");
     validation.inputs["obstacles"] = {"clusters", false};
     validation.inputs["keypoints"] = {"keypoints", false};
+    validation.inputs["mask"] = {"mask", false};
     validation.outputs["validated"] = "obstacles";
-    validation.params = {{"margin_px", p.validation.margin_px}, {"min_features", p.validation.min_features}};
+    validation.params = {{"margin_px", p.validation.margin_px}, {"min_features", p.validation.min_features},
+                         {"mask_radius_px", p.validation.mask_radius_px}};
     spec.nodes.push_back(validation);
     spec.description += ", feature validation";
   }

@@ -8,16 +8,17 @@
 //   vldh_mask (vector)                "disparity" + "road" -> "mask" (u8, kernels/obstacle_mask.h)
 //   advanced_u_disparity (vector)     "disparity" + "mask" -> "grid" (u16, grid_columns x grid_rows)
 //   obstacle_clusters (ARM)           "grid" + "disparity" + "mask" -> "clusters" (records)
-//   obstacle_feature_validation (ARM, only with feature_validation = true)
-//                                     "clusters" + "keypoints" -> "obstacles"
+//   harris_response, harris_nms (vector), select_keypoints (ARM)
+//                                     graph input "left" (u8) -> "keypoints" (with feature_validation)
+//   obstacle_feature_validation (ARM, only with feature_validation = true, the default)
+//                                     "clusters" + "keypoints" + "mask" -> "obstacles"
 // Without feature validation obstacle_clusters writes "obstacles" directly. Outputs: "obstacles"
 // (kObstacleWords x max_obstacles s32, arm/tasks/obstacle_record.h), "road" (arm/tasks/road_profile.h),
 // "vdisp", "mask", "grid" (for pictures).
 //
-// Feature validation needs "keypoints" (arm/tasks/keypoint_record.h) from the left image: the Harris
-// kernels (harris_response, harris_nms, select_keypoints, on the features branch) are not in this
-// build yet, so add_keypoint_nodes() -- the hook they plug into -- refuses with a clear message, and
-// feature_validation defaults to false.
+// Feature validation needs "keypoints" (arm/tasks/keypoint_record.h) from the left image:
+// add_keypoint_nodes() adds the Harris nodes of graphs/features.json. A cluster is kept when a corner
+// stands on (within mask_radius_px of) one of its obstacle-mask pixels (thesis 003 §4.2.4, fig. 4.8).
 //
 // Defaults: ObstacleParameters is the single source for the detector, the CLI and graphs built from
 // it; it aggregates the stage settings of arm/tasks/obstacle_clusters.h (which the ARM tasks also use
@@ -55,6 +56,18 @@ struct VldhSettings {
   int rows_above_horizon = 64;     // rows above the horizon that may still hold obstacles
 };
 
+// The Harris corners that validate clusters (kernels/harris_response.cpp, harris_nms.cpp,
+// arm/tasks/select_keypoints.cpp document each).
+struct FeatureSettings {
+  int harris_threshold = 3000;   // harris_nms: R above this (a step corner of about 25 grey levels; kernels/harris_nms.cpp)
+  int cell_size_px = 32;         // select_keypoints: the strongest per_cell_k corners of every cell
+  int per_cell_k = 4;
+  int max_keypoints = 32768;
+  int border_px = 2;
+};
+
+inline constexpr int kMaxVDisparityBins = 128;  // for_disparity_range's cap (see there)
+
 struct ObstacleParameters {
   // The rectified camera (from the calibration): focal length and baseline are required (> 0).
   double focal_px = 0.0;
@@ -78,7 +91,10 @@ struct ObstacleParameters {
   AudGridSettings grid;
   int grid_tile_columns = 16;      // advanced_u_disparity's tile width in cells (a 4K frame must not sit in SRAM)
   ObstacleClusterSettings clusters;
-  bool feature_validation = false;  // needs the Harris kernels (see add_keypoint_nodes)
+  // Feature validation (thesis 003 §4.2.4): a cluster without a Harris corner standing on its
+  // obstacle pixels is dropped. Off: every cluster is kept (the left view is not read).
+  bool feature_validation = true;
+  FeatureSettings features;
   FeatureValidationSettings validation;
 
   // These parameters with the V-disparity bins and the grid's top disparity set to the search
@@ -123,9 +139,8 @@ class ObstacleDetector {
   std::unique_ptr<FrameRunner> runner_;
 };
 
-// The hook for the feature stage: adds to `spec` the nodes that turn the graph input "left" (u8)
-// into the buffer "keypoints" (arm/tasks/keypoint_record.h). Until harris_response, harris_nms and
-// select_keypoints are in the build it throws std::invalid_argument saying so.
+// The feature stage: adds to `spec` the nodes that turn the graph input "left" (u8) into the buffer
+// "keypoints" (arm/tasks/keypoint_record.h): harris_response, harris_nms, select_keypoints.
 void add_keypoint_nodes(GraphSpec& spec, const ObstacleParameters& parameters);
 
 }  // namespace lpstereo::arm

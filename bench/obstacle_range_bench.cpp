@@ -18,6 +18,8 @@
 //
 // Usage: obstacle_range_bench [--from-m 20] [--to-m 150] [--step-m 5] [--seeds 1] [--empty-seeds 10]
 //                             [--slope-deg 2] [--width 3840 --height 1728] [--threads 2]
+//        tuning (the detector's defaults otherwise): [--harris-threshold R] [--mask-radius PX]
+//                             [--far-height-m M] [--feature-validation 0|1]
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -41,6 +43,7 @@ struct Options {
   int seeds = 1, empty_seeds = 10;
   double slope_deg = 2;
   eval::RangeTestSetup setup;
+  arm::ObstacleParameters detector;  // the defaults, but for the tuning flags below
 };
 
 bool parse(int argc, char** argv, Options& options) {
@@ -57,6 +60,10 @@ bool parse(int argc, char** argv, Options& options) {
     else if (name == "--width") options.setup.width = std::atoi(value);
     else if (name == "--height") options.setup.height = std::atoi(value);
     else if (name == "--threads") options.setup.threads = std::atoi(value);
+    else if (name == "--harris-threshold") options.detector.features.harris_threshold = std::atoi(value);
+    else if (name == "--mask-radius") options.detector.validation.mask_radius_px = std::atoi(value);
+    else if (name == "--far-height-m") options.detector.clusters.far_min_height_m = std::atof(value);
+    else if (name == "--feature-validation") options.detector.feature_validation = std::atoi(value) != 0;
     else return false;
   }
   return options.step_m > 0 && options.to_m >= options.from_m && options.seeds >= 1 && options.empty_seeds >= 0 &&
@@ -70,11 +77,12 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, options)) {
     std::fprintf(stderr,
                  "usage: obstacle_range_bench [--from-m M] [--to-m M] [--step-m M] [--seeds N] [--empty-seeds N] "
-                 "[--slope-deg D] [--width W --height H] [--threads N]\n");
+                 "[--slope-deg D] [--width W --height H] [--threads N] [--harris-threshold R] [--mask-radius PX] "
+                 "[--far-height-m M] [--feature-validation 0|1]\n");
     return 2;
   }
   const eval::RangeTestSetup& setup = options.setup;
-  eval::RangeTestRunner runner(setup);
+  eval::RangeTestRunner runner(setup, options.detector);
   const arm::ObstacleParameters& detector = runner.detector_parameters();
   std::printf("obstacle_range_bench: %dx%d, hfov %.0f deg (focal %.2f px), baseline %.2f m, camera height %.2f m, noise %.1f, "
               "disparities [0, %d), 8-path SGM engine defaults, %d threads\n",

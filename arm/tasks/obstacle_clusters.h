@@ -50,6 +50,7 @@ struct ObstacleClusterSettings {
 struct FeatureValidationSettings {
   int margin_px = 2;      // the bounding box grown by this on every side before counting keypoints
   int min_features = 1;   // records with fewer keypoints inside are dropped (thesis 003 §4.2.4)
+  int mask_radius_px = 1; // a keypoint counts only with an obstacle-mask pixel this near (-1: any keypoint)
 };
 
 // T_r of eq. 4.3 for every grid row r (the occupancy threshold of a cell in row r, 65536 = never):

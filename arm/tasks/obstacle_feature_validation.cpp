@@ -6,21 +6,30 @@
 // Steps, per frame: for each valid obstacle record (in order), count the valid keypoints (x, y) with
 // x0 - margin_px <= x <= x1 + margin_px and y0 - margin_px <= y <= y1 + margin_px (the bounding box,
 // inclusive, grown by margin_px: a corner on the object's outline lies on or just outside the box of
-// its mask pixels); write that count into kObstacleFeatures; keep the record when the count >=
+// its mask pixels) and, with mask_radius_px >= 0, an obstacle-mask pixel (kMaskObstacle) within
+// mask_radius_px of (x, y) (Chebyshev distance): the corner itself must stand on the obstacle, above
+// the road. Without that, the corners of painted lane-marking dashes validate the disparity artefact
+// SGM leaves above a dash (a few rows at the dash's disparity, vertical and above the road: the
+// detector's commonest false positive on the 4K range test; docs/obstacles.md), since a dash's
+// corners lie in that box but on road pixels. Write the count into kObstacleFeatures; keep the record when the count >=
 // min_features. Kept records are written in their input order from row 0 on (compacted), every word
 // but kObstacleFeatures unchanged (the ids too, so a dropped record leaves a gap); the rows after them
 // are zero. Both lists end at their first row with valid = 0.
 //
-// Ports: "obstacles" s32 kObstacleWords x N, "keypoints" s32 kKeypointWords x K; output "validated"
-// s32 kObstacleWords x N.
+// Ports: "obstacles" s32 kObstacleWords x N, "keypoints" s32 kKeypointWords x K, "mask" u8 (the
+// vldh_mask output, kernels/obstacle_mask.h); output "validated" s32 kObstacleWords x N.
 //
-// Parameters: margin_px (>= 0), min_features (>= 0; 0 keeps every record and only counts). Defaults:
-// FeatureValidationSettings in arm/tasks/obstacle_clusters.h.
+// Parameters: margin_px (>= 0), min_features (>= 0; 0 keeps every record and only counts),
+// mask_radius_px (-1 = the mask is not consulted, 0 .. 8). Defaults: FeatureValidationSettings in
+// arm/tasks/obstacle_clusters.h.
 //
 // Counted work (deterministic, ArmWork), with O valid obstacle records, V valid keypoints, N rows:
 //   scalar_ops   = O (6 + 6 V) (per record the grown box; per keypoint two loads, four compares, an
-//                  add) + V + 1 (the keypoint list's end) + kObstacleWords per kept record (the copy);
-//   memory_bytes = 4 kKeypointWords V + 2 * 4 kObstacleWords N (records read and written).
+//                  add) + 2 (2 r + 1)^2 per keypoint inside a box when mask_radius_px = r >= 0 (a load
+//                  and a compare per mask pixel looked at) + V + 1 (the keypoint list's end) +
+//                  kObstacleWords per kept record (the copy);
+//   memory_bytes = 4 kKeypointWords V + 2 * 4 kObstacleWords N (records read and written) + (2 r + 1)^2
+//                  per keypoint inside a box (mask bytes).
 #include <algorithm>
 #include <cstring>
 #include <string>
@@ -29,6 +38,7 @@
 #include "arm/tasks/obstacle_clusters.h"
 #include "arm/tasks/obstacle_record.h"
 #include "dag/arm_task.h"
+#include "kernels/obstacle_mask.h"
 
 namespace lpstereo::arm {
 
@@ -37,17 +47,19 @@ namespace {
 struct FeatureValidationParams {
   int margin_px = 0;
   int min_features = 0;
+  int mask_radius_px = -1;
 };
 
 PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShape>& input_shapes) {
-  check_param_names(params, {"margin_px", "min_features"});
-  if (input_shapes.size() != 2) {
-    throw KernelError("inputs: expected 2 (obstacles, keypoints), got " + std::to_string(input_shapes.size()));
+  check_param_names(params, {"margin_px", "min_features", "mask_radius_px"});
+  if (input_shapes.size() != 3) {
+    throw KernelError("inputs: expected 3 (obstacles, keypoints, mask), got " + std::to_string(input_shapes.size()));
   }
   const FeatureValidationSettings defaults;
   auto prepared = std::make_shared<FeatureValidationParams>();
   prepared->margin_px = param_int(params, "margin_px", defaults.margin_px, 0, 1 << 20);
   prepared->min_features = param_int(params, "min_features", defaults.min_features, 0, 1 << 30);
+  prepared->mask_radius_px = param_int(params, "mask_radius_px", defaults.mask_radius_px, -1, 8);
   const PlaneShape& obstacles = input_shapes[0];
   const PlaneShape& keypoints = input_shapes[1];
   if (obstacles.width != kObstacleWords) {
@@ -65,7 +77,23 @@ void run(const ArmTaskArgs& args) {
   const auto& p = *static_cast<const FeatureValidationParams*>(args.params);
   const Plane& obstacles = *args.inputs.at(0);
   const Plane& keypoints = *args.inputs.at(1);
+  const Plane& mask = *args.inputs.at(2);
   Plane& output = *args.outputs.at(0);
+  uint64_t mask_bytes = 0;
+  // True when an obstacle-mask pixel lies within mask_radius_px of (x, y) (or the mask is not used).
+  auto on_obstacle = [&](int32_t x, int32_t y) {
+    if (p.mask_radius_px < 0) return true;
+    const int r = p.mask_radius_px;
+    mask_bytes += static_cast<uint64_t>((2 * r + 1) * (2 * r + 1));
+    for (int dy = -r; dy <= r; ++dy) {
+      for (int dx = -r; dx <= r; ++dx) {
+        const int64_t mx = int64_t{x} + dx, my = int64_t{y} + dy;
+        if (mx < 0 || my < 0 || mx >= mask.width() || my >= mask.height()) continue;
+        if (mask.row<const uint8_t>(static_cast<int>(my))[mx] == kernels::kMaskObstacle) return true;
+      }
+    }
+    return false;
+  };
   uint64_t ops = 1;
   int keypoint_count = 0;
   while (keypoint_count < keypoints.height() && keypoints.row<const int32_t>(keypoint_count)[kKeypointValid] != 0) {
@@ -82,7 +110,7 @@ void run(const ArmTaskArgs& args) {
     for (int k = 0; k < keypoint_count; ++k) {
       const int32_t* keypoint = keypoints.row<const int32_t>(k);
       const int32_t x = keypoint[kKeypointXPx], y = keypoint[kKeypointYPx];
-      features += (x >= x0 && x <= x1 && y >= y0 && y <= y1) ? 1 : 0;
+      if (x >= x0 && x <= x1 && y >= y0 && y <= y1 && on_obstacle(x, y)) ++features;
     }
     ops += 6ull + 6ull * keypoint_count;
     if (features < p.min_features) continue;
@@ -97,7 +125,8 @@ void run(const ArmTaskArgs& args) {
   }
   if (args.work != nullptr) {
     args.work->scalar_ops += ops;
-    args.work->memory_bytes += 4ull * kKeypointWords * keypoint_count + 2ull * 4 * kObstacleWords * obstacles.height();
+    args.work->scalar_ops += 2 * mask_bytes;
+    args.work->memory_bytes += 4ull * kKeypointWords * keypoint_count + 2ull * 4 * kObstacleWords * obstacles.height() + mask_bytes;
   }
 }
 
@@ -107,6 +136,7 @@ ArmTaskDescriptor make_obstacle_feature_validation() {
   descriptor.summary = "counts the keypoints inside each obstacle's grown bounding box, drops obstacles with fewer than min_features";
   descriptor.ports = {{"obstacles", PortDirection::input, {ElementType::s32, 0}, PortAccess::whole},
                       {"keypoints", PortDirection::input, {ElementType::s32, 0}, PortAccess::whole},
+                      {"mask", PortDirection::input, {ElementType::u8, 0}, PortAccess::whole},
                       {"validated", PortDirection::output, {ElementType::s32, 0}, PortAccess::whole}};
   descriptor.prepare = prepare;
   descriptor.run = run;

@@ -5,6 +5,8 @@
 // the counted ArmWork closed forms; keypoint validation dropping a cluster without a keypoint.
 #include <gtest/gtest.h>
 
+#include <functional>
+
 #include <array>
 #include <string>
 #include <vector>
@@ -387,12 +389,24 @@ Plane keypoint_list(const std::vector<std::pair<int, int>>& points, int rows) {
   return keypoints;
 }
 
-TaskRun run_validation(const Plane& records, const Plane& keypoints, const nlohmann::json& params) {
+// A 48 x 40 mask, all free, with obstacle pixels where `obstacle` says.
+Plane validation_mask(const std::function<bool(int, int)>& obstacle) {
+  Plane mask(48, 40, {ElementType::u8, 0});
+  for (int y = 0; y < 40; ++y) {
+    for (int x = 0; x < 48; ++x) mask.at<uint8_t>(x, y) = obstacle(x, y) ? kernels::kMaskObstacle : kernels::kMaskFree;
+  }
+  return mask;
+}
+
+// Without "mask_radius_px" in `params` the mask is not consulted (-1): the box tests below.
+TaskRun run_validation(const Plane& records, const Plane& keypoints, nlohmann::json params,
+                       const Plane& mask = validation_mask([](int, int) { return false; })) {
+  if (!params.contains("mask_radius_px")) params["mask_radius_px"] = -1;
   const ArmTaskDescriptor& task = task_named("obstacle_feature_validation");
-  const PreparedKernel prepared =
-      task.prepare(params, {{records.width(), records.height()}, {keypoints.width(), keypoints.height()}});
+  const PreparedKernel prepared = task.prepare(
+      params, {{records.width(), records.height()}, {keypoints.width(), keypoints.height()}, {mask.width(), mask.height()}});
   TaskRun result{Plane(prepared.output_shapes.at(0).width, prepared.output_shapes.at(0).height, {ElementType::s32, 0}), {}};
-  ArmTaskArgs args{{&records, &keypoints}, {&result.output}, prepared.params.get(), &result.work};
+  ArmTaskArgs args{{&records, &keypoints, &mask}, {&result.output}, prepared.params.get(), &result.work};
   task.run(args);
   return result;
 }
@@ -433,11 +447,36 @@ TEST(ObstacleFeatureValidation, DropsTheClusterWithoutAKeypointAndCountsTheOther
   EXPECT_EQ(arm::decode_obstacles(run_validation(records, keypoints, {{"margin_px", 0}}).output)[0].features, 1);
 }
 
+// With the mask: a keypoint counts only when an obstacle-mask pixel lies within mask_radius_px of
+// it. Record id 1's box [10, 16] x [10, 20] holds the keypoints (12, 12) and (15, 19); the mask marks
+// obstacle pixels only on rows 10 .. 14 (the object's upper part; below, its foot and the road).
+// Radius 1: (12, 12) counts, (15, 19) does not (nearest obstacle row 14 is 5 away); radius 0 the
+// same; radius 5 both count. A box whose only keypoint stands on road pixels is dropped.
+TEST(ObstacleFeatureValidation, CountsOnlyKeypointsOnObstaclePixels) {
+  const Plane records = obstacle_records({{1, 10, 10, 16, 20}, {2, 30, 5, 35, 9}}, 3);
+  const Plane keypoints = keypoint_list({{12, 12}, {15, 19}, {32, 7}}, 4);
+  const Plane mask = validation_mask([](int x, int y) { return x >= 10 && x <= 16 && y >= 10 && y <= 14; });
+  const std::vector<Obstacle> radius1 = arm::decode_obstacles(run_validation(records, keypoints, {{"margin_px", 0}, {"mask_radius_px", 1}}, mask).output);
+  ASSERT_EQ(radius1.size(), 1u);  // id 2's keypoint (32, 7) stands on free pixels
+  EXPECT_EQ(radius1[0].id, 1);
+  EXPECT_EQ(radius1[0].features, 1);
+  EXPECT_EQ(arm::decode_obstacles(run_validation(records, keypoints, {{"margin_px", 0}, {"mask_radius_px", 0}}, mask).output)[0].features, 1);
+  EXPECT_EQ(arm::decode_obstacles(run_validation(records, keypoints, {{"margin_px", 0}, {"mask_radius_px", 5}}, mask).output)[0].features, 2);
+  // Counted work with radius 1: the two keypoints inside id 1's box and the one inside id 2's each
+  // look at up to 9 mask pixels (2 ops and 1 byte each; the search stops at the first obstacle
+  // pixel only in the model's favour: the count is of the pixels the task reads, (2 r + 1)^2 always).
+  const TaskRun run = run_validation(records, keypoints, {{"margin_px", 0}, {"mask_radius_px", 1}}, mask);
+  EXPECT_EQ(run.work.scalar_ops, 2u * (6 + 6 * 3) + 3 + 1 + 1u * arm::kObstacleWords + 2u * 9 * 3);
+  EXPECT_EQ(run.work.memory_bytes, 4u * arm::kKeypointWords * 3 + 2u * 4 * arm::kObstacleWords * 3 + 9u * 3);
+}
+
 TEST(ObstacleFeatureValidation, PrepareChecksTheRecordWidths) {
   const ArmTaskDescriptor& task = task_named("obstacle_feature_validation");
-  EXPECT_THROW(task.prepare({}, {{arm::kObstacleWords - 1, 4}, {arm::kKeypointWords, 4}}), KernelError);
-  EXPECT_THROW(task.prepare({}, {{arm::kObstacleWords, 4}, {arm::kKeypointWords + 1, 4}}), KernelError);
-  EXPECT_THROW(task.prepare({{"margin_px", -1}}, {{arm::kObstacleWords, 4}, {arm::kKeypointWords, 4}}), KernelError);
+  EXPECT_THROW(task.prepare({}, {{arm::kObstacleWords - 1, 4}, {arm::kKeypointWords, 4}, {8, 8}}), KernelError);
+  EXPECT_THROW(task.prepare({}, {{arm::kObstacleWords, 4}, {arm::kKeypointWords + 1, 4}, {8, 8}}), KernelError);
+  EXPECT_THROW(task.prepare({{"margin_px", -1}}, {{arm::kObstacleWords, 4}, {arm::kKeypointWords, 4}, {8, 8}}), KernelError);
+  EXPECT_THROW(task.prepare({{"mask_radius_px", 9}}, {{arm::kObstacleWords, 4}, {arm::kKeypointWords, 4}, {8, 8}}), KernelError);
+  EXPECT_THROW(task.prepare({}, {{arm::kObstacleWords, 4}, {arm::kKeypointWords, 4}}), KernelError);  // no mask
 }
 
 }  // namespace

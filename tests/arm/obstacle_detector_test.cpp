@@ -5,6 +5,8 @@
 // all-invalid map give no road and no obstacle; the parameters reach the graph from one struct.
 #include <gtest/gtest.h>
 
+#include <map>
+
 #include <cmath>
 #include <random>
 
@@ -65,8 +67,10 @@ Plane road_scene(const Camera& camera, const std::vector<Box>& boxes, uint32_t s
   return plane;
 }
 
+// The disparity stages alone: these maps have no image, so no corners to validate with.
 arm::ObstacleParameters parameters(const Camera& camera) {
   arm::ObstacleParameters p;
+  p.feature_validation = false;
   p.focal_px = camera.focal_px;
   p.baseline_m = camera.baseline_m;
   return p.for_disparity_range(0, 64);
@@ -174,6 +178,7 @@ TEST(ObstacleDetector, NoRoadGivesNoObstaclesAndConfidenceZero) {
 
 TEST(ObstacleDetector, GraphSpecCarriesTheParametersFromOneStruct) {
   arm::ObstacleParameters p;
+  p.feature_validation = false;
   p.focal_px = 1000;
   p.baseline_m = 0.3;
   p.grid.columns_per_cell = 6;
@@ -203,14 +208,24 @@ TEST(ObstacleDetector, GraphSpecCarriesTheParametersFromOneStruct) {
   arm::ObstacleParameters no_baseline = p;
   no_baseline.baseline_m = 0;
   EXPECT_THROW(arm::ObstacleDetector::graph_spec(no_baseline), std::invalid_argument);
+  // With feature validation: the Harris nodes on the graph input "left", the clusters into
+  // "clusters", validated against the keypoints and the mask into "obstacles".
   arm::ObstacleParameters validation = p;
   validation.feature_validation = true;
-  try {
-    arm::ObstacleDetector::graph_spec(validation);
-    FAIL() << "feature validation accepted without the feature kernels";
-  } catch (const std::invalid_argument& error) {
-    EXPECT_NE(std::string(error.what()).find("harris_response"), std::string::npos) << error.what();
+  validation.features.harris_threshold = 12345;
+  validation.validation.mask_radius_px = 2;
+  const GraphSpec validated = arm::ObstacleDetector::graph_spec(validation.for_disparity_range(0, 96));
+  std::map<std::string, const NodeSpec*> by_name;
+  for (const NodeSpec& node : validated.nodes) by_name[node.name] = &node;
+  for (const char* name : {"harris_response", "harris_nms", "select_keypoints", "obstacle_feature_validation"}) {
+    ASSERT_TRUE(by_name.count(name)) << name;
   }
+  EXPECT_EQ(by_name["harris_response"]->inputs.at("image").buffer, "left");
+  EXPECT_EQ(by_name["harris_nms"]->params.at("threshold"), 12345);
+  EXPECT_EQ(by_name["obstacle_clusters"]->outputs.at("obstacles"), "clusters");
+  EXPECT_EQ(by_name["obstacle_feature_validation"]->inputs.at("mask").buffer, "mask");
+  EXPECT_EQ(by_name["obstacle_feature_validation"]->params.at("mask_radius_px"), 2);
+  EXPECT_EQ(by_name["obstacle_feature_validation"]->outputs.at("validated"), "obstacles");
 }
 
 }  // namespace
