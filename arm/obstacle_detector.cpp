@@ -33,6 +33,12 @@ NodeSpec node(const std::string& name, const std::string& kernel, const std::str
 
 }  // namespace
 
+DisparityParameters obstacle_disparity_defaults() {
+  DisparityParameters parameters;
+  parameters.census_width = 9;
+  return parameters;
+}
+
 std::string settings_text(const ObstacleParameters& p) {
   char text[640];
   std::snprintf(text, sizeof text,

@@ -32,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "arm/disparity_engine.h"
 #include "arm/tasks/obstacle_clusters.h"
 #include "arm/tasks/obstacle_record.h"
 #include "arm/tasks/road_profile.h"
@@ -65,6 +66,14 @@ struct FeatureSettings {
   int max_keypoints = 32768;
   int border_px = 2;
 };
+
+// The matcher the detector's defaults were chosen with (the 4K range test, docs/obstacles.md): the
+// DisparityEngine's defaults but the 9x7 census. With 5x5 the window's vertical reach over a painted
+// dash's top edge, spread by SGM's vertical paths, leaves a few rows of road above it at the dash's
+// disparity: a vertical structure standing above the road, 0.3 false obstacles per empty frame with
+// feature validation; 9x7 matches those rows on their own texture. `lpstereo obstacles` and the
+// range test use it.
+DisparityParameters obstacle_disparity_defaults();
 
 inline constexpr int kMaxVDisparityBins = 128;  // for_disparity_range's cap (see there)
 

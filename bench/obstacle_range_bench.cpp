@@ -18,7 +18,8 @@
 //
 // Usage: obstacle_range_bench [--from-m 20] [--to-m 150] [--step-m 5] [--seeds 1] [--empty-seeds 10]
 //                             [--slope-deg 2] [--width 3840 --height 1728] [--threads 2]
-//        tuning (the detector's defaults otherwise): [--harris-threshold R] [--mask-radius PX]
+//        tuning (the engine's and detector's defaults otherwise): [--lr-check PX] [--uniqueness PCT]
+//                             [--paths 4|8] [--census 5|9] [--harris-threshold R] [--mask-radius PX]
 //                             [--far-height-m M] [--feature-validation 0|1]
 #include <algorithm>
 #include <cstdio>
@@ -60,6 +61,10 @@ bool parse(int argc, char** argv, Options& options) {
     else if (name == "--width") options.setup.width = std::atoi(value);
     else if (name == "--height") options.setup.height = std::atoi(value);
     else if (name == "--threads") options.setup.threads = std::atoi(value);
+    else if (name == "--lr-check") options.setup.disparity.lr_max_diff = std::atoi(value);
+    else if (name == "--uniqueness") options.setup.disparity.uniqueness_percent = std::atoi(value);
+    else if (name == "--paths") options.setup.disparity.paths = std::atoi(value);
+    else if (name == "--census") options.setup.disparity.census_width = std::atoi(value);
     else if (name == "--harris-threshold") options.detector.features.harris_threshold = std::atoi(value);
     else if (name == "--mask-radius") options.detector.validation.mask_radius_px = std::atoi(value);
     else if (name == "--far-height-m") options.detector.clusters.far_min_height_m = std::atof(value);
@@ -85,9 +90,9 @@ int main(int argc, char** argv) {
   eval::RangeTestRunner runner(setup, options.detector);
   const arm::ObstacleParameters& detector = runner.detector_parameters();
   std::printf("obstacle_range_bench: %dx%d, hfov %.0f deg (focal %.2f px), baseline %.2f m, camera height %.2f m, noise %.1f, "
-              "disparities [0, %d), 8-path SGM engine defaults, %d threads\n",
+              "disparities [0, %d), %d threads\nengine: %s\n",
               setup.width, setup.height, setup.hfov_deg, setup.focal_px(), setup.baseline_m, setup.camera_height_m,
-              setup.noise_sigma, setup.num_disparities, setup.threads);
+              setup.noise_sigma, setup.disparity.num_disparities, setup.threads, arm::settings_text(setup.disparity).c_str());
   std::printf("detector: %s\n", arm::settings_text(detector).c_str());
   std::printf("lineups %.0f..%.0f m every %.0f m, %d seed(s); %d obstacle-free roads\n", options.from_m, options.to_m,
               options.step_m, options.seeds, options.empty_seeds);

@@ -31,8 +31,7 @@ std::vector<io::DetectedBox> detected_boxes(const std::vector<arm::Obstacle>& ob
 }
 
 RangeTestRunner::RangeTestRunner(const RangeTestSetup& setup, arm::ObstacleParameters detector) : setup_(setup) {
-  arm::DisparityParameters disparity;
-  disparity.num_disparities = setup.num_disparities;
+  const arm::DisparityParameters& disparity = setup.disparity;
   engine_ = std::make_unique<arm::DisparityEngine>(setup.width, setup.height, disparity, MemoryBudget{}, setup.threads);
   if (!(detector.focal_px > 0)) detector.focal_px = setup.focal_px();
   if (!(detector.baseline_m > 0)) detector.baseline_m = setup.baseline_m;

@@ -26,7 +26,13 @@ struct RangeTestSetup {
   double camera_height_m = 1.5;
   double noise_sigma = 2.0;     // grey levels, each view independently
   int samples_per_axis = 2;     // anti-aliasing of the renderer
-  int num_disparities = 128;    // [0, 128): 20 m is 50 px at 4K; the road below ~7.8 m is left invalid
+  // The DisparityEngine's settings: the detector's (arm::obstacle_disparity_defaults) but for the
+  // range, [0, 128) (20 m is 50 px at 4K; the road nearer than ~7.8 m is left invalid).
+  arm::DisparityParameters disparity = [] {
+    arm::DisparityParameters parameters = arm::obstacle_disparity_defaults();
+    parameters.num_disparities = 128;
+    return parameters;
+  }();
   int threads = 2;
   double focal_px() const;      // (W / 2) / tan(hfov / 2), as the renderer
 };

@@ -14,18 +14,29 @@
 namespace lpstereo::tools {
 
 struct DisparityEngineOptions {
+  // The options' defaults are `defaults`' (arm::DisparityParameters' own for `lpstereo disparity`;
+  // the obstacle detector's tuned matcher for `lpstereo obstacles`).
+  explicit DisparityEngineOptions(const arm::DisparityParameters& defaults = {})
+      : paths(defaults.paths),
+        census(defaults.census_width == 9 ? "9x7" : "5x5"),
+        subpixel(defaults.subpixel ? "on" : "off"),
+        lr_check(defaults.lr_max_diff >= 0 ? std::to_string(defaults.lr_max_diff) : "off"),
+        uniqueness_percent(defaults.uniqueness_percent),
+        median(defaults.median ? "on" : "off"),
+        speckle_size_px(defaults.speckle_max_size_px),
+        speckle_range_px(defaults.speckle_max_difference_px),
+        multires(defaults.multires ? "on" : "off") {}
   std::optional<int> min_disparity_px, num_disparities;
-  // the matcher (arm::DisparityParameters; its defaults are the commands')
-  int paths = arm::DisparityParameters{}.paths;
+  int paths;
   std::optional<int> p1, p2;
-  std::string census = arm::DisparityParameters{}.census_width == 9 ? "9x7" : "5x5";
-  std::string subpixel = arm::DisparityParameters{}.subpixel ? "on" : "off";
-  std::string lr_check = arm::DisparityParameters{}.lr_max_diff >= 0 ? std::to_string(arm::DisparityParameters{}.lr_max_diff) : "off";
-  int uniqueness_percent = arm::DisparityParameters{}.uniqueness_percent;
-  std::string median = arm::DisparityParameters{}.median ? "on" : "off";
-  int speckle_size_px = arm::DisparityParameters{}.speckle_max_size_px;
-  int speckle_range_px = arm::DisparityParameters{}.speckle_max_difference_px;
-  std::string multires = "off";
+  std::string census;
+  std::string subpixel;
+  std::string lr_check;
+  int uniqueness_percent;
+  std::string median;
+  int speckle_size_px;
+  int speckle_range_px;
+  std::string multires;
 };
 
 // Adds the options to `command`; num_disparities_help is --num-disp's help (its default differs).

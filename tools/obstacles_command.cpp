@@ -124,7 +124,14 @@ cv::Mat vdisp_picture(const Plane& vdisp, const arm::RoadProfile& road, int min_
 
 nlohmann::json road_json(const arm::RoadProfile& road) {
   if (!road.valid) return {{"valid", false}, {"confidence", road.confidence}};
+  // A climb ahead: rows above break_row follow the far line (arm/tasks/road_profile.h); null if none.
+  const nlohmann::json far = road.far_valid ? nlohmann::json{{"slope_px_per_row", road.far_slope},
+                                                             {"intercept_px", road.far_intercept_px},
+                                                             {"break_row_px", road.far_break_row},
+                                                             {"inlier_rows", road.far_inlier_count}}
+                                            : nlohmann::json(nullptr);
   return {{"valid", true},
+          {"far_segment", far},
           {"carried", road.carried},
           {"confidence", road.confidence},
           {"slope_px_per_row", road.slope},
@@ -196,6 +203,14 @@ ObstaclesCommand::ObstaclesCommand(CLI::App& app) {
   command_->add_option("--road-margin-q4", p.vldh.road_margin_q4, "VLDH: height above the road's disparity, 1/16 px")
       ->capture_default_str();
   command_->add_option("--road-margin-per-mille", p.vldh.road_margin_per_mille, "VLDH: plus this share of the road's disparity")
+      ->capture_default_str();
+  command_->add_option("--feature-validation", p.feature_validation,
+                       "drop clusters without a Harris corner on their obstacle pixels (true/false)")
+      ->capture_default_str();
+  command_->add_option("--harris-threshold", p.features.harris_threshold, "feature validation: Harris response threshold")
+      ->capture_default_str();
+  command_->add_option("--mask-radius", p.validation.mask_radius_px,
+                       "feature validation: a corner counts with an obstacle pixel this near (-1: anywhere in the box)")
       ->capture_default_str();
 }
 

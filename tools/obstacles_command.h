@@ -45,7 +45,7 @@ class ObstaclesCommand {
   std::string left_, right_, output_;
   std::vector<std::string> calibration_files_;
   std::string overlay_path_, grid_path_, mask_path_, vdisp_path_;
-  DisparityEngineOptions engine_options_;
+  DisparityEngineOptions engine_options_{arm::obstacle_disparity_defaults()};
   arm::ObstacleParameters detector_parameters_;  // the tuning flags write into it; defaults are its own
   int threads_ = 0;
 };

@@ -43,14 +43,17 @@ struct ObstacleClusterSettings {
   int min_pixels = 3;       // clusters with fewer obstacle-mask pixels are dropped (a 0.07 m tape roll
                             // at 40 m at 4K has only 3-10 pixels above the road margin; the specks of
                             // road noise are removed by feature validation, docs/obstacles.md)
-  int max_obstacles = 64;   // record rows; with more clusters the nearest are kept
+  int max_obstacles = 512;  // record rows; with more clusters the nearest are kept. Room for the
+                            // clusters feature validation drops: with 64 the nearer road specks of a
+                            // 4K frame filled the list and the 130 m objects never reached validation
 };
 
 // obstacle_feature_validation's parameters.
 struct FeatureValidationSettings {
   int margin_px = 2;      // the bounding box grown by this on every side before counting keypoints
   int min_features = 1;   // records with fewer keypoints inside are dropped (thesis 003 §4.2.4)
-  int mask_radius_px = 1; // a keypoint counts only with an obstacle-mask pixel this near (-1: any keypoint)
+  int mask_radius_px = 0; // a keypoint counts only with an obstacle-mask pixel this near (-1: any keypoint;
+                          // 0: the corner itself; 1 let a dash's corner next to the artefact above it through)
 };
 
 // T_r of eq. 4.3 for every grid row r (the occupancy threshold of a cell in row r, 65536 = never):
