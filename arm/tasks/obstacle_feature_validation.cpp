@@ -84,8 +84,8 @@ void run(const ArmTaskArgs& args) {
   auto on_obstacle = [&](int32_t x, int32_t y) {
     if (p.mask_radius_px < 0) return true;
     const int r = p.mask_radius_px;
-    mask_bytes += static_cast<uint64_t>((2 * r + 1) * (r + 1));
-    for (int dy = 0; dy <= r; ++dy) {
+    mask_bytes += static_cast<uint64_t>((2 * r + 1) * (2 * r + 1));
+    for (int dy = -r; dy <= r; ++dy) {
       for (int dx = -r; dx <= r; ++dx) {
         const int64_t mx = int64_t{x} + dx, my = int64_t{y} + dy;
         if (mx < 0 || my < 0 || mx >= mask.width() || my >= mask.height()) continue;
