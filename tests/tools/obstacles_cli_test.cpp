@@ -360,9 +360,26 @@ TEST_F(ObstaclesCli, SequenceTracksTheApproachingLineup) {
 }
 
 TEST_F(ObstaclesCli, SequenceBadInputGivesOneLineAndNoFile) {
-  const std::string folder = sequence();
+  // Three frames, all the 640x288 lineup (the refusals need no motion), frame 1 also cropped to
+  // 320x288 in a second folder for the size change.
+  const std::string scene = lineup();
+  const std::string folder = path("still"), changing = path("changing");
+  fs::create_directories(folder);
+  fs::create_directories(changing);
+  for (const char* view : {"left", "right"}) {
+    const cv::Mat image = cv::imread(scene + "/" + view + ".png", cv::IMREAD_UNCHANGED);
+    ASSERT_FALSE(image.empty());
+    for (int frame = 0; frame < 3; ++frame) {
+      char name[32];
+      std::snprintf(name, sizeof name, "/%s_%06d.png", view, frame);
+      ASSERT_TRUE(cv::imwrite(folder + name, image));
+      if (frame < 2) {
+        ASSERT_TRUE(cv::imwrite(changing + name, frame == 1 ? image(cv::Rect(0, 0, 320, 288)).clone() : image));
+      }
+    }
+  }
   const std::string output = path("bad.jsonl");
-  const std::string calib = " --calib " + folder + "/calib.yaml -o " + output + " --num-disp 64 --threads 2";
+  const std::string calib = " --calib " + scene + "/calib.yaml -o " + output + " --num-disp 48 --threads 2";
   const std::string patterns = " --left '" + folder + "/left_%06d.png' --right '" + folder + "/right_%06d.png'";
   const auto expect_refused = [&](const Result& result, int exit_code, const std::string& needle) {
     EXPECT_EQ(result.exit_code, exit_code) << result.err;
@@ -371,7 +388,7 @@ TEST_F(ObstaclesCli, SequenceBadInputGivesOneLineAndNoFile) {
     EXPECT_FALSE(fs::exists(output));
   };
   // No first frame: --first past the end, and a pattern naming nothing.
-  expect_refused(run("obstacles" + patterns + calib + " --first 4"), 1, "frame 4 (the first)");
+  expect_refused(run("obstacles" + patterns + calib + " --first 3"), 1, "frame 3 (the first)");
   expect_refused(run("obstacles --left '" + folder + "/nothing_%06d.png' --right '" + folder + "/right_%06d.png'" + calib), 1,
                  "nothing_000000.png not found");
   // A pattern without a frame number, and one with two.
@@ -383,28 +400,22 @@ TEST_F(ObstaclesCli, SequenceBadInputGivesOneLineAndNoFile) {
   expect_refused(run("obstacles " + folder + "/left_000000.png " + folder + "/right_000000.png" + patterns + calib), 2, "not both");
   // --left without --right.
   expect_refused(run("obstacles --left '" + folder + "/left_%06d.png'" + calib), 2, "--right");
-  // Sizes that change mid-sequence: frame 1 of a copy of the sequence cropped to 640x576.
-  const std::string changing = path("changing");
-  fs::create_directories(changing);
-  for (const char* view : {"left", "right"}) {
-    for (int frame = 0; frame < 2; ++frame) {
-      char name[32];
-      std::snprintf(name, sizeof name, "/%s_%06d.png", view, frame);
-      cv::Mat image = cv::imread(folder + name, cv::IMREAD_UNCHANGED);
-      ASSERT_FALSE(image.empty());
-      if (frame == 1) image = image(cv::Rect(0, 0, 640, 576)).clone();
-      ASSERT_TRUE(cv::imwrite(changing + name, image));
-    }
-  }
+  // Sizes that change mid-sequence.
   expect_refused(run("obstacles --left '" + changing + "/left_%06d.png' --right '" + changing + "/right_%06d.png'" + calib), 1,
                  "frame 1: ");
-  // --frames limits the sequence, --first starts later: frames 1 and 2 only.
-  const Result limited = run("obstacles" + patterns + calib + " --first 1 --frames 2");
-  ASSERT_EQ(limited.exit_code, 0) << limited.err;
-  const std::vector<nlohmann::json> frames = read_json_lines(output);
-  ASSERT_EQ(frames.size(), 2u);
-  EXPECT_EQ(frames[0].at("frame"), 1);
-  EXPECT_EQ(frames[1].at("frame"), 2);
+  // --frames stops before the last frame (2 exists); --first starts later and runs to the end.
+  for (const auto& [flags, first] : {std::pair{std::string(" --frames 2"), 0}, std::pair{std::string(" --first 1"), 1}}) {
+    SCOPED_TRACE(flags);
+    const Result limited = run("obstacles" + patterns + calib + flags);
+    ASSERT_EQ(limited.exit_code, 0) << limited.err;
+    const std::vector<nlohmann::json> frames = read_json_lines(output);
+    ASSERT_EQ(frames.size(), 2u);
+    EXPECT_EQ(frames[0].at("frame"), first);
+    EXPECT_EQ(frames[1].at("frame"), first + 1);
+    // A still scene: the same objects keep their tracks.
+    EXPECT_EQ(frames[0].at("obstacles").size(), frames[1].at("obstacles").size());
+    fs::remove(output);
+  }
 }
 
 }  // namespace
