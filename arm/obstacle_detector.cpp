@@ -31,6 +31,13 @@ NodeSpec node(const std::string& name, const std::string& kernel, const std::str
   return spec;
 }
 
+std::string tracking_text(const TrackerSettings& t) {
+  char text[160];
+  std::snprintf(text, sizeof text, "every %.4f s, velocity after %d hits, at most %d tracks, %d missed frames", t.frame_period_s,
+                t.min_hits_for_velocity, t.max_tracks, t.max_missed_frames);
+  return text;
+}
+
 }  // namespace
 
 DisparityParameters obstacle_disparity_defaults() {
@@ -40,17 +47,17 @@ DisparityParameters obstacle_disparity_defaults() {
 }
 
 std::string settings_text(const ObstacleParameters& p) {
-  char text[640];
+  char text[768];
   std::snprintf(text, sizeof text,
                 "V-disparity from %d px; VLDH %d rows, %d matching within %d/16 px, road margin %d/16 px + %d per mille, "
                 "%d rows above the horizon; AUD %d columns per cell, %d rows over [%.1f, %.1f) px, k %.2f, weights +%d / -%d; "
-                "clusters: Y_min %.2f m to %.0f m then %.2f m, at least %d cell(s) and %d pixels; feature validation %s",
+                "clusters: Y_min %.2f m to %.0f m then %.2f m, at least %d cell(s) and %d pixels; feature validation %s; tracking %s",
                 p.v_disparity_min_px(), p.vldh.window_rows, p.vldh.min_count, p.vldh.match_tolerance_q4,
                 p.vldh.road_margin_q4, p.vldh.road_margin_per_mille, p.vldh.rows_above_horizon, p.grid.columns_per_cell,
                 p.grid.geometry.grid_rows, p.grid.geometry.min_disparity_px, p.grid.geometry.max_disparity_px,
                 p.grid.geometry.exponent_k, p.grid.obstacle_weight, p.grid.free_weight, p.clusters.near_min_height_m,
                 p.clusters.height_switch_distance_m, p.clusters.far_min_height_m, p.clusters.min_cells,
-                p.clusters.min_pixels, p.feature_validation ? "on" : "off");
+                p.clusters.min_pixels, p.feature_validation ? "on" : "off", p.tracking ? tracking_text(p.tracking_settings).c_str() : "off");
   return text;
 }
 
@@ -150,7 +157,7 @@ GraphSpec ObstacleDetector::graph_spec(const ObstacleParameters& p) {
   clusters.inputs["grid"] = {"grid", false};
   clusters.inputs["disparity"] = {"disparity", false};
   clusters.inputs["mask"] = {"mask", false};
-  clusters.outputs["obstacles"] = p.feature_validation ? "clusters" : "obstacles";
+  clusters.outputs["obstacles"] = p.feature_validation ? "clusters" : p.tracking ? "validated" : "obstacles";
   clusters.params = grid_geometry;
   clusters.params.update({{"focal_px", p.focal_px},
                           {"baseline_m", p.baseline_m},
@@ -172,13 +179,40 @@ GraphSpec ObstacleDetector::graph_spec(const ObstacleParameters& p) {
     validation.inputs["obstacles"] = {"clusters", false};
     validation.inputs["keypoints"] = {"keypoints", false};
     validation.inputs["mask"] = {"mask", false};
-    validation.outputs["validated"] = "obstacles";
+    validation.outputs["validated"] = p.tracking ? "validated" : "obstacles";
     validation.params = {{"margin_px", p.validation.margin_px}, {"min_features", p.validation.min_features},
                          {"mask_radius_px", p.validation.mask_radius_px}};
     spec.nodes.push_back(validation);
     spec.description += ", feature validation";
   }
   spec.outputs = {"obstacles", "road", "vdisp", "mask", "grid"};
+  if (p.tracking) {
+    // The tracker after validation, its state on a delayed edge like road_profile's (zeros before
+    // the first frame: no tracks, next id 1).
+    const TrackerSettings& t = p.tracking_settings;
+    NodeSpec tracker = node("obstacle_tracker", "", "obstacle_tracker");
+    tracker.inputs["obstacles"] = {"validated", false};
+    tracker.inputs["previous_tracks"] = {"tracks", true};
+    tracker.outputs["tracked"] = "obstacles";
+    tracker.outputs["tracks"] = "tracks";
+    tracker.params = {{"focal_px", p.focal_px},
+                      {"baseline_m", p.baseline_m},
+                      {"max_tracks", t.max_tracks},
+                      {"frame_period_s", t.frame_period_s},
+                      {"accel_sigma_mps2", t.accel_sigma_mps2},
+                      {"disparity_sigma_px", t.disparity_sigma_px},
+                      {"lateral_sigma_m", t.lateral_sigma_m},
+                      {"initial_speed_sigma_mps", t.initial_speed_sigma_mps},
+                      {"gate_mahalanobis_sq", t.gate_mahalanobis_sq},
+                      {"max_centroid_distance_m", t.max_centroid_distance_m},
+                      {"pixel_weight", t.pixel_weight},
+                      {"max_relative_pixel_difference", t.max_relative_pixel_difference},
+                      {"max_missed_frames", t.max_missed_frames},
+                      {"min_hits_for_velocity", t.min_hits_for_velocity}};
+    spec.nodes.push_back(tracker);
+    spec.outputs.push_back("tracks");
+    spec.description += ", tracking";
+  }
   return spec;
 }
 

@@ -12,9 +12,14 @@
 //                                     graph input "left" (u8) -> "keypoints" (with feature_validation)
 //   obstacle_feature_validation (ARM, only with feature_validation = true, the default)
 //                                     "clusters" + "keypoints" + "mask" -> "obstacles"
-// Without feature validation obstacle_clusters writes "obstacles" directly. Outputs: "obstacles"
-// (kObstacleWords x max_obstacles s32, arm/tasks/obstacle_record.h), "road" (arm/tasks/road_profile.h),
-// "vdisp", "mask", "grid" (for pictures).
+//   obstacle_tracker (ARM, only with tracking = true)
+//                                     "validated" + "tracks" of the previous frame (delayed edge)
+//                                     -> "obstacles" (tracked) + "tracks" (arm/tasks/obstacle_tracker.h)
+// Without feature validation obstacle_clusters writes the stage's result directly. The last stage
+// present writes "obstacles": validation's "validated" feeds the tracker with tracking on. Outputs:
+// "obstacles" (kObstacleWords x max_obstacles s32, arm/tasks/obstacle_record.h; with tracking the
+// track id, age and velocity filled), "road" (arm/tasks/road_profile.h), "vdisp", "mask", "grid" (for
+// pictures), and "tracks" with tracking.
 //
 // Feature validation needs "keypoints" (arm/tasks/keypoint_record.h) from the left image:
 // add_keypoint_nodes() adds the Harris nodes of graphs/features.json. A cluster is kept when a corner
@@ -35,6 +40,7 @@
 #include "arm/disparity_engine.h"
 #include "arm/tasks/obstacle_clusters.h"
 #include "arm/tasks/obstacle_record.h"
+#include "arm/tasks/obstacle_tracker.h"
 #include "arm/tasks/road_profile.h"
 #include "dag/graph.h"
 #include "dag/plane.h"
@@ -105,6 +111,12 @@ struct ObstacleParameters {
   bool feature_validation = true;
   FeatureSettings features;
   FeatureValidationSettings validation;
+  // Tracking across frames (thesis 003 §4.2.4; arm/tasks/obstacle_tracker.cpp, docs/obstacles.md
+  // "Tracking"): off, every run() is a single frame and the records' track fields stay 0. On, each
+  // run() is the next frame of one sequence, frame_period_s apart: the tracker keeps its state on a
+  // delayed edge and fills track_id, track_age_frames and velocity_mps.
+  bool tracking = false;
+  TrackerSettings tracking_settings;
 
   // These parameters with the V-disparity bins and the grid's top disparity set to the search
   // range [min_disparity, min_disparity + num_disparities) px.
@@ -134,7 +146,8 @@ class ObstacleDetector {
   ObstacleDetector& operator=(const ObstacleDetector&) = delete;
 
   // disparity: s16 Q4 of the detector's size (the DisparityEngine's output); left: the u8 left view,
-  // same size (read only with feature validation). The road carries over frames (delayed edge).
+  // same size (read only with feature validation). The road carries over frames (delayed edge), and
+  // with tracking so do the tracks: obstacles then hold the tracked records.
   ObstacleFrame run(const Plane& disparity, const Plane& left);
 
   const ObstacleParameters& parameters() const { return parameters_; }

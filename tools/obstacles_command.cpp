@@ -4,6 +4,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <set>
+
+#include <unistd.h>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -144,7 +149,8 @@ nlohmann::json road_json(const arm::RoadProfile& road) {
           {"rms_residual_px", road.rms_residual_px}};
 }
 
-nlohmann::json obstacle_json(const arm::Obstacle& obstacle, bool features_counted) {
+// One obstacle record; "track_id" and "velocity_mps" are null unless the records were tracked.
+nlohmann::json obstacle_json(const arm::Obstacle& obstacle, bool features_counted, bool tracked) {
   return {{"id", obstacle.id},
           {"bbox_px", {obstacle.bbox_px[0], obstacle.bbox_px[1], obstacle.bbox_px[2], obstacle.bbox_px[3]}},
           {"disparity", obstacle.disparity_px},
@@ -154,9 +160,95 @@ nlohmann::json obstacle_json(const arm::Obstacle& obstacle, bool features_counte
           {"height_m", obstacle.height_m},
           {"pixels", obstacle.pixels},
           {"features", features_counted ? nlohmann::json(obstacle.features) : nlohmann::json(nullptr)},
-          {"track_id", nullptr},
-          {"velocity_mps", nullptr}};
+          {"track_id", tracked ? nlohmann::json(obstacle.track_id) : nlohmann::json(nullptr)},
+          {"velocity_mps", tracked ? nlohmann::json{obstacle.velocity_mps[0], obstacle.velocity_mps[1], obstacle.velocity_mps[2]}
+                                   : nlohmann::json(nullptr)}};
 }
+
+// The output object of one frame (single-frame mode's file, one line of sequence mode's).
+nlohmann::json frame_json(int width, int height, const arm::ObstacleFrame& frame, const arm::ObstacleParameters& parameters) {
+  nlohmann::json obstacles = nlohmann::json::array();
+  for (const arm::Obstacle& obstacle : frame.obstacles) {
+    obstacles.push_back(obstacle_json(obstacle, parameters.feature_validation, parameters.tracking));
+  }
+  return {{"width", width}, {"height", height}, {"road", road_json(frame.road)}, {"obstacles", obstacles}};
+}
+
+// The calibration must give what the detector needs: a baseline and a pinhole rectification.
+void check_geometry(const io::RectifiedGeometry& geometry, const std::vector<std::string>& calibration_files) {
+  const std::string calibration_name = calibration_files[0] + (calibration_files.size() == 2 ? "," + calibration_files[1] : "");
+  if (!(geometry.baseline_m > 0.0) || !std::isfinite(geometry.baseline_m)) {
+    throw CommandError(kExitInput, "calibration " + calibration_name +
+                                       ": expected a stereo baseline > 0 m (the right camera's translation), got " +
+                                       std::to_string(geometry.baseline_m) + " m");
+  }
+  if (geometry.projection != io::RectifiedProjection::pinhole) {
+    throw CommandError(kExitInput, "calibration " + calibration_name + ": expected a pinhole rectification, got latitude-longitude");
+  }
+}
+
+// The detector's parameters (the tuning flags' values) with the calibration's camera and the
+// engine's search range.
+arm::ObstacleParameters detector_parameters_for(arm::ObstacleParameters parameters, const io::RectifiedGeometry& geometry,
+                                                const arm::DisparityParameters& disparity_parameters) {
+  parameters.focal_px = geometry.focal_px;
+  parameters.baseline_m = geometry.baseline_m;
+  parameters.principal_point_x_px = geometry.cx_left_px;
+  parameters.principal_point_y_px = geometry.cy_px;
+  return parameters.for_disparity_range(disparity_parameters.min_disparity, disparity_parameters.num_disparities);
+}
+
+double milliseconds(std::chrono::steady_clock::duration duration) {
+  return std::chrono::duration<double, std::milli>(duration).count();
+}
+
+// A frame file pattern: text with exactly one printf integer conversion, %d or %0<width>d / %<width>d
+// ("%%" is a literal %). Parsed once, then expanded per frame without handing the user's text to printf.
+struct FramePattern {
+  std::string prefix, suffix;
+  int width = 0;
+  bool zero_padded = false;
+
+  FramePattern(const std::string& flag, const std::string& pattern) {
+    int conversions = 0;
+    std::string* text = &prefix;
+    for (size_t i = 0; i < pattern.size(); ++i) {
+      if (pattern[i] != '%') {
+        *text += pattern[i];
+        continue;
+      }
+      if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+        *text += '%';
+        ++i;
+        continue;
+      }
+      size_t j = i + 1;
+      const bool zero = j < pattern.size() && pattern[j] == '0';
+      if (zero) ++j;
+      const size_t digits_begin = j;
+      while (j < pattern.size() && pattern[j] >= '0' && pattern[j] <= '9' && j - digits_begin < 2) ++j;
+      if (j >= pattern.size() || pattern[j] != 'd' || ++conversions > 1) {
+        throw CommandError(kExitUsage, flag + " '" + pattern +
+                                           "': expected a file pattern with one frame-number conversion such as %06d or %d, got " +
+                                           (conversions > 1 ? "more than one" : "'" + pattern.substr(i, j + 1 - i) + "'"));
+      }
+      zero_padded = zero;
+      width = j > digits_begin ? std::stoi(pattern.substr(digits_begin, j - digits_begin)) : 0;
+      text = &suffix;
+      i = j;
+    }
+    if (conversions == 0) {
+      throw CommandError(kExitUsage, flag + " '" + pattern +
+                                         "': expected a file pattern with one frame-number conversion such as %06d or %d, got none");
+    }
+  }
+
+  std::string path(int frame) const {
+    std::string number = std::to_string(frame);
+    if (static_cast<int>(number.size()) < width) number.insert(0, static_cast<size_t>(width) - number.size(), zero_padded ? '0' : ' ');
+    return prefix + number + suffix;
+  }
+};
 
 }  // namespace
 
@@ -164,13 +256,24 @@ ObstaclesCommand::ObstaclesCommand(CLI::App& app) {
   command_ = app.add_subcommand("obstacles",
                                 "obstacles in front of the vehicle from a rectified pair: disparity engine, then V-disparity road "
                                 "profile, VLDH mask, Advanced U-disparity grid and clusters (arm/obstacle_detector.h)");
-  command_->add_option("left", left_, "rectified left image")->required();
-  command_->add_option("right", right_, "rectified right image, same size")->required();
+  command_->add_option("LEFT", left_, "rectified left image (single-frame mode)");
+  command_->add_option("RIGHT", right_, "rectified right image, same size (single-frame mode)");
+  command_->add_option("--left", left_pattern_, "sequence mode: the left frames, a printf pattern such as 'dir/%06d.png'");
+  command_->add_option("--right", right_pattern_, "sequence mode: the right frames, a pattern like --left");
+  command_->add_option("--first", first_frame_, "sequence mode: the first frame's number")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  command_->add_option("--frames", frame_limit_, "sequence mode: at most this many frames (0 = until the first missing file)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  command_->add_option("--fps", fps_, "sequence mode: frames per second (the tracker's frame period is 1 / fps)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 10000.0));
   command_->add_option("--calib", calibration_files_,
                        "calibration file, or two (intrinsics + extrinsics, or left + right); its rectified geometry gives "
                        "focal length, baseline and principal point")
       ->required();
-  command_->add_option("-o,--output", output_, "obstacle JSON file to write")->required();
+  command_->add_option("-o,--output", output_, "obstacle JSON file to write (sequence mode: JSON lines, one per frame)")->required();
   command_->add_option("--overlay", overlay_path_, "also write the left image with the obstacles' boxes and distances (PNG)");
   command_->add_option("--grid", grid_path_, "also write the Advanced U-disparity grid as a top view (PNG)");
   command_->add_option("--mask", mask_path_, "also write the VLDH obstacle mask (PNG)");
@@ -215,19 +318,26 @@ ObstaclesCommand::ObstaclesCommand(CLI::App& app) {
 }
 
 int ObstaclesCommand::run() const {
+  const bool sequence = !left_pattern_.empty() || !right_pattern_.empty();
+  if (sequence && (!left_.empty() || !right_.empty())) {
+    throw CommandError(kExitUsage, "give LEFT RIGHT (one frame) or --left and --right patterns (a sequence), not both");
+  }
+  if (sequence) return run_sequence();
+  if (left_.empty() || right_.empty()) {
+    throw CommandError(kExitUsage, "give LEFT RIGHT (one frame) or --left and --right patterns (a sequence)");
+  }
+  for (const char* flag : {"--first", "--frames", "--fps"}) {
+    if (command_->count(flag) > 0) throw CommandError(kExitUsage, std::string(flag) + " is a sequence-mode option (with --left and --right)");
+  }
+  return run_single_frame();
+}
+
+int ObstaclesCommand::run_single_frame() const {
   const RectifiedPair pair = read_rectified_pair(left_, right_, calibration_files_);
   const Plane& left = pair.left;
   const Plane& right = pair.right;
   const io::RectifiedGeometry& geometry = pair.geometry;
-  const std::string calibration_name = calibration_files_[0] + (calibration_files_.size() == 2 ? "," + calibration_files_[1] : "");
-  if (!(geometry.baseline_m > 0.0) || !std::isfinite(geometry.baseline_m)) {
-    throw CommandError(kExitInput, "calibration " + calibration_name +
-                                       ": expected a stereo baseline > 0 m (the right camera's translation), got " +
-                                       std::to_string(geometry.baseline_m) + " m");
-  }
-  if (geometry.projection != io::RectifiedProjection::pinhole) {
-    throw CommandError(kExitInput, "calibration " + calibration_name + ": expected a pinhole rectification, got latitude-longitude");
-  }
+  check_geometry(geometry, calibration_files_);
 
   const arm::DisparityParameters disparity_parameters =
       tools::disparity_parameters(engine_options_, left.width(), arm::DisparityParameters{}.num_disparities);
@@ -236,24 +346,14 @@ int ObstaclesCommand::run() const {
   const Plane& disparity = engine.compute(left, right);
   const auto disparity_done = std::chrono::steady_clock::now();
 
-  arm::ObstacleParameters parameters = detector_parameters_;
-  parameters.focal_px = geometry.focal_px;
-  parameters.baseline_m = geometry.baseline_m;
-  parameters.principal_point_x_px = geometry.cx_left_px;
-  parameters.principal_point_y_px = geometry.cy_px;
-  parameters = parameters.for_disparity_range(disparity_parameters.min_disparity, disparity_parameters.num_disparities);
+  const arm::ObstacleParameters parameters = detector_parameters_for(detector_parameters_, geometry, disparity_parameters);
   arm::ObstacleDetector detector(left.width(), left.height(), parameters, {}, threads_);
   const arm::ObstacleFrame frame = detector.run(disparity, left);
   const auto obstacles_done = std::chrono::steady_clock::now();
-  const auto milliseconds = [](auto duration) { return std::chrono::duration<double, std::milli>(duration).count(); };
   const double disparity_ms = milliseconds(disparity_done - started);
   const double obstacle_stage_ms = milliseconds(obstacles_done - disparity_done);
 
-  nlohmann::json obstacles = nlohmann::json::array();
-  for (const arm::Obstacle& obstacle : frame.obstacles) obstacles.push_back(obstacle_json(obstacle, parameters.feature_validation));
-  const nlohmann::json output = {
-      {"width", left.width()}, {"height", left.height()}, {"road", road_json(frame.road)}, {"obstacles", obstacles}};
-  write_file_atomically(output_, output.dump(2) + "\n");
+  write_file_atomically(output_, frame_json(left.width(), left.height(), frame, parameters).dump(2) + "\n");
   if (!overlay_path_.empty()) io::write_image(overlay_path_, overlay_picture(left_, frame.obstacles));
   if (!grid_path_.empty()) io::write_image(grid_path_, grid_picture(*frame.grid, parameters, frame.obstacles));
   if (!mask_path_.empty()) io::write_image(mask_path_, mask_picture(*frame.mask));
@@ -275,6 +375,89 @@ int ObstaclesCommand::run() const {
   }
   // First frame of a fresh engine and detector: includes their first-touch costs.
   std::printf("disparity %.1f ms, obstacle stage %.1f ms (first frame, %d threads)\n", disparity_ms, obstacle_stage_ms, threads_);
+  return 0;
+}
+
+int ObstaclesCommand::run_sequence() const {
+  if (left_pattern_.empty() || right_pattern_.empty()) {
+    throw CommandError(kExitUsage, std::string("--left and --right go together (sequence mode reads both views), got only ") +
+                                       (left_pattern_.empty() ? "--right" : "--left"));
+  }
+  for (const char* flag : {"--overlay", "--grid", "--mask", "--vdisp"}) {
+    if (command_->count(flag) > 0) throw CommandError(kExitUsage, std::string(flag) + " is a single-frame option (with LEFT RIGHT)");
+  }
+  const FramePattern left_frames("--left", left_pattern_), right_frames("--right", right_pattern_);
+  namespace fs = std::filesystem;
+  // The frames, found by name alone (for the progress bar's total): from --first to the first one
+  // with a view missing, at most --frames.
+  int frame_count = 0;
+  while ((frame_limit_ == 0 || frame_count < frame_limit_) && first_frame_ + frame_count < std::numeric_limits<int>::max() &&
+         fs::exists(left_frames.path(first_frame_ + frame_count)) && fs::exists(right_frames.path(first_frame_ + frame_count))) {
+    ++frame_count;
+  }
+  if (frame_count == 0) {
+    const std::string left_path = left_frames.path(first_frame_), right_path = right_frames.path(first_frame_);
+    throw CommandError(kExitInput, "frame " + std::to_string(first_frame_) + " (the first): expected " + left_path + " and " +
+                                       right_path + ", " + (fs::exists(left_path) ? right_path : left_path) + " not found");
+  }
+
+  const RectifiedPair first_pair =
+      read_rectified_pair(left_frames.path(first_frame_), right_frames.path(first_frame_), calibration_files_);
+  check_geometry(first_pair.geometry, calibration_files_);
+  const int width = first_pair.left.width(), height = first_pair.left.height();
+  const arm::DisparityParameters disparity_parameters =
+      tools::disparity_parameters(engine_options_, width, arm::DisparityParameters{}.num_disparities);
+  arm::ObstacleParameters parameters = detector_parameters_for(detector_parameters_, first_pair.geometry, disparity_parameters);
+  parameters.tracking = true;
+  parameters.tracking_settings.frame_period_s = 1.0 / fps_;
+  arm::DisparityEngine engine(width, height, disparity_parameters, {}, threads_);
+  arm::ObstacleDetector detector(width, height, parameters, {}, threads_);
+
+  // A progress bar on a terminal only (as lpstereo synth draws it; logs and pipes get the summary alone).
+  const bool terminal = ::isatty(STDERR_FILENO) != 0;
+  const auto progress = [terminal, frame_count](int frames_done) {
+    if (!terminal) return;
+    const int filled = frames_done * 40 / frame_count;
+    std::fprintf(stderr, "\rframes [%-40s] %d / %d", std::string(static_cast<size_t>(filled), '#').c_str(), frames_done, frame_count);
+    if (frames_done == frame_count) std::fprintf(stderr, "\n");
+  };
+  progress(0);
+
+  std::string lines;  // every frame's line, written at the end in one atomic step: no half-written file
+  std::set<int> track_ids;
+  double processing_ms = 0.0;
+  for (int i = 0; i < frame_count; ++i) {
+    const int index = first_frame_ + i;
+    Plane left_read, right_read;
+    if (i > 0) {
+      const std::string left_path = left_frames.path(index), right_path = right_frames.path(index);
+      left_read = io::read_luma_u8(left_path);
+      right_read = io::read_luma_u8(right_path);
+      for (const auto& [view, path] : {std::pair{&left_read, &left_path}, std::pair{&right_read, &right_path}}) {
+        if (view->width() != width || view->height() != height) {
+          throw CommandError(kExitInput, "frame " + std::to_string(index) + ": " + *path + " is " + std::to_string(view->width()) +
+                                             "x" + std::to_string(view->height()) + ", expected " + std::to_string(width) + "x" +
+                                             std::to_string(height) + " (the size of frame " + std::to_string(first_frame_) + ")");
+        }
+      }
+    }
+    const Plane& left = i > 0 ? left_read : first_pair.left;
+    const Plane& right = i > 0 ? right_read : first_pair.right;
+    const auto started = std::chrono::steady_clock::now();
+    const arm::ObstacleFrame frame = detector.run(engine.compute(left, right), left);
+    processing_ms += milliseconds(std::chrono::steady_clock::now() - started);
+    nlohmann::json line = frame_json(width, height, frame, parameters);
+    line["frame"] = index;
+    lines += line.dump() + "\n";
+    for (const arm::Obstacle& obstacle : frame.obstacles) {
+      if (obstacle.track_id > 0) track_ids.insert(obstacle.track_id);
+    }
+    progress(i + 1);
+  }
+  write_file_atomically(output_, lines);
+  std::printf("%d frames (%d .. %d) at %.3g fps, %zu tracks, mean %.1f ms per frame (disparity + obstacles, %d threads) -> %s\n",
+              frame_count, first_frame_, first_frame_ + frame_count - 1, fps_, track_ids.size(), processing_ms / frame_count,
+              threads_, output_.c_str());
   return 0;
 }
 

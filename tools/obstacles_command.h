@@ -22,6 +22,20 @@
 // Bad input (missing or unreadable files, a calibration without a baseline, image sizes that differ):
 // one line and exit 1 (2 for bad usage), no output file. An all-invalid disparity map or a scene
 // without a road (sky, wall): the road's confidence and an empty obstacle list, exit 0.
+//
+// Sequence mode: lpstereo obstacles --left 'dir/%06d.png' --right 'dir/%06d.png' --calib C
+//     -o TRACKS.jsonl [--first N] [--frames N] [--fps F] [the disparity and tuning options]
+// Frames --first (default 0), --first + 1, ... until the first frame whose left or right file is
+// missing, or --frames frames; each pattern holds one printf integer conversion (%d, %06d, ...). The
+// detector runs with tracking (arm/tasks/obstacle_tracker.cpp) at a frame period of 1 / --fps
+// (default 30). Output: JSON lines, one object per frame,
+//   {"frame": index, "width", "height", "road": {...}, "obstacles": [...]}
+// with the single-frame fields, "track_id" (>= 1; 0 = not tracked, the tracker full) and
+// "velocity_mps": [vx, vy, vz] (camera frame, m/s; 0 until the track has min_hits_for_velocity
+// measurements, vy always 0: ground-plane filter). Written atomically once every frame is done; a
+// progress bar on stderr when it is a terminal; a summary line (frames, tracks, mean ms per frame).
+// Bad input (no first frame, a pattern without one %d, the size changing mid-sequence, LEFT RIGHT
+// given with --left/--right, single-frame pictures asked for): one line, non-zero exit, no output file.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -41,6 +55,9 @@ class ObstaclesCommand {
   int run() const;  // throws CommandError (one line) on bad input
 
  private:
+  int run_single_frame() const;
+  int run_sequence() const;
+
   CLI::App* command_ = nullptr;
   std::string left_, right_, output_;
   std::vector<std::string> calibration_files_;
@@ -48,6 +65,11 @@ class ObstaclesCommand {
   DisparityEngineOptions engine_options_{arm::obstacle_disparity_defaults()};
   arm::ObstacleParameters detector_parameters_;  // the tuning flags write into it; defaults are its own
   int threads_ = 0;
+  // Sequence mode.
+  std::string left_pattern_, right_pattern_;
+  int first_frame_ = 0;
+  int frame_limit_ = 0;  // 0: until the first missing frame
+  double fps_ = 30.0;
 };
 
 }  // namespace lpstereo::tools

@@ -63,7 +63,8 @@
 // (default 0.25), lateral_sigma_m (default 0.1), initial_speed_sigma_mps (default 10.0),
 // gate_mahalanobis_sq (default 13.8: chi-square, 2 degrees of freedom, 0.999), max_centroid_distance_m
 // (default 5.0), pixel_weight (default 0.5), max_relative_pixel_difference (default 0.75),
-// max_missed_frames (default 3), min_hits_for_velocity (default 3).
+// max_missed_frames (default 3), min_hits_for_velocity (default 3); the defaults live in TrackerSettings
+// (obstacle_tracker.h), which arm/obstacle_detector.h aggregates.
 //
 // Counted work (deterministic, ArmWork), with T live previous tracks, M measurable obstacles, G gated
 // candidate pairs, U matched tracks, N new tracks, O = max_obstacles rows, L = 1 + max_tracks rows:
@@ -148,22 +149,11 @@ using Matrix2 = Eigen::Matrix2d;
 using Matrix4 = Eigen::Matrix4d;
 using Matrix42 = Eigen::Matrix<double, 4, 2>;
 
-struct TrackerParams {
+// The prepared parameters: the calibration's camera and the tuning (defaults: TrackerSettings).
+struct TrackerParams : TrackerSettings {
   int max_obstacles = 0;
-  int max_tracks = 64;
-  double frame_period_s = 1.0 / 30.0;
-  double accel_sigma_mps2 = 3.0;
   double focal_px = 0.0;
   double baseline_m = 0.0;
-  double disparity_sigma_px = 0.25;
-  double lateral_sigma_m = 0.1;
-  double initial_speed_sigma_mps = 10.0;
-  double gate_mahalanobis_sq = 13.8;
-  double max_centroid_distance_m = 5.0;
-  double pixel_weight = 0.5;
-  double max_relative_pixel_difference = 0.75;
-  int max_missed_frames = 3;
-  int min_hits_for_velocity = 3;
 };
 
 // A calibration value the task cannot default: absent or not > 0 is an error naming it.
@@ -191,18 +181,20 @@ PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShap
   p.max_obstacles = obstacles.height;
   p.focal_px = calibration_param(params, "focal_px");
   p.baseline_m = calibration_param(params, "baseline_m");
-  p.max_tracks = param_int(params, "max_tracks", 64, 1, 4096);
-  p.frame_period_s = param_double(params, "frame_period_s", 1.0 / 30.0, 1e-4, 10.0);
-  p.accel_sigma_mps2 = param_double(params, "accel_sigma_mps2", 3.0, 0.0, 100.0);
-  p.disparity_sigma_px = param_double(params, "disparity_sigma_px", 0.25, 1e-3, 100.0);
-  p.lateral_sigma_m = param_double(params, "lateral_sigma_m", 0.1, 1e-3, 100.0);
-  p.initial_speed_sigma_mps = param_double(params, "initial_speed_sigma_mps", 10.0, 1e-2, 1000.0);
-  p.gate_mahalanobis_sq = param_double(params, "gate_mahalanobis_sq", 13.8, 0.01, 1e6);
-  p.max_centroid_distance_m = param_double(params, "max_centroid_distance_m", 5.0, 1e-3, 1e4);
-  p.pixel_weight = param_double(params, "pixel_weight", 0.5, 0.0, 100.0);
-  p.max_relative_pixel_difference = param_double(params, "max_relative_pixel_difference", 0.75, 0.0, 1.0);
-  p.max_missed_frames = param_int(params, "max_missed_frames", 3, 0, 1000000);
-  p.min_hits_for_velocity = param_int(params, "min_hits_for_velocity", 3, 1, 1000000);
+  const TrackerSettings defaults;
+  p.max_tracks = param_int(params, "max_tracks", defaults.max_tracks, 1, 4096);
+  p.frame_period_s = param_double(params, "frame_period_s", defaults.frame_period_s, 1e-4, 10.0);
+  p.accel_sigma_mps2 = param_double(params, "accel_sigma_mps2", defaults.accel_sigma_mps2, 0.0, 100.0);
+  p.disparity_sigma_px = param_double(params, "disparity_sigma_px", defaults.disparity_sigma_px, 1e-3, 100.0);
+  p.lateral_sigma_m = param_double(params, "lateral_sigma_m", defaults.lateral_sigma_m, 1e-3, 100.0);
+  p.initial_speed_sigma_mps = param_double(params, "initial_speed_sigma_mps", defaults.initial_speed_sigma_mps, 1e-2, 1000.0);
+  p.gate_mahalanobis_sq = param_double(params, "gate_mahalanobis_sq", defaults.gate_mahalanobis_sq, 0.01, 1e6);
+  p.max_centroid_distance_m = param_double(params, "max_centroid_distance_m", defaults.max_centroid_distance_m, 1e-3, 1e4);
+  p.pixel_weight = param_double(params, "pixel_weight", defaults.pixel_weight, 0.0, 100.0);
+  p.max_relative_pixel_difference =
+      param_double(params, "max_relative_pixel_difference", defaults.max_relative_pixel_difference, 0.0, 1.0);
+  p.max_missed_frames = param_int(params, "max_missed_frames", defaults.max_missed_frames, 0, 1000000);
+  p.min_hits_for_velocity = param_int(params, "min_hits_for_velocity", defaults.min_hits_for_velocity, 1, 1000000);
   return PreparedKernel{prepared, {{kObstacleWords, obstacles.height}, {kTrackWords, 1 + p.max_tracks}}};
 }
 

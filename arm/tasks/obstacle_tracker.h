@@ -85,6 +85,24 @@ struct TrackState {
   std::vector<Track> tracks;  // in row order (increasing id)
 };
 
+// The tracker's tuning (arm/tasks/obstacle_tracker.cpp documents each): the task's own defaults
+// (prepare reads them from here) and the struct arm/obstacle_detector.h aggregates, so the detector,
+// the CLI and the task share one set of values. focal_px and baseline_m come from the calibration.
+struct TrackerSettings {
+  int max_tracks = 64;
+  double frame_period_s = 1.0 / 30.0;
+  double accel_sigma_mps2 = 3.0;
+  double disparity_sigma_px = 0.25;
+  double lateral_sigma_m = 0.1;
+  double initial_speed_sigma_mps = 10.0;
+  double gate_mahalanobis_sq = 13.8;  // chi-square, 2 degrees of freedom, 0.999
+  double max_centroid_distance_m = 5.0;
+  double pixel_weight = 0.5;
+  double max_relative_pixel_difference = 0.75;
+  int max_missed_frames = 3;
+  int min_hits_for_velocity = 3;
+};
+
 // Decodes a track state plane (kTrackWords wide, >= 1 row, s32). Throws std::runtime_error on another
 // shape or a header that counts more tracks than the plane has rows.
 TrackState decode_tracks(const Plane& tracks);
