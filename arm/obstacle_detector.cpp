@@ -40,24 +40,23 @@ std::string tracking_text(const TrackerSettings& t) {
 
 }  // namespace
 
-DisparityParameters obstacle_disparity_defaults() {
-  DisparityParameters parameters;
-  parameters.census_width = 9;
-  return parameters;
-}
+DisparityParameters obstacle_disparity_defaults() { return DisparityParameters{}; }
 
 std::string settings_text(const ObstacleParameters& p) {
-  char text[768];
+  char text[1024];
   std::snprintf(text, sizeof text,
                 "V-disparity from %d px; VLDH %d rows, %d matching within %d/16 px, road margin %d/16 px + %d per mille, "
                 "%d rows above the horizon; AUD %d columns per cell, %d rows over [%.1f, %.1f) px, k %.2f, weights +%d / -%d; "
-                "clusters: Y_min %.2f m to %.0f m then %.2f m, at least %d cell(s) and %d pixels; feature validation %s; tracking %s",
+                "clusters: Y_min %.2f m to %.0f m then %.2f m, at least %d cell(s) and %d pixels; feature validation %s "
+                "(Harris > %d, corners within %d px of an obstacle pixel, %d before %.0f m, %d beyond); tracking %s",
                 p.v_disparity_min_px(), p.vldh.window_rows, p.vldh.min_count, p.vldh.match_tolerance_q4,
                 p.vldh.road_margin_q4, p.vldh.road_margin_per_mille, p.vldh.rows_above_horizon, p.grid.columns_per_cell,
                 p.grid.geometry.grid_rows, p.grid.geometry.min_disparity_px, p.grid.geometry.max_disparity_px,
                 p.grid.geometry.exponent_k, p.grid.obstacle_weight, p.grid.free_weight, p.clusters.near_min_height_m,
                 p.clusters.height_switch_distance_m, p.clusters.far_min_height_m, p.clusters.min_cells,
-                p.clusters.min_pixels, p.feature_validation ? "on" : "off", p.tracking ? tracking_text(p.tracking_settings).c_str() : "off");
+                p.clusters.min_pixels, p.feature_validation ? "on" : "off", p.features.harris_threshold,
+                p.validation.mask_radius_px, p.validation.min_features, p.validation.far_distance_m,
+                p.validation.far_min_features, p.tracking ? tracking_text(p.tracking_settings).c_str() : "off");
   return text;
 }
 
@@ -181,6 +180,7 @@ GraphSpec ObstacleDetector::graph_spec(const ObstacleParameters& p) {
     validation.inputs["mask"] = {"mask", false};
     validation.outputs["validated"] = p.tracking ? "validated" : "obstacles";
     validation.params = {{"margin_px", p.validation.margin_px}, {"min_features", p.validation.min_features},
+                         {"far_min_features", p.validation.far_min_features}, {"far_distance_m", p.validation.far_distance_m},
                          {"mask_radius_px", p.validation.mask_radius_px}};
     spec.nodes.push_back(validation);
     spec.description += ", feature validation";

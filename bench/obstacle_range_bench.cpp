@@ -19,7 +19,7 @@
 // Usage: obstacle_range_bench [--from-m 20] [--to-m 150] [--step-m 5] [--seeds 1] [--empty-seeds 10]
 //                             [--slope-deg 2] [--width 3840 --height 1728] [--threads 2]
 //        tuning (the engine's and detector's defaults otherwise): [--lr-check PX] [--uniqueness PCT]
-//                             [--paths 4|8] [--census 5|9] [--harris-threshold R] [--mask-radius PX]
+//                             [--paths 4|8] [--census 5|9] [--harris-threshold R] [--mask-radius PX] [--min-features N]
 //                             [--far-height-m M] [--feature-validation 0|1]
 #include <algorithm>
 #include <cstdio>
@@ -67,6 +67,7 @@ bool parse(int argc, char** argv, Options& options) {
     else if (name == "--census") options.setup.disparity.census_width = std::atoi(value);
     else if (name == "--harris-threshold") options.detector.features.harris_threshold = std::atoi(value);
     else if (name == "--mask-radius") options.detector.validation.mask_radius_px = std::atoi(value);
+    else if (name == "--min-features") options.detector.validation.min_features = std::atoi(value);
     else if (name == "--far-height-m") options.detector.clusters.far_min_height_m = std::atof(value);
     else if (name == "--feature-validation") options.detector.feature_validation = std::atoi(value) != 0;
     else return false;
@@ -82,7 +83,7 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, options)) {
     std::fprintf(stderr,
                  "usage: obstacle_range_bench [--from-m M] [--to-m M] [--step-m M] [--seeds N] [--empty-seeds N] "
-                 "[--slope-deg D] [--width W --height H] [--threads N] [--harris-threshold R] [--mask-radius PX] "
+                 "[--slope-deg D] [--width W --height H] [--threads N] [--harris-threshold R] [--mask-radius PX] [--min-features N] "
                  "[--far-height-m M] [--feature-validation 0|1]\n");
     return 2;
   }

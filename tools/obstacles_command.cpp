@@ -312,6 +312,8 @@ ObstaclesCommand::ObstaclesCommand(CLI::App& app) {
       ->capture_default_str();
   command_->add_option("--harris-threshold", p.features.harris_threshold, "feature validation: Harris response threshold")
       ->capture_default_str();
+  command_->add_option("--min-features", p.validation.min_features, "feature validation: corners a cluster needs")
+      ->capture_default_str();
   command_->add_option("--mask-radius", p.validation.mask_radius_px,
                        "feature validation: a corner counts with an obstacle pixel this near (-1: anywhere in the box)")
       ->capture_default_str();

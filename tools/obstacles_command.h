@@ -9,8 +9,9 @@
 //    "obstacles": [{"id", "bbox_px": [x0, y0, x1, y1], "disparity", "distance_m", "position_m": [x, y, z],
 //                   "width_m", "height_m", "pixels", "features", "track_id", "velocity_mps"}]}
 // camera frame (x right, y down, z forward), metres; position_m is the bounding box's bottom centre
-// (the foot); bbox_px inclusive. Single-frame mode: "features" is null (no feature validation in this
-// build), "track_id" and "velocity_mps" are null (not tracked).
+// (the foot); bbox_px inclusive. "features": the Harris corners that validated the obstacle (null
+// with --feature-validation false). Single-frame mode: "track_id" and "velocity_mps" are null (not
+// tracked). The matcher's defaults are arm::obstacle_disparity_defaults(), the detector's tuning.
 // Pictures: --overlay the left image with the boxes coloured by distance and labelled; --grid the
 // Advanced U-disparity grid as a top view (far at the top; cell value in grey, occupied cells white,
 // each obstacle's cells in its colour); --mask the VLDH mask (black no vote, green free, red obstacle);
@@ -18,7 +19,8 @@
 // Tuning flags (defaults from arm::ObstacleParameters, the single source): --near-height-m,
 // --far-height-m, --switch-distance-m, --min-width-m, --min-cells, --min-pixels, --columns-per-cell,
 // --grid-rows, --grid-k, --obstacle-weight, --free-weight, --vldh-rows, --vldh-min-count,
-// --vldh-tolerance-q4, --road-margin-q4, --road-margin-per-mille.
+// --vldh-tolerance-q4, --road-margin-q4, --road-margin-per-mille, --feature-validation,
+// --harris-threshold, --min-features, --mask-radius.
 // Bad input (missing or unreadable files, a calibration without a baseline, image sizes that differ):
 // one line and exit 1 (2 for bad usage), no output file. An all-invalid disparity map or a scene
 // without a road (sky, wall): the road's confidence and an empty obstacle list, exit 0.

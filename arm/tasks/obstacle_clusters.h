@@ -51,9 +51,12 @@ struct ObstacleClusterSettings {
 // obstacle_feature_validation's parameters.
 struct FeatureValidationSettings {
   int margin_px = 2;      // the bounding box grown by this on every side before counting keypoints
-  int min_features = 1;   // records with fewer keypoints inside are dropped (thesis 003 §4.2.4)
-  int mask_radius_px = 0; // a keypoint counts only with an obstacle-mask pixel this near (-1: any keypoint;
-                          // 0: the corner itself; 1 let a dash's corner next to the artefact above it through)
+  int min_features = 2;   // records nearer than far_distance_m with fewer corners are dropped (thesis
+                          // 003 §4.2.4); see arm/tasks/obstacle_feature_validation.cpp for near / far
+  int far_min_features = 1;      // ... and farther records with fewer than this
+  double far_distance_m = 60.0;
+  int mask_radius_px = 1; // a keypoint counts only with an obstacle-mask pixel this near (-1: any keypoint;
+                          // 0 (the corner itself) lost the corners on far objects' outlines)
 };
 
 // T_r of eq. 4.3 for every grid row r (the occupancy threshold of a cell in row r, 65536 = never):

@@ -402,6 +402,7 @@ Plane validation_mask(const std::function<bool(int, int)>& obstacle) {
 TaskRun run_validation(const Plane& records, const Plane& keypoints, nlohmann::json params,
                        const Plane& mask = validation_mask([](int, int) { return false; })) {
   if (!params.contains("mask_radius_px")) params["mask_radius_px"] = -1;
+  if (!params.contains("min_features")) params["min_features"] = 1;  // the records below are all near (5 m)
   const ArmTaskDescriptor& task = task_named("obstacle_feature_validation");
   const PreparedKernel prepared = task.prepare(
       params, {{records.width(), records.height()}, {keypoints.width(), keypoints.height()}, {mask.width(), mask.height()}});
@@ -421,7 +422,7 @@ TEST(ObstacleFeatureValidation, DropsTheClusterWithoutAKeypointAndCountsTheOther
   keypoints.at<int32_t>(arm::kKeypointValid, 6) = 1;
   keypoints.at<int32_t>(arm::kKeypointXPx, 6) = 32;
   keypoints.at<int32_t>(arm::kKeypointYPx, 6) = 7;
-  const TaskRun run = run_validation(records, keypoints, {{"margin_px", 2}});  // min_features default 1
+  const TaskRun run = run_validation(records, keypoints, {{"margin_px", 2}});  // min_features 1 (run_validation)
   const std::vector<Obstacle> validated = arm::decode_obstacles(run.output);
   ASSERT_EQ(validated.size(), 2u);
   EXPECT_EQ(validated[0].id, 1);
@@ -468,6 +469,26 @@ TEST(ObstacleFeatureValidation, CountsOnlyKeypointsOnObstaclePixels) {
   const TaskRun run = run_validation(records, keypoints, {{"margin_px", 0}, {"mask_radius_px", 1}}, mask);
   EXPECT_EQ(run.work.scalar_ops, 2u * (6 + 6 * 3) + 3 + 1 + 1u * arm::kObstacleWords + 2u * 9 * 3);
   EXPECT_EQ(run.work.memory_bytes, 4u * arm::kKeypointWords * 3 + 2u * 4 * arm::kObstacleWords * 3 + 9u * 3);
+}
+
+// Near and far: a record nearer than far_distance_m needs min_features corners, a farther one
+// far_min_features. Two records with one corner each, at 59.999 m and at 60.000 m: with min_features 2,
+// far_min_features 1, far_distance_m 60 only the second stays.
+TEST(ObstacleFeatureValidation, NearRecordsNeedMoreCornersThanFarOnes) {
+  Plane records = obstacle_records({{1, 10, 10, 16, 20}, {2, 30, 5, 35, 9}}, 3);
+  records.at<int32_t>(arm::kObstacleDistanceMm, 0) = 59999;
+  records.at<int32_t>(arm::kObstacleDistanceMm, 1) = 60000;
+  const Plane keypoints = keypoint_list({{12, 12}, {32, 7}}, 4);
+  const std::vector<Obstacle> kept = arm::decode_obstacles(
+      run_validation(records, keypoints, {{"margin_px", 0}, {"min_features", 2}, {"far_min_features", 1}, {"far_distance_m", 60.0}}).output);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_EQ(kept[0].id, 2);
+  EXPECT_EQ(kept[0].features, 1);
+  // With far_distance_m 61 both are near and both go.
+  EXPECT_TRUE(arm::decode_obstacles(run_validation(records, keypoints,
+                                                   {{"margin_px", 0}, {"min_features", 2}, {"far_min_features", 1}, {"far_distance_m", 61.0}})
+                                        .output)
+                  .empty());
 }
 
 TEST(ObstacleFeatureValidation, PrepareChecksTheRecordWidths) {
