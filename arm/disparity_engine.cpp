@@ -267,12 +267,7 @@ DisparityEngine::DisparityEngine(int width, int height, const DisparityParameter
                                 std::to_string(parameters.min_disparity + parameters.num_disparities) +
                                 " exceeds the image width " + std::to_string(width));
   }
-  graph_ = std::make_unique<Graph>(graph_spec(parameters));
-  VerifyOptions options;
-  options.frame_width = width;
-  options.frame_height = height;
-  options.memory = memory;
-  graph_->verify(options);
+  graph_ = make_verified_graph(graph_spec(parameters), width, height, memory);
   runner_ = std::make_unique<FrameRunner>(*graph_, worker_threads, backend);
 }
 

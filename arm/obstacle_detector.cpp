@@ -219,12 +219,7 @@ GraphSpec ObstacleDetector::graph_spec(const ObstacleParameters& p) {
 ObstacleDetector::ObstacleDetector(int width, int height, const ObstacleParameters& parameters, const MemoryBudget& memory,
                                    int worker_threads)
     : parameters_(parameters) {
-  graph_ = std::make_unique<Graph>(graph_spec(parameters));
-  VerifyOptions options;
-  options.frame_width = width;
-  options.frame_height = height;
-  options.memory = memory;
-  graph_->verify(options);
+  graph_ = make_verified_graph(graph_spec(parameters), width, height, memory);
   runner_ = std::make_unique<FrameRunner>(*graph_, worker_threads);
 }
 

@@ -243,6 +243,16 @@ GraphSpec parse_graph_spec(const std::string& json_text, const std::string& sour
   return spec;
 }
 
+std::unique_ptr<Graph> make_verified_graph(GraphSpec spec, int width, int height, const MemoryBudget& memory) {
+  auto graph = std::make_unique<Graph>(std::move(spec));
+  VerifyOptions options;
+  options.frame_width = width;
+  options.frame_height = height;
+  options.memory = memory;
+  graph->verify(options);
+  return graph;
+}
+
 GraphSpec load_graph_spec(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   if (!file) throw GraphSpecError(path + ": cannot open graph file");

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -203,5 +204,10 @@ VectorNodeBinding vector_node_binding(const NodeInfo& node);
 // plus the kernel's scratch and its row state (kept in SRAM for the whole frame).
 size_t tile_working_set_bytes(const NodeInfo& node, const std::vector<BufferInfo>& buffers, int tile_width,
                               int tile_height);
+
+// The graph of `spec`, verified for frames of width x height against `memory` (the engines that build
+// their graph in C++ and run it at one size: arm::DisparityEngine, arm::ObstacleDetector). Throws
+// VerifyError.
+std::unique_ptr<Graph> make_verified_graph(GraphSpec spec, int width, int height, const MemoryBudget& memory);
 
 }  // namespace lpstereo
