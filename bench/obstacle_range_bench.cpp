@@ -19,7 +19,7 @@
 // Usage: obstacle_range_bench [--from-m 20] [--to-m 150] [--step-m 5] [--seeds 1] [--empty-seeds 10]
 //                             [--slope-deg 2] [--width 3840 --height 1728] [--threads 2]
 //        tuning (the engine's and detector's defaults otherwise): [--lr-check PX] [--uniqueness PCT]
-//                             [--paths 4|8] [--census 5|9] [--harris-threshold R] [--mask-radius PX] [--min-features N]
+//                             [--paths 4|8] [--census 5|9] [--harris-threshold R] [--mask-radius PX] [--min-features N] [--min-pixels N]
 //                             [--far-height-m M] [--feature-validation 0|1]
 #include <algorithm>
 #include <cstdio>
@@ -68,6 +68,7 @@ bool parse(int argc, char** argv, Options& options) {
     else if (name == "--harris-threshold") options.detector.features.harris_threshold = std::atoi(value);
     else if (name == "--mask-radius") options.detector.validation.mask_radius_px = std::atoi(value);
     else if (name == "--min-features") options.detector.validation.min_features = std::atoi(value);
+    else if (name == "--min-pixels") options.detector.clusters.min_pixels = std::atoi(value);
     else if (name == "--far-height-m") options.detector.clusters.far_min_height_m = std::atof(value);
     else if (name == "--feature-validation") options.detector.feature_validation = std::atoi(value) != 0;
     else return false;
@@ -83,7 +84,7 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, options)) {
     std::fprintf(stderr,
                  "usage: obstacle_range_bench [--from-m M] [--to-m M] [--step-m M] [--seeds N] [--empty-seeds N] "
-                 "[--slope-deg D] [--width W --height H] [--threads N] [--harris-threshold R] [--mask-radius PX] [--min-features N] "
+                 "[--slope-deg D] [--width W --height H] [--threads N] [--harris-threshold R] [--mask-radius PX] [--min-features N] [--min-pixels N] "
                  "[--far-height-m M] [--feature-validation 0|1]\n");
     return 2;
   }
@@ -116,9 +117,21 @@ int main(int argc, char** argv) {
         if (!inserted) entry->second = entry->second && found;
         line += " " + name + (found ? " yes" : " NO");
       }
-      std::printf("  %5.0f m seed %d:%s | %d false | road %s | render %.1f s, disparity %.1f s, obstacles %.1f ms\n",
-                  distance_m, seed, line.c_str(), result.score.false_positives, result.road.valid ? "found" : "NONE",
-                  result.render_s, result.disparity_s, result.obstacles_s * 1000.0);
+      // The unmatched detections within the false-positive range, for diagnosis.
+      std::string unmatched;
+      const std::vector<io::DetectedBox> boxes = eval::detected_boxes(result.obstacles);
+      for (const io::DetectedBox& box : boxes) {
+        bool matched = false;
+        for (const io::SynthObjectTruth& object : result.truth) matched = matched || io::detection_matches(box, object, io::MatchRule{});
+        if (matched || box.distance_m > io::MatchRule{}.false_positive_range_m) continue;
+        char text[96];
+        std::snprintf(text, sizeof text, " [box %d %d %d %d at %.1f m]", box.bbox_px[0], box.bbox_px[1], box.bbox_px[2],
+                      box.bbox_px[3], box.distance_m);
+        unmatched += text;
+      }
+      std::printf("  %5.0f m seed %d:%s | %d false%s | road %s | render %.1f s, disparity %.1f s, obstacles %.1f ms\n",
+                  distance_m, seed, line.c_str(), result.score.false_positives, unmatched.c_str(),
+                  result.road.valid ? "found" : "NONE", result.render_s, result.disparity_s, result.obstacles_s * 1000.0);
       std::fflush(stdout);
     }
   }

@@ -40,9 +40,10 @@ struct ObstacleClusterSettings {
   // d / B, 1, columns_per_cell). See arm/tasks/obstacle_clusters.cpp.
   double min_width_m = 0.0;
   int min_cells = 1;        // clusters with fewer occupied cells are dropped
-  int min_pixels = 3;       // clusters with fewer obstacle-mask pixels are dropped (a 0.07 m tape roll
-                            // at 40 m at 4K has only 3-10 pixels above the road margin; the specks of
-                            // road noise are removed by feature validation, docs/obstacles.md)
+  int min_pixels = 11;      // clusters with fewer obstacle-mask pixels are dropped: on the 4K range
+                            // test a far road artefact had 10 (at 114 m) while a 0.30 m cone at 100 m
+                            // has 12 or more and the 0.07 m tape roll at 45 m ~40; 15 lost the cone at
+                            // 95 m (docs/obstacles.md)
   int max_obstacles = 512;  // record rows; with more clusters the nearest are kept. Room for the
                             // clusters feature validation drops: with 64 the nearer road specks of a
                             // 4K frame filled the list and the 130 m objects never reached validation
