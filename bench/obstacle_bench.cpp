@@ -86,7 +86,9 @@ bool check_crossing_car() {
   for (const arm::Obstacle& obstacle : result.obstacles) {
     const cv::Rect box(obstacle.bbox_px[0], obstacle.bbox_px[1], obstacle.bbox_px[2] - obstacle.bbox_px[0] + 1,
                        obstacle.bbox_px[3] - obstacle.bbox_px[1] + 1);
-    const double overlap = static_cast<double>((box & kCarBox).area()) / std::min(box.area(), kCarBox.area());
+    // Intersection over union: a few-pixel fragment inside the car's box is not the car's detection.
+    const double intersection = (box & kCarBox).area();
+    const double overlap = intersection / (box.area() + kCarBox.area() - intersection);
     const double error = std::abs(obstacle.distance_m - truth_distance_m) / truth_distance_m;
     const bool is_car = overlap >= 0.5 && error <= 0.10;
     found = found || is_car;
@@ -95,7 +97,7 @@ bool check_crossing_car() {
                 100.0 * (obstacle.distance_m - truth_distance_m) / truth_distance_m,
                 static_cast<long long>(obstacle.pixels), obstacle.features, is_car ? "  <- the crossing car" : "");
   }
-  std::printf("crossing car %s (a detection covering at least half of the smaller box, distance within 10 %%)\n",
+  std::printf("crossing car %s (a detection whose box has an intersection over union >= 0.5 with the car's, distance within 10 %%)\n",
               found ? "DETECTED" : "MISSED");
   return found;
 }

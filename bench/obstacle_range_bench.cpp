@@ -107,7 +107,7 @@ int main(int argc, char** argv) {
     for (int seed = 1; seed <= options.seeds; ++seed) {
       const eval::SceneResult result = runner.run_lineup(distance_m, static_cast<uint32_t>(seed));
       ++lineup_frames;
-      lineup_false_positives += result.score.false_positives;
+      lineup_false_positives += result.score.false_positives();
       stage_ms.push_back(result.obstacles_s * 1000.0);
       std::string line;
       for (size_t i = 0; i < result.truth.size(); ++i) {
@@ -119,18 +119,15 @@ int main(int argc, char** argv) {
       }
       // The unmatched detections within the false-positive range, for diagnosis.
       std::string unmatched;
-      const std::vector<io::DetectedBox> boxes = eval::detected_boxes(result.obstacles);
-      for (const io::DetectedBox& box : boxes) {
-        bool matched = false;
-        for (const io::SynthObjectTruth& object : result.truth) matched = matched || io::detection_matches(box, object, io::MatchRule{});
-        if (matched || box.distance_m > io::MatchRule{}.false_positive_range_m) continue;
+      for (const int index : result.score.false_detections) {
+        const arm::Obstacle& obstacle = result.obstacles[static_cast<size_t>(index)];
         char text[96];
-        std::snprintf(text, sizeof text, " [box %d %d %d %d at %.1f m]", box.bbox_px[0], box.bbox_px[1], box.bbox_px[2],
-                      box.bbox_px[3], box.distance_m);
+        std::snprintf(text, sizeof text, " [box %d %d %d %d at %.1f m]", obstacle.bbox_px[0], obstacle.bbox_px[1],
+                      obstacle.bbox_px[2], obstacle.bbox_px[3], obstacle.distance_m);
         unmatched += text;
       }
       std::printf("  %5.0f m seed %d:%s | %d false%s | road %s | render %.1f s, disparity %.1f s, obstacles %.1f ms\n",
-                  distance_m, seed, line.c_str(), result.score.false_positives, unmatched.c_str(),
+                  distance_m, seed, line.c_str(), result.score.false_positives(), unmatched.c_str(),
                   result.road.valid ? "found" : "NONE", result.render_s, result.disparity_s, result.obstacles_s * 1000.0);
       std::fflush(stdout);
     }
@@ -141,9 +138,9 @@ int main(int argc, char** argv) {
     // Alternating flat, climbing and descending roads.
     const double slope_deg = seed % 3 == 1 ? 0.0 : (seed % 3 == 2 ? options.slope_deg : -options.slope_deg);
     const eval::SceneResult result = runner.run_empty_road(static_cast<uint32_t>(1000 + seed), slope_deg);
-    empty_false_positives += result.score.false_positives;
+    empty_false_positives += result.score.false_positives();
     std::printf("  empty road seed %d, slope %+.1f deg: %d false positive(s)", 1000 + seed, slope_deg,
-                result.score.false_positives);
+                result.score.false_positives());
     for (const arm::Obstacle& obstacle : result.obstacles) {
       std::printf(" [box %d %d %d %d at %.1f m]", obstacle.bbox_px[0], obstacle.bbox_px[1], obstacle.bbox_px[2],
                   obstacle.bbox_px[3], obstacle.distance_m);

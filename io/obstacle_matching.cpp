@@ -29,7 +29,7 @@ FrameScore score_frame(const std::vector<SynthObjectTruth>& objects, const std::
   }
   for (size_t detection = 0; detection < detections.size(); ++detection) {
     if (!detection_used[detection] && detections[detection].distance_m <= rule.false_positive_range_m) {
-      ++score.false_positives;
+      score.false_detections.push_back(static_cast<int>(detection));
     }
   }
   return score;

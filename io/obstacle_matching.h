@@ -30,7 +30,9 @@ bool detection_matches(const DetectedBox& detection, const SynthObjectTruth& obj
 
 struct FrameScore {
   std::vector<int> detection_of_object;  // per truth object: index of the first matching detection, -1 = missed
-  int false_positives = 0;               // detections matching no object, within false_positive_range_m
+  std::vector<int> false_detections;     // indices of the detections matching no object, within
+                                         // false_positive_range_m, ascending
+  int false_positives() const { return static_cast<int>(false_detections.size()); }
 };
 
 FrameScore score_frame(const std::vector<SynthObjectTruth>& objects, const std::vector<DetectedBox>& detections,

@@ -260,14 +260,15 @@ TwoSegments fit_second_segment(const std::vector<Point>& points, const Line& mai
     const double pitch_rad = std::atan((p.principal_row_px + second.intercept / second.slope) / p.focal_px);
     return std::abs(pitch_rad) <= max_pitch_rad;
   };
-  auto on_its_side = [&](const Line& second, double v) {
-    const double crossing = crossing_row(second);
+  // Whether row v lies on the second line's side of the crossing row (computed once per line).
+  auto on_its_side = [&](const Line& second, double crossing, double v) {
     return second.slope < main.slope ? v < crossing + 1.0 : v > crossing - 1.0;
   };
   auto second_inliers = [&](const Line& second) {
+    const double crossing = crossing_row(second);
     std::vector<int> inliers;
     for (int i = 0; i < count; ++i) {
-      if (on_its_side(second, above[i].v) && std::abs(above[i].d - second.at(above[i].v)) <= p.inlier_threshold_px) {
+      if (on_its_side(second, crossing, above[i].v) && std::abs(above[i].d - second.at(above[i].v)) <= p.inlier_threshold_px) {
         inliers.push_back(i);
       }
     }
@@ -304,8 +305,9 @@ TwoSegments fit_second_segment(const std::vector<Point>& points, const Line& mai
   inliers = second_inliers(second);
   ops += 13ull * count;
   // The main line must keep min_inliers of its own support on its side of the crossing.
+  const double crossing = crossing_row(second);
   int main_support = 0;
-  for (int i : main_inliers) main_support += on_its_side(second, points[i].v) ? 0 : 1;
+  for (int i : main_inliers) main_support += on_its_side(second, crossing, points[i].v) ? 0 : 1;
   ops += main_inliers.size();
   if (static_cast<int>(inliers.size()) < p.min_far_inliers || main_support < p.min_inliers) return result;
   // A road surface covers the rows on its side of the crossing one after the other: the second
@@ -313,7 +315,6 @@ TwoSegments fit_second_segment(const std::vector<Point>& points, const Line& mai
   // Lines through the vertical segments of obstacles (their rows near the horizon, where the road's
   // disparity is below the V-disparity's range) pick up scattered rows: 51 of 200 on a 1920x864
   // lineup, which made the objects "road".
-  const double crossing = crossing_row(second);
   double span_rows = 0;
   for (int i : inliers) span_rows = std::max(span_rows, std::abs(above[i].v - crossing));
   ops += inliers.size();
@@ -321,7 +322,7 @@ TwoSegments fit_second_segment(const std::vector<Point>& points, const Line& mai
   result.valid = true;
   result.near = second.slope > main.slope ? second : main;
   result.far = second.slope > main.slope ? main : second;
-  result.break_row = static_cast<int>(std::ceil(crossing_row(second)));
+  result.break_row = static_cast<int>(std::ceil(crossing));
   result.second_inlier_count = static_cast<int>(inliers.size());
   return result;
 }

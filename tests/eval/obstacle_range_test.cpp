@@ -32,7 +32,7 @@ TEST(ObstacleRange, EmptyFlatRoadHasNoDetectionWithin150m) {
   eval::RangeTestRunner runner{eval::RangeTestSetup{}};
   const eval::SceneResult result = runner.run_empty_road(1001, 0.0);
   ASSERT_TRUE(result.road.valid);
-  EXPECT_EQ(result.score.false_positives, 0);
+  EXPECT_EQ(result.score.false_positives(), 0);
   for (const arm::Obstacle& obstacle : result.obstacles) {
     EXPECT_GT(obstacle.distance_m, 150.0) << "a false obstacle at " << obstacle.distance_m << " m, box " << obstacle.bbox_px[0]
                                           << " " << obstacle.bbox_px[1] << " " << obstacle.bbox_px[2] << " " << obstacle.bbox_px[3];

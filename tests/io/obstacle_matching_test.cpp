@@ -65,7 +65,8 @@ TEST(ObstacleMatching, ScoreCountsMissesAndOnlyNearUnmatchedDetectionsAsFalse) {
   ASSERT_EQ(score.detection_of_object.size(), 2u);
   EXPECT_EQ(score.detection_of_object[0], 0);
   EXPECT_EQ(score.detection_of_object[1], -1);
-  EXPECT_EQ(score.false_positives, 2);
+  EXPECT_EQ(score.false_positives(), 2);
+  EXPECT_EQ(score.false_detections, (std::vector<int>{1, 3}));
 }
 
 TEST(ObstacleMatching, RangeIsTheLastDistanceOfTheUnbrokenRunFromTheNearest) {
