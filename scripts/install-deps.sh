@@ -13,6 +13,11 @@ packages=(
   # aarch64 cross-build, and user-mode emulation to run the cross-built tests
   # (qemu-x86_64 also runs the host build on a CPU model without AVX-512)
   g++-aarch64-linux-gnu qemu-user
+  # cameras: V4L2 headers and libv4l, libcamera with its IPA modules (the vimc pipeline needs ipa_vimc)
+  libv4l-dev libcamera-dev libcamera-ipa
+  # the real-driver tests (tests/vm): Debian's kernel (ships the vivid module), its headers and
+  # sources (vimc is built out of tree from them), qemu to boot it, busybox for the initramfs
+  linux-image-amd64 linux-headers-amd64 linux-source qemu-system-x86 busybox-static cpio kmod
 )
 
 missing=()
