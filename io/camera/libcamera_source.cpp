@@ -1,6 +1,7 @@
 #include "io/camera/libcamera_source.h"
 
 #include <sys/mman.h>
+#include <sys/sysmacros.h>
 
 #include <algorithm>
 #include <array>
@@ -9,6 +10,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <deque>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -77,6 +80,38 @@ std::shared_ptr<libcamera::CameraManager> shared_camera_manager() {
   return manager;
 }
 
+// The V4L2 device nodes of `camera` (sysfs names such as "video2", with their device numbers):
+// CameraManager::get(dev_t) maps a V4L2 device number to the camera that streams from it.
+std::vector<std::pair<std::string, dev_t>> video_devices_of(libcamera::CameraManager& manager,
+                                                            const std::shared_ptr<libcamera::Camera>& camera) {
+  std::vector<std::pair<std::string, dev_t>> devices;
+  std::error_code error;
+  for (const auto& entry : std::filesystem::directory_iterator("/sys/class/video4linux", error)) {
+    unsigned major_number = 0, minor_number = 0;
+    char separator = 0;
+    std::ifstream(entry.path() / "dev") >> major_number >> separator >> minor_number;
+    if (separator != ':') continue;
+    const dev_t device_number = makedev(major_number, minor_number);
+    if (manager.get(device_number) == camera) devices.emplace_back(entry.path().filename().string(), device_number);
+  }
+  std::sort(devices.begin(), devices.end());
+  return devices;
+}
+
+bool device_present(dev_t device_number) {
+  return std::filesystem::exists("/sys/dev/char/" + std::to_string(major(device_number)) + ":" +
+                                 std::to_string(minor(device_number)));
+}
+
+// Cameras that went away while streaming, and the manager they belong to, kept until the process
+// exits: libcamera 0.0.3 cannot stop them (PipelineHandler::stop() asserts that no request is
+// still queued, and requests it failed to queue to a vanished device stay queued: a FATAL abort),
+// and cannot release them or free their buffers while they run.
+std::vector<std::shared_ptr<void>>& abandoned_objects() {
+  static auto* objects = new std::vector<std::shared_ptr<void>>();  // never destroyed, on purpose
+  return *objects;
+}
+
 std::string available_cameras(const libcamera::CameraManager& manager) {
   std::string text;
   for (const std::shared_ptr<libcamera::Camera>& camera : manager.cameras()) {
@@ -116,8 +151,10 @@ struct CameraStream {
   size_t bytes_per_line = 0;
   size_t luma_bytes = 0;         // the least of plane 0 a frame must fill (for NV12 the Y plane)
   std::string adjustment;        // what validate() changed, "" when nothing
+  std::vector<std::pair<std::string, dev_t>> video_devices;  // its V4L2 nodes (sysfs name, number)
   // Guarded by LibcameraStereoSource::mutex_.
   std::deque<CompletedFrame> completed;
+  bool gone = false;             // disconnected while streaming (libcamera's signal or its nodes vanished)
   std::optional<uint64_t> last_sequence;
   int64_t last_timestamp_ns = 0;
   int64_t frame_period_ns = 0;   // FrameDuration metadata, else the last timestamp step (0 = unknown)
@@ -192,6 +229,7 @@ class LibcameraStereoSource final : public StereoSource {
         }
         if (take_pair(frames, discarded)) break;
         if (Clock::now() >= deadline) {
+          if (note_vanished_devices()) continue;
           lock.unlock();
           requeue_all(discarded);
           return SourceResult{SourceStatus::timeout, {}, timeout_message(timeout)};
@@ -251,6 +289,7 @@ class LibcameraStereoSource final : public StereoSource {
     const int acquired = camera_stream.camera->acquire();
     if (acquired < 0) fail(id, "cannot acquire it, expected a camera not in use: " + error_text(acquired));
     camera_stream.acquired = true;
+    camera_stream.video_devices = video_devices_of(*manager_, camera_stream.camera);
     camera_stream.configuration = camera_stream.camera->generateConfiguration({libcamera::StreamRole::Viewfinder});
     if (!camera_stream.configuration || camera_stream.configuration->empty()) {
       fail(id, "offers no viewfinder stream configuration");
@@ -373,6 +412,7 @@ class LibcameraStereoSource final : public StereoSource {
     camera_stream.camera->requestCompleted.connect(this, &LibcameraStereoSource::on_request_completed);
     camera_stream.camera->disconnected.connect(this, [this, &camera_stream]() {
       std::lock_guard lock(mutex_);
+      camera_stream.gone = true;
       if (failure_.empty()) failure_ = quoted_id(camera_stream.id) + ": disconnected (libcamera's disconnected signal)";
       completion_.notify_all();
     });
@@ -494,6 +534,29 @@ class LibcameraStereoSource final : public StereoSource {
     return period_ns / 2;
   }
 
+  // Under mutex_, when a wait timed out: a camera whose V4L2 nodes have all left sysfs is gone,
+  // whether or not libcamera says so (in 0.0.3 only the UVC pipeline handler watches unplugs: the
+  // others, vimc's included, leave the stream stalled). Returns true when it set failure_.
+  bool note_vanished_devices() {
+    for (const auto& camera_stream : cameras_) {
+      if (camera_stream->video_devices.empty()) continue;
+      bool any_present = false;
+      for (const auto& [name, device_number] : camera_stream->video_devices) any_present |= device_present(device_number);
+      if (any_present) continue;
+      camera_stream->gone = true;
+      if (failure_.empty()) {
+        std::string names;
+        for (const auto& [name, device_number] : camera_stream->video_devices) {
+          names += (names.empty() ? "/dev/" : ", /dev/") + name;
+        }
+        failure_ = quoted_id(camera_stream->id) + ": its V4L2 devices (" + names +
+                   ") are gone, expected them present; the stream stopped and libcamera reported no disconnect";
+      }
+      return true;
+    }
+    return false;
+  }
+
   std::string timeout_message(std::chrono::milliseconds timeout) const {
     std::string text = quoted_id(cameras_[0]->id);
     if (!side_by_side_) text += " + '" + cameras_[1]->id + "'";
@@ -523,21 +586,32 @@ class LibcameraStereoSource final : public StereoSource {
   }
 
   // Stops the cameras (libcamera completes the queued requests as cancelled, ignored here), then
-  // frees the requests, mappings and buffers and releases the cameras.
+  // frees the requests, mappings and buffers and releases the cameras. A camera that went away
+  // while streaming is not stopped but abandoned (abandoned_objects()).
   void shut_down() {
     {
       std::lock_guard lock(mutex_);
       stopping_ = true;
     }
-    for (const auto& camera_stream : cameras_) {
-      if (camera_stream->started) camera_stream->camera->stop();
-      camera_stream->started = false;
+    bool abandoned = false;
+    for (auto& camera_stream : cameras_) {
       if (camera_stream->camera) {
         camera_stream->camera->requestCompleted.disconnect(this);
         camera_stream->camera->disconnected.disconnect(this);
       }
+      if (camera_stream->started && camera_stream->gone) {
+        for (const Mapping& mapping : camera_stream->mappings) munmap(mapping.address, mapping.length);
+        camera_stream->mappings.clear();
+        abandoned_objects().push_back(std::shared_ptr<CameraStream>(std::move(camera_stream)));
+        abandoned = true;
+        continue;
+      }
+      if (camera_stream->started) camera_stream->camera->stop();
+      camera_stream->started = false;
     }
+    if (abandoned) abandoned_objects().push_back(manager_);
     for (const auto& camera_stream : cameras_) {
+      if (!camera_stream) continue;  // abandoned above
       camera_stream->completed.clear();
       camera_stream->requests.clear();
       for (const Mapping& mapping : camera_stream->mappings) munmap(mapping.address, mapping.length);

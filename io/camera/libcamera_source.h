@@ -22,10 +22,15 @@
 // otherwise the older head is discarded (counted as unpaired) and its request re-queued.
 //
 // A camera's `disconnected` signal, a request that completes cancelled or with a failed buffer
-// while streaming, or a request the camera refuses to re-queue turn the source into
-// SourceStatus::disconnected with one line naming the camera; every later next() says the same.
-// Note: libcamera learns of an unplugged device through udev's monitor; without a running udevd
-// it is not told (see docs/cameras.md), and the stream then stalls: next() returns timeout.
+// while streaming, a request the camera refuses to re-queue, or (checked when a wait times out)
+// the camera's V4L2 device nodes gone from sysfs turn the source into SourceStatus::disconnected
+// with one line naming the camera; every later next() says the same. The last check is needed
+// because libcamera 0.0.3 reports unplugs only for UVC cameras (only its UVC pipeline handler
+// calls hotplugMediaDevice()): for vimc, for example, requests queued after the device went away
+// fail inside the pipeline ("Failed to queue buffer: No such device") and never complete. Such a
+// camera is not stopped on close (libcamera 0.0.3 aborts in PipelineHandler::stop() when a
+// request is stuck in its queue): its libcamera objects are left allocated until the process
+// exits. See docs/cameras.md.
 #pragma once
 
 #include <cstddef>
