@@ -1,5 +1,6 @@
 #include "io/camera/libcamera_source.h"
 
+#include <libcamera/libcamera.h>
 #include <sys/mman.h>
 #include <sys/sysmacros.h>
 
@@ -17,8 +18,6 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
-
-#include <libcamera/libcamera.h>
 
 namespace lpstereo::io {
 
@@ -40,12 +39,18 @@ std::string size_text(int width, int height) { return std::to_string(width) + "x
 // R,G,B in memory (our RGB888), its RGB888 B,G,R (our BGR888), its R8 our GREY.
 libcamera::PixelFormat to_libcamera_format(CameraPixelFormat format) {
   switch (format) {
-    case CameraPixelFormat::grey: return libcamera::formats::R8;
-    case CameraPixelFormat::yuyv: return libcamera::formats::YUYV;
-    case CameraPixelFormat::uyvy: return libcamera::formats::UYVY;
-    case CameraPixelFormat::nv12: return libcamera::formats::NV12;
-    case CameraPixelFormat::rgb888: return libcamera::formats::BGR888;
-    case CameraPixelFormat::bgr888: return libcamera::formats::RGB888;
+    case CameraPixelFormat::grey:
+      return libcamera::formats::R8;
+    case CameraPixelFormat::yuyv:
+      return libcamera::formats::YUYV;
+    case CameraPixelFormat::uyvy:
+      return libcamera::formats::UYVY;
+    case CameraPixelFormat::nv12:
+      return libcamera::formats::NV12;
+    case CameraPixelFormat::rgb888:
+      return libcamera::formats::BGR888;
+    case CameraPixelFormat::bgr888:
+      return libcamera::formats::RGB888;
   }
   return {};
 }
@@ -147,17 +152,17 @@ struct CameraStream {
   std::vector<Mapping> mappings;
   std::map<const libcamera::FrameBuffer*, const uint8_t*> plane0_data;
   CameraPixelFormat format = CameraPixelFormat::grey;
-  int width = 0, height = 0;     // the camera frame, px
+  int width = 0, height = 0;  // the camera frame, px
   size_t bytes_per_line = 0;
-  size_t luma_bytes = 0;         // the least of plane 0 a frame must fill (for NV12 the Y plane)
-  std::string adjustment;        // what validate() changed, "" when nothing
+  size_t luma_bytes = 0;   // the least of plane 0 a frame must fill (for NV12 the Y plane)
+  std::string adjustment;  // what validate() changed, "" when nothing
   std::vector<std::pair<std::string, dev_t>> video_devices;  // its V4L2 nodes (sysfs name, number)
   // Guarded by LibcameraStereoSource::mutex_.
   std::deque<CompletedFrame> completed;
-  bool gone = false;             // disconnected while streaming (libcamera's signal or its nodes vanished)
+  bool gone = false;  // disconnected while streaming (libcamera's signal or its nodes vanished)
   std::optional<uint64_t> last_sequence;
   int64_t last_timestamp_ns = 0;
-  int64_t frame_period_ns = 0;   // FrameDuration metadata, else the last timestamp step (0 = unknown)
+  int64_t frame_period_ns = 0;  // FrameDuration metadata, else the last timestamp step (0 = unknown)
 };
 
 class LibcameraStereoSource final : public StereoSource {
@@ -301,8 +306,9 @@ class LibcameraStereoSource final : public StereoSource {
     if (!options_.pixel_format.empty()) {
       chosen = pixel_format_from_name(options_.pixel_format);
       if (!chosen) {
-        fail(id, "pixel format '" + options_.pixel_format + "' is not one lpstereo converts (GREY, NV12, YUYV, "
-                 "UYVY, RGB888, BGR888)");
+        fail(id, "pixel format '" + options_.pixel_format +
+                     "' is not one lpstereo converts (GREY, NV12, YUYV, "
+                     "UYVY, RGB888, BGR888)");
       }
       if (std::find(offered.begin(), offered.end(), to_libcamera_format(*chosen)) == offered.end()) {
         fail(id, "pixel format " + std::string(pixel_format_name(*chosen)) + " (libcamera " +
@@ -317,8 +323,10 @@ class LibcameraStereoSource final : public StereoSource {
         }
       }
       if (!chosen) {
-        fail(id, "offers no format lpstereo converts, expected one of R8, NV12, YUYV, UYVY, BGR888, RGB888; "
-                 "it offers " + format_list(offered));
+        fail(id,
+             "offers no format lpstereo converts, expected one of R8, NV12, YUYV, UYVY, BGR888, RGB888; "
+             "it offers " +
+                 format_list(offered));
       }
     }
     if ((options_.width > 0) != (options_.height > 0)) {
@@ -327,17 +335,31 @@ class LibcameraStereoSource final : public StereoSource {
     }
     stream_configuration.pixelFormat = to_libcamera_format(*chosen);
     if (options_.width > 0) {
-      stream_configuration.size = libcamera::Size(static_cast<unsigned>(side_by_side_ ? 2 * options_.width : options_.width),
-                                                  static_cast<unsigned>(options_.height));
+      stream_configuration.size =
+          libcamera::Size(static_cast<unsigned>(side_by_side_ ? 2 * options_.width : options_.width),
+                          static_cast<unsigned>(options_.height));
     }
     if (options_.buffer_count > 0) stream_configuration.bufferCount = static_cast<unsigned>(options_.buffer_count);
     const std::string requested = stream_configuration.toString();
+    const libcamera::Size requested_size = stream_configuration.size;
+    const unsigned requested_buffers = stream_configuration.bufferCount;
     const libcamera::CameraConfiguration::Status validation = camera_stream.configuration->validate();
     if (validation == libcamera::CameraConfiguration::Invalid) {
       fail(id, "configuration " + requested + " rejected by validate(), expected a valid or adjusted one");
     }
     if (validation == libcamera::CameraConfiguration::Adjusted) {
-      camera_stream.adjustment = "requested " + requested + ", adjusted to " + stream_configuration.toString();
+      // The format cannot change (checked below); say what did, in lpstereo's terms.
+      const libcamera::Size& size = stream_configuration.size;
+      if (size != requested_size) {
+        camera_stream.adjustment =
+            "requested " + size_text(static_cast<int>(requested_size.width), static_cast<int>(requested_size.height)) +
+            ", adjusted to " + size_text(static_cast<int>(size.width), static_cast<int>(size.height));
+      } else if (stream_configuration.bufferCount != requested_buffers) {
+        camera_stream.adjustment = "requested " + std::to_string(requested_buffers) + " buffers, adjusted to " +
+                                   std::to_string(stream_configuration.bufferCount);
+      } else {
+        camera_stream.adjustment = "adjusted by libcamera to " + stream_configuration.toString();
+      }
     }
     const std::optional<CameraPixelFormat> granted = from_libcamera_format(stream_configuration.pixelFormat);
     if (!granted || *granted != *chosen) {
@@ -345,7 +367,8 @@ class LibcameraStereoSource final : public StereoSource {
                    stream_configuration.pixelFormat.toString() + ", expected it kept");
     }
     const int configured = camera_stream.camera->configure(camera_stream.configuration.get());
-    if (configured < 0) fail(id, "configure(" + stream_configuration.toString() + ") failed: " + error_text(configured));
+    if (configured < 0)
+      fail(id, "configure(" + stream_configuration.toString() + ") failed: " + error_text(configured));
 
     camera_stream.format = *granted;
     camera_stream.width = static_cast<int>(stream_configuration.size.width);
@@ -377,7 +400,8 @@ class LibcameraStereoSource final : public StereoSource {
       fail(id, "FrameBufferAllocator gave no buffers: " + (allocated < 0 ? error_text(allocated) : "0 buffers"));
     }
     std::map<int, size_t> mapping_of_fd;
-    for (const std::unique_ptr<libcamera::FrameBuffer>& buffer : camera_stream.allocator->buffers(camera_stream.stream)) {
+    for (const std::unique_ptr<libcamera::FrameBuffer>& buffer :
+         camera_stream.allocator->buffers(camera_stream.stream)) {
       // Each dmabuf once, over the extent its planes use.
       std::map<int, size_t> extent_of_fd;
       for (const libcamera::FrameBuffer::Plane& plane : buffer->planes()) {
@@ -386,15 +410,17 @@ class LibcameraStereoSource final : public StereoSource {
       }
       for (const auto& [fd, extent] : extent_of_fd) {
         void* address = mmap(nullptr, extent, PROT_READ, MAP_SHARED, fd, 0);
-        if (address == MAP_FAILED) fail(id, "mmap of a " + std::to_string(extent) + "-byte buffer failed: " + error_text(-errno));
+        if (address == MAP_FAILED)
+          fail(id, "mmap of a " + std::to_string(extent) + "-byte buffer failed: " + error_text(-errno));
         mapping_of_fd[fd] = camera_stream.mappings.size();
         camera_stream.mappings.push_back(Mapping{address, extent});
       }
       const libcamera::FrameBuffer::Plane& plane0 = buffer->planes()[0];
       if (plane0.length < camera_stream.luma_bytes) {
         fail(id, "buffer plane 0 holds " + std::to_string(plane0.length) + " bytes, expected at least " +
-                     std::to_string(camera_stream.luma_bytes) + " for " + std::string(pixel_format_name(camera_stream.format)) +
-                     " " + size_text(camera_stream.width, camera_stream.height));
+                     std::to_string(camera_stream.luma_bytes) + " for " +
+                     std::string(pixel_format_name(camera_stream.format)) + " " +
+                     size_text(camera_stream.width, camera_stream.height));
       }
       const Mapping& mapping = camera_stream.mappings[mapping_of_fd[plane0.fd.get()]];
       camera_stream.plane0_data[buffer.get()] = static_cast<const uint8_t*>(mapping.address) + plane0.offset;
@@ -462,8 +488,9 @@ class LibcameraStereoSource final : public StereoSource {
     CompletedFrame frame;
     frame.request = request;
     frame.sequence = metadata.sequence;
-    frame.timestamp_ns = static_cast<int64_t>(
-        request->metadata().get(libcamera::controls::SensorTimestamp).value_or(static_cast<int64_t>(metadata.timestamp)));
+    frame.timestamp_ns = static_cast<int64_t>(request->metadata()
+                                                  .get(libcamera::controls::SensorTimestamp)
+                                                  .value_or(static_cast<int64_t>(metadata.timestamp)));
     frame.bytes_used = metadata.planes().empty() ? 0 : metadata.planes()[0].bytesused;
     if (frame.bytes_used < camera_stream.luma_bytes) {
       if (failure_.empty()) {
@@ -541,7 +568,8 @@ class LibcameraStereoSource final : public StereoSource {
     for (const auto& camera_stream : cameras_) {
       if (camera_stream->video_devices.empty()) continue;
       bool any_present = false;
-      for (const auto& [name, device_number] : camera_stream->video_devices) any_present |= device_present(device_number);
+      for (const auto& [name, device_number] : camera_stream->video_devices)
+        any_present |= device_present(device_number);
       if (any_present) continue;
       camera_stream->gone = true;
       if (failure_.empty()) {
@@ -634,9 +662,9 @@ class LibcameraStereoSource final : public StereoSource {
   std::string frame_rate_note_;
   mutable std::mutex mutex_;
   std::condition_variable completion_;
-  bool stopping_ = false;         // guarded by mutex_
-  std::string failure_;           // guarded by mutex_: the one line next() returns as disconnected
-  SourceStatistics statistics_;   // guarded by mutex_
+  bool stopping_ = false;        // guarded by mutex_
+  std::string failure_;          // guarded by mutex_: the one line next() returns as disconnected
+  SourceStatistics statistics_;  // guarded by mutex_
 };
 
 }  // namespace

@@ -46,15 +46,15 @@
 namespace lpstereo::io {
 
 struct LibcameraStreamFormat {
-  std::string pixel_format;                  // libcamera's name ("BGR888", "NV12", "R8", ...)
-  std::vector<std::pair<int, int>> sizes;    // discrete sizes the camera lists (width, height px)
-  int min_width = 0, min_height = 0;         // the range of sizes it accepts, px
+  std::string pixel_format;                // libcamera's name ("BGR888", "NV12", "R8", ...)
+  std::vector<std::pair<int, int>> sizes;  // discrete sizes the camera lists (width, height px)
+  int min_width = 0, min_height = 0;       // the range of sizes it accepts, px
   int max_width = 0, max_height = 0;
 };
 
 struct LibcameraCameraInfo {
-  std::string id;                            // what open_libcamera_stereo_source takes (`cam --list`)
-  std::string model;                         // the Model property ("" when the camera has none)
+  std::string id;                              // what open_libcamera_stereo_source takes (`cam --list`)
+  std::string model;                           // the Model property ("" when the camera has none)
   std::vector<LibcameraStreamFormat> formats;  // of the Viewfinder role's stream
 };
 
@@ -66,12 +66,12 @@ std::vector<LibcameraCameraInfo> list_libcamera_cameras();
 // (valid only during the call): plane 0's bytes (for NV12 the Y plane), its layout, and the frame's
 // sequence number and timestamp.
 struct LibcameraRawFrame {
-  int camera_index = 0;                      // 0 = left camera (or the side-by-side one), 1 = right
+  int camera_index = 0;  // 0 = left camera (or the side-by-side one), 1 = right
   CameraPixelFormat format = CameraPixelFormat::grey;
   const uint8_t* data = nullptr;
-  size_t bytes_used = 0;                     // FrameMetadata's bytesused of plane 0
+  size_t bytes_used = 0;  // FrameMetadata's bytesused of plane 0
   size_t bytes_per_line = 0;
-  int width = 0, height = 0;                 // of the whole camera frame, px
+  int width = 0, height = 0;  // of the whole camera frame, px
   uint64_t sequence = 0;
   int64_t timestamp_ns = 0;
 };

@@ -2,13 +2,13 @@
 // usually nothing) without hanging or crashing; an unknown camera id is refused with one line that
 // names it and lists the cameras libcamera does find (or says there are none); malformed id lists
 // are refused before libcamera is asked. Streaming from a real driver is tests/vm/vimc_libcamera_test.cpp.
+#include "io/camera/libcamera_source.h"
+
 #include <gtest/gtest.h>
 
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include "io/camera/libcamera_source.h"
 
 namespace lpstereo::io {
 namespace {
@@ -22,7 +22,8 @@ void expect_source_error(const Open& open, const std::vector<std::string>& needl
   } catch (const SourceError& error) {
     const std::string message = error.what();
     EXPECT_EQ(message.find('\n'), std::string::npos) << message;
-    for (const std::string& needle : needles) EXPECT_NE(message.find(needle), std::string::npos) << needle << " in: " << message;
+    for (const std::string& needle : needles)
+      EXPECT_NE(message.find(needle), std::string::npos) << needle << " in: " << message;
   }
 }
 
@@ -59,8 +60,11 @@ TEST(LibcameraSource, UnknownSideBySideCameraIsNamedWithTheAvailableOnes) {
 TEST(LibcameraSource, UnknownCameraOfAPairIsNamed) {
   std::vector<std::string> needles = expected_listing();
   needles.push_back("libcamera camera 'missing-left'");
-  expect_source_error([] { open_libcamera_stereo_source({"missing-left", "missing-right"}, SourceOptions{}); },
-                      needles);
+  expect_source_error(
+      [] {
+        open_libcamera_stereo_source({"missing-left", "missing-right"}, SourceOptions{});
+      },
+      needles);
 }
 
 TEST(LibcameraSource, MalformedIdListsAreRefused) {

@@ -8,6 +8,8 @@
 //      (udev_enumerate_add_match_is_initialized) and learns of removals from udevd's monitor, so
 //      systemd-udevd runs in the VM and `udevadm trigger` + `settle` initialise the devices;
 //   2. the cameras libcamera finds: a vimc camera among them, with its formats;
+//   2b. refusals on the real camera (a format it does not offer, one lpstereo does not convert, the
+//      camera while in use: one line each) and a size validate() adjusts, reported;
 //   3. side-by-side luma from the vimc camera through open_libcamera_stereo_source, with the default
 //      format and then with the other RGB order requested: sizes, formats, increasing sequence
 //      numbers, increasing CLOCK_MONOTONIC timestamps, the luma equal to a scalar BT.601 conversion
@@ -72,10 +74,14 @@ void step(const char* name) {
 
 const char* status_name(SourceStatus status) {
   switch (status) {
-    case SourceStatus::frame: return "frame";
-    case SourceStatus::timeout: return "timeout";
-    case SourceStatus::end_of_stream: return "end_of_stream";
-    case SourceStatus::disconnected: return "disconnected";
+    case SourceStatus::frame:
+      return "frame";
+    case SourceStatus::timeout:
+      return "timeout";
+    case SourceStatus::end_of_stream:
+      return "end_of_stream";
+    case SourceStatus::disconnected:
+      return "disconnected";
   }
   return "?";
 }
@@ -92,9 +98,12 @@ int64_t monotonic_now_ns() {
 uint8_t reference_luma(CameraPixelFormat format, const uint8_t* row, int x) {
   switch (format) {
     case CameraPixelFormat::grey:
-    case CameraPixelFormat::nv12: return row[x];
-    case CameraPixelFormat::yuyv: return row[2 * x];
-    case CameraPixelFormat::uyvy: return row[2 * x + 1];
+    case CameraPixelFormat::nv12:
+      return row[x];
+    case CameraPixelFormat::yuyv:
+      return row[2 * x];
+    case CameraPixelFormat::uyvy:
+      return row[2 * x + 1];
     case CameraPixelFormat::rgb888:
       return static_cast<uint8_t>((row[3 * x] * 4899 + row[3 * x + 1] * 9617 + row[3 * x + 2] * 1868 + 8192) >> 14);
     case CameraPixelFormat::bgr888:
@@ -148,15 +157,57 @@ std::string find_vimc_camera() {
   for (const LibcameraCameraInfo& camera : cameras) {
     note("camera '" + camera.id + "' model '" + camera.model + "'");
     for (const LibcameraStreamFormat& format : camera.formats) {
-      note("  " + format.pixel_format + " " + std::to_string(format.min_width) + "x" + std::to_string(format.min_height) +
-           " to " + std::to_string(format.max_width) + "x" + std::to_string(format.max_height) + ", " +
-           std::to_string(format.sizes.size()) + " listed sizes");
+      note("  " + format.pixel_format + " " + std::to_string(format.min_width) + "x" +
+           std::to_string(format.min_height) + " to " + std::to_string(format.max_width) + "x" +
+           std::to_string(format.max_height) + ", " + std::to_string(format.sizes.size()) + " listed sizes");
     }
     if (vimc_id.empty() && camera.id.find("vimc") != std::string::npos) vimc_id = camera.id;
   }
   check(!vimc_id.empty(), "a vimc camera among the " + std::to_string(cameras.size()) + " found" +
                               (vimc_id.empty() ? "" : ": '" + vimc_id + "'"));
   return vimc_id;
+}
+
+// Expects opening to throw SourceError with one line containing every needle.
+void expect_refused(const std::string& what, const std::vector<std::string>& camera_ids, const SourceOptions& options,
+                    const std::vector<std::string>& needles) {
+  try {
+    open_libcamera_stereo_source(camera_ids, options);
+    check(false, what + ": opened, expected a SourceError");
+  } catch (const SourceError& error) {
+    const std::string message = error.what();
+    bool all = message.find('\n') == std::string::npos;
+    for (const std::string& needle : needles) all = all && message.find(needle) != std::string::npos;
+    check(all, what + ": " + message);
+  }
+}
+
+void refusals_and_adjustments(const std::string& camera_id) {
+  step("2b. what the vimc camera refuses or adjusts");
+  SourceOptions nv12;
+  nv12.pixel_format = "NV12";
+  expect_refused("a format vimc does not offer", {camera_id}, nv12, {camera_id, "NV12", "BGR888", "RGB888"});
+  SourceOptions unknown;
+  unknown.pixel_format = "Y10P";
+  expect_refused("a format lpstereo does not convert", {camera_id}, unknown,
+                 {camera_id, "Y10P", "not one lpstereo converts"});
+  // libcamera's vimc pipeline handler aligns the width down to a multiple of 6 (the x3 scaler of
+  // older vimc times the sensor's 2-pixel alignment): 2 x 320 = 640 becomes 636, views of 318.
+  SourceOptions unaligned;
+  unaligned.width = 320;
+  unaligned.height = 240;
+  try {
+    const std::unique_ptr<StereoSource> source = open_libcamera_stereo_source({camera_id}, unaligned);
+    note(source->description());
+    check(source->width() == 318 &&
+              source->description().find("requested 640x240, adjusted to 636x240") != std::string::npos,
+          "a 640-wide side-by-side request adjusted by validate() to 636 and reported, views of " +
+              std::to_string(source->width()) + " px");
+    expect_refused("the camera while a source streams from it", {camera_id}, SourceOptions{},
+                   {camera_id, "cannot acquire"});
+  } catch (const std::exception& error) {
+    check(false, std::string("open 320x240 views: ") + error.what());
+  }
 }
 
 // R,G,B of the middle row at 8 points across the frame, read in the byte order the source says
@@ -202,7 +253,8 @@ ColourProfile stream(const std::string& camera_id, const std::string& pixel_form
   }
   note(source->description());
   check(source->width() == kViewWidth && source->height() == kViewHeight,
-        "view size: expected " + std::to_string(kViewWidth) + "x" + std::to_string(kViewHeight) + ", got " + std::to_string(source->width()) + "x" + std::to_string(source->height()));
+        "view size: expected " + std::to_string(kViewWidth) + "x" + std::to_string(kViewHeight) + ", got " +
+            std::to_string(source->width()) + "x" + std::to_string(source->height()));
   int64_t previous_timestamp_ns = -1;
   int64_t previous_sequence = -1;
   uint64_t sequence_gaps = 0;
@@ -211,8 +263,7 @@ ColourProfile stream(const std::string& camera_id, const std::string& pixel_form
   for (int attempt = 0; attempt < pairs_wanted + 5 && pairs < pairs_wanted; ++attempt) {
     const SourceResult result = source->next(std::chrono::milliseconds(3000));
     if (result.status != SourceStatus::frame) {
-      check(false, "next(): expected a frame, got " + std::string(status_name(result.status)) + ": " +
-                       result.message);
+      check(false, "next(): expected a frame, got " + std::string(status_name(result.status)) + ": " + result.message);
       continue;
     }
     const StereoFrame& pair = result.frame;
@@ -239,7 +290,8 @@ ColourProfile stream(const std::string& camera_id, const std::string& pixel_form
         pair.right.height() != kViewHeight || pair.left.format().type != ElementType::u8) {
       check(false, "raw frame " + std::to_string(frame.width) + "x" + std::to_string(frame.height) + " sequence " +
                        std::to_string(frame.sequence) + " for pair sequence " + std::to_string(pair.left_sequence) +
-                       ", expected " + std::to_string(2 * kViewWidth) + "x" + std::to_string(kViewHeight) + " and the same sequence");
+                       ", expected " + std::to_string(2 * kViewWidth) + "x" + std::to_string(kViewHeight) +
+                       " and the same sequence");
       continue;
     }
     for (int y = 0; y < kViewHeight; ++y) {
@@ -253,17 +305,17 @@ ColourProfile stream(const std::string& camera_id, const std::string& pixel_form
       }
     }
   }
-  check(pairs == pairs_wanted, "pairs delivered: expected " + std::to_string(pairs_wanted) + ", got " +
-                                   std::to_string(pairs));
-  check(bad_sequences == 0, "sequence numbers increasing, left = right: " + std::to_string(bad_sequences) +
-                                " pairs out of order");
+  check(pairs == pairs_wanted,
+        "pairs delivered: expected " + std::to_string(pairs_wanted) + ", got " + std::to_string(pairs));
+  check(bad_sequences == 0,
+        "sequence numbers increasing, left = right: " + std::to_string(bad_sequences) + " pairs out of order");
   check(bad_timestamps == 0, "timestamps increasing, left = right, CLOCK_MONOTONIC within 10 s of now: " +
                                  std::to_string(bad_timestamps) + " pairs wrong");
   check(luma_mismatches == 0, "luma equal to the scalar conversion of the raw " +
-                                  std::string(pixel_format_name(raw.frame.format)) + " buffer: " +
-                                  std::to_string(luma_mismatches) + " pixels differ");
-  check(luma_max - luma_min > 100, "luma has content (vimc's colour bars): range " + std::to_string(luma_min) + ".." +
-                                       std::to_string(luma_max));
+                                  std::string(pixel_format_name(raw.frame.format)) +
+                                  " buffer: " + std::to_string(luma_mismatches) + " pixels differ");
+  check(luma_max - luma_min > 100,
+        "luma has content (vimc's colour bars): range " + std::to_string(luma_min) + ".." + std::to_string(luma_max));
   if (!pixel_format.empty()) {
     check(pixel_format_name(raw.frame.format) == pixel_format,
           "requested format " + pixel_format + ", got " + std::string(pixel_format_name(raw.frame.format)));
@@ -307,8 +359,8 @@ void disconnect(const std::string& camera_id) {
          (result.message.empty() ? "" : ": " + result.message));
     if (result.status == SourceStatus::disconnected) break;
   }
-  check(result.status == SourceStatus::disconnected,
-        "the source reports disconnected within 10 waits: " + (result.message.empty() ? "(no message)" : result.message));
+  check(result.status == SourceStatus::disconnected, "the source reports disconnected within 10 waits: " +
+                                                         (result.message.empty() ? "(no message)" : result.message));
   check(result.message.find(camera_id) != std::string::npos && result.message.find('\n') == std::string::npos,
         "the disconnect message is one line naming the camera");
   const SourceResult again = source->next(std::chrono::milliseconds(100));
@@ -333,13 +385,15 @@ int main() {
   start_udev();
   const std::string camera_id = find_vimc_camera();
   if (!camera_id.empty()) {
+    refusals_and_adjustments(camera_id);
     const ColourProfile default_order = stream(camera_id, "", 8);
     const ColourProfile swapped_order = stream(camera_id, "BGR888", 4);
     bool red_differs_from_blue = false;
     for (const auto& [red, green, blue] : default_order) red_differs_from_blue |= red != blue;
     check(!default_order.empty() && default_order == swapped_order && red_differs_from_blue,
           "the same colours read from libcamera's BGR888 (our RGB888) and RGB888 (our BGR888), with red != blue "
-          "somewhere:" + profile_text(default_order) + " and" + profile_text(swapped_order));
+          "somewhere:" +
+              profile_text(default_order) + " and" + profile_text(swapped_order));
     disconnect(camera_id);
   }
   alarm(0);
