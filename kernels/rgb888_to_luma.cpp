@@ -122,7 +122,7 @@ void rgb888_to_luma_body(const TileArgs& args) {
 LPSTEREO_NATIVE_ENTRY(rgb888_to_luma, rgb888_to_luma_body)
 
 #if LPSTEREO_ISA_TU == 0
-#include <nlohmann/json.hpp>
+#include "kernels/param_choice.h"
 
 LPSTEREO_DECLARE_NATIVE_ENTRIES(rgb888_to_luma)
 
@@ -149,12 +149,7 @@ void rgb888_to_luma_reference(const std::vector<PlaneView>& inputs, const std::v
 
 PreparedKernel rgb888_to_luma_prepare(const nlohmann::json& params, const std::vector<PlaneShape>& input_shapes) {
   check_param_names(params, {"order"});
-  const bool given = params.is_object() && params.contains("order");
-  const std::string order = given && params.at("order").is_string() ? params.at("order").get<std::string>() : "";
-  if (order != "rgb" && order != "bgr") {
-    throw KernelError("parameter 'order': expected \"rgb\" or \"bgr\", got " +
-                      (given ? params.at("order").dump() : std::string("nothing")));
-  }
+  const std::string order = param_choice(params, "order", {"rgb", "bgr"});
   const PlaneShape& input = input_shapes.at(0);
   if (input.width % 3 != 0) {
     throw KernelError("input 'input': expected a width in bytes that is a multiple of 3 (3 bytes per pixel), got " +

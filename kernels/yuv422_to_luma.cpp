@@ -74,7 +74,7 @@ void yuv422_to_luma_body(const TileArgs& args) {
 LPSTEREO_NATIVE_ENTRY(yuv422_to_luma, yuv422_to_luma_body)
 
 #if LPSTEREO_ISA_TU == 0
-#include <nlohmann/json.hpp>
+#include "kernels/param_choice.h"
 
 LPSTEREO_DECLARE_NATIVE_ENTRIES(yuv422_to_luma)
 
@@ -98,12 +98,7 @@ void yuv422_to_luma_reference(const std::vector<PlaneView>& inputs, const std::v
 
 PreparedKernel yuv422_to_luma_prepare(const nlohmann::json& params, const std::vector<PlaneShape>& input_shapes) {
   check_param_names(params, {"order"});
-  const bool given = params.is_object() && params.contains("order");
-  const std::string order = given && params.at("order").is_string() ? params.at("order").get<std::string>() : "";
-  if (order != "yuyv" && order != "uyvy") {
-    throw KernelError("parameter 'order': expected \"yuyv\" or \"uyvy\", got " +
-                      (given ? params.at("order").dump() : std::string("nothing")));
-  }
+  const std::string order = param_choice(params, "order", {"yuyv", "uyvy"});
   auto prepared = std::make_shared<Yuv422ToLumaParams>();
   prepared->luma_in_high_byte = order == "uyvy";
   return PreparedKernel{prepared, {input_shapes.at(0)}};
