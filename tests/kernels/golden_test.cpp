@@ -162,6 +162,12 @@ const std::vector<GoldenCase>& golden_cases() {
       {"gaussian5x5", nlohmann::json::object(), BorderMode::constant, {{97, 61}}, 0x1cac97398381bbb3ull},
       // 40 keypoints on a 97 x 61 image (see golden_input), sector 3.
       {"brief256", {{"yaw_sector", 3}}, BorderMode::replicate, {{97, 61}, {4, 40}}, 0x82fa07fab96d7ccbull},
+      // Camera formats to luma. u16 inputs are word & 0x0FFF: the low byte (yuyv's luma) random, the
+      // high byte (uyvy's) 0 .. 15. The RGB input is 3 x 97 bytes per row of the u8 ramp plus noise.
+      {"copy_u8", nlohmann::json::object(), BorderMode::replicate, {{97, 61}}, 0x06e23c25cd43a814ull},
+      {"yuv422_to_luma", {{"order", "yuyv"}}, BorderMode::replicate, {{97, 61}}, 0x110dd43507f44bb2ull},
+      {"yuv422_to_luma", {{"order", "uyvy"}}, BorderMode::replicate, {{97, 61}}, 0x51af7fcca88cd762ull},
+      {"rgb888_to_luma", {{"order", "bgr"}}, BorderMode::replicate, {{3 * 97, 61}}, 0x740a5dc71b3098ffull},
       {"sgm_sums_select", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}, {"uniqueness_percent", 5}, {"subpixel", 1}, {"lr_max_diff", 1}}, BorderMode::replicate, {{97 * 40, 61}, {97 * 40, 61}}, 0xe8ebb4cbc8b52d59ull},
   };
   return cases;
