@@ -36,6 +36,7 @@
 #include <vector>
 
 #include "io/camera/libcamera_source.h"
+#include "kernels/simd/isa.h"
 
 namespace {
 
@@ -382,6 +383,8 @@ int main() {
   // The device enumerator's debug lines show udev's add and remove events (the disconnect path).
   setenv("LIBCAMERA_LOG_LEVELS", "DeviceEnumerator:DEBUG,*:WARN", 0);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  // convert_to_luma runs vector kernels at the best ISA level this (emulated) CPU has.
+  std::printf("     luma kernels at ISA level %s\n", std::string(simd::isa_name(simd::active_isa())).c_str());
   start_udev();
   const std::string camera_id = find_vimc_camera();
   if (!camera_id.empty()) {
