@@ -59,7 +59,8 @@ struct LibcameraCameraInfo {
 };
 
 // The cameras libcamera finds (empty when there are none). Throws SourceError when libcamera's
-// camera manager cannot start.
+// camera manager cannot start. (libcamera allows one camera manager per process: this and every
+// open source share one. Creating it sets LIBCAMERA_LOG_LEVELS=*:WARN when the variable is unset.)
 std::vector<LibcameraCameraInfo> list_libcamera_cameras();
 
 // One camera buffer as the driver filled it, handed to a RawFrameObserver before it is converted

@@ -367,8 +367,8 @@ void disconnect(const std::string& camera_id) {
   const SourceResult again = source->next(std::chrono::milliseconds(100));
   check(again.status == SourceStatus::disconnected, "and says so again on the next call");
   step("4. disconnect: closing the source");
-  source.reset();
-  check(true, "source closed after the disconnect");
+  source.reset();  // libcamera would abort here if the source stopped the vanished camera; the watchdog catches a hang
+  note("source closed after the disconnect");
   // libcamera 0.0.3 forgets a camera only when its pipeline handler watches unplugs (UVC only).
   bool still_listed = false;
   for (const LibcameraCameraInfo& camera : list_libcamera_cameras()) still_listed |= camera.id == camera_id;
