@@ -20,3 +20,24 @@ else()
 endif()
 set(LPSTEREO_VM_DIR ${PROJECT_SOURCE_DIR}/tests/vm)
 set(LPSTEREO_VM_WORK_DIR ${CMAKE_CURRENT_BINARY_DIR}/vm-work)
+
+# libcamera on vimc (issue 7, deliverable 4): the vimc module is built from Debian's linux-source
+# by the test's wrapper (tests/vm/vimc_libcamera.sh) into the build tree; the test program carries
+# its shared libraries into the VM.
+if(LPSTEREO_VM_AVAILABLE AND TARGET lpstereo_libcamera)
+  file(GLOB lpstereo_linux_sources /usr/src/linux-source-*.tar.xz)
+  if(NOT lpstereo_linux_sources)
+    message(STATUS "VM test vimc_libcamera: not registered, no /usr/src/linux-source-*.tar.xz (linux-source, scripts/install-deps.sh)")
+  elseif(NOT EXISTS /lib/systemd/systemd-udevd)
+    message(STATUS "VM test vimc_libcamera: not registered, /lib/systemd/systemd-udevd missing (package udev)")
+  else()
+    add_executable(vimc_libcamera_test ${LPSTEREO_VM_DIR}/vimc_libcamera_test.cpp)
+    target_include_directories(vimc_libcamera_test PRIVATE ${PROJECT_SOURCE_DIR})
+    target_link_libraries(vimc_libcamera_test PRIVATE lpstereo::libcamera)
+    lpstereo_warnings(vimc_libcamera_test)
+    add_test(NAME Vm.vimc_libcamera
+             COMMAND ${LPSTEREO_VM_DIR}/vimc_libcamera.sh ${LPSTEREO_VM_WORK_DIR}/vimc_libcamera
+                     $<TARGET_FILE:vimc_libcamera_test>)
+    set_tests_properties(Vm.vimc_libcamera PROPERTIES TIMEOUT 240)
+  endif()
+endif()
