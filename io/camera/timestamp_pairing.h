@@ -28,8 +28,9 @@ namespace lpstereo::io {
 
 enum class PairingSide { left, right };
 
-// Half the frame period in ns: the default tolerance (DESIGN: two views of one instant).
-// frame_rate_hz <= 0 (unknown) gives half of 1/30 s, the most common camera rate.
+// Half the frame period in ns, the default tolerance: within it, at most one frame of a stream of
+// that rate can be the partner. frame_rate_hz <= 0 (unknown) gives half of 1/30 s, the most common
+// camera rate.
 int64_t default_pairing_tolerance_ns(double frame_rate_hz);
 
 // The decision for the oldest frames of the two queues (see the header comment). `left_next` and

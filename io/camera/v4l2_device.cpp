@@ -9,6 +9,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -391,13 +392,17 @@ V4l2Dequeue V4l2CaptureDevice::dequeue(std::chrono::milliseconds timeout) {
   if (disconnected_) return disconnect(disconnect_message_);
   if (!streaming_) fail("dequeue before start");
   const auto deadline = std::chrono::steady_clock::now() + timeout;
+  bool polled = false;
   for (;;) {
     V4l2Dequeue result = try_dequeue();
     if (result.status != SourceStatus::timeout) return result;
-    const auto remaining =
-        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto remaining = std::max<std::chrono::milliseconds::rep>(
+        0, std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count());
+    // At least one poll (it is what reports a removed device), and none once the deadline passed.
+    if (polled && remaining == 0) return result;
     pollfd waiting{fd_, POLLIN, 0};
-    const int ready = ::poll(&waiting, 1, remaining.count() > 0 ? static_cast<int>(remaining.count()) : 0);
+    const int ready = ::poll(&waiting, 1, static_cast<int>(remaining));
+    polled = true;
     if (ready < 0 && errno != EINTR) return disconnect("poll: " + error_text(errno));
     if (ready > 0 && (waiting.revents & (POLLERR | POLLHUP | POLLNVAL)) && !(waiting.revents & POLLIN)) {
       // No frame but an error condition: the DQBUF tells which (a removed node answers ENODEV).
@@ -405,7 +410,7 @@ V4l2Dequeue V4l2CaptureDevice::dequeue(std::chrono::milliseconds timeout) {
       if (result.status != SourceStatus::timeout) return result;
       return disconnect(std::string("poll: ") + ((waiting.revents & POLLHUP) ? "POLLHUP" : "POLLERR"));
     }
-    if (ready == 0 && std::chrono::steady_clock::now() >= deadline) return {};
+    if (ready == 0) return try_dequeue();  // the wait ran out: one last look
   }
 }
 

@@ -64,6 +64,7 @@ using std::chrono::milliseconds;
 constexpr uint32_t kVividControlBase = 0x00f00000 | 0xf000;
 constexpr uint32_t kVividOsdTextMode = kVividControlBase + 1;  // menu: 0 all, 1 counters only, 2 none
 constexpr uint32_t kVividLoopVideo = kVividControlBase + 37;   // boolean
+constexpr uint32_t kVividPercentDropped = kVividControlBase + 64;  // 0..100: buffers the driver drops
 constexpr uint32_t kVividDisconnect = kVividControlBase + 65;  // button
 constexpr int kLoopWidth = 640, kLoopHeight = 480;             // 640x480p59.94, the smallest CEA/DMT timings
 constexpr milliseconds kFrameTimeout{3000};                    // generous: TCG runs vivid's threads slowly
@@ -518,6 +519,55 @@ void test_loopback(const std::string& left_node, const std::string& right_node, 
   check(valid > kLoopWidth * kLoopHeight / 4, "loop: fewer than a quarter of the disparities are valid");
 }
 
+// Frames the driver drops on one view (vivid's "Percentage of Dropped Buffers": the sequence
+// numbers still count them), then that view stalling completely while the other streams on.
+void test_drops_and_stall(const std::string& left_node, const std::string& right_node) {
+  std::printf("== drops and a stalled view\n");
+  SourceOptions options;
+  options.width = 320;
+  options.height = 180;
+  options.frame_rate_hz = 30;
+  options.pixel_format = "GREY";
+  auto source = open_v4l2_stereo_source({left_node, right_node}, false, options);
+  std::printf("  %s\n", source->description().c_str());
+  V4l2CaptureDevice right_controls(right_node);  // a second handle: controls may change while streaming
+  right_controls.set_control(kVividPercentDropped, 50);
+  std::printf("  %s: 50 %% of the buffers dropped by the driver\n", right_node.c_str());
+  capture_and_check(*source, 10, "drops", default_pairing_tolerance_ns(30));
+  print_statistics(*source);
+  const SourceStatistics dropped = source->statistics();
+  // 10 pairs take about 20 right ticks at 50 %: the chance that none was dropped is about 2^-20.
+  check(dropped.right_driver_drops > 0, "drops: no driver drops counted on the right view");
+  check(dropped.left_unpaired > 0, "drops: no left frame left unpaired although right frames were dropped");
+  check(dropped.left_frames >= dropped.pairs_delivered + dropped.left_unpaired,
+        "drops: more left frames paired or discarded than dequeued");
+
+  right_controls.set_control(kVividPercentDropped, 100);
+  std::printf("  %s: 100 %% dropped (a stalled view)\n", right_node.c_str());
+  // Frames already dequeued may still make a pair or two before the stall shows.
+  SourceResult stalled;
+  int calls = 0;
+  double waited_s = 0;
+  do {
+    const auto start = std::chrono::steady_clock::now();
+    stalled = source->next(milliseconds(500));
+    waited_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ++calls;
+  } while (stalled.status == SourceStatus::frame && calls < 5);
+  std::printf("  next(500 ms) after %d calls: %s in %.3f s: %s\n", calls,
+              stalled.status == SourceStatus::timeout ? "timeout" : "NOT timeout", waited_s, stalled.message.c_str());
+  check(stalled.status == SourceStatus::timeout, "stall: expected status timeout");
+  // A bound against a hang, not a measurement: the wait must end near its timeout.
+  check(waited_s < 2.5, "stall: next(500 ms) took " + std::to_string(waited_s) + " s");
+  check(source->statistics().left_unpaired > dropped.left_unpaired,
+        "stall: the streaming left view's frames were not discarded");
+  right_controls.set_control(kVividPercentDropped, 0);
+  const SourceResult resumed = source->next(kFrameTimeout);
+  std::printf("  drops off: %s\n", resumed.status == SourceStatus::frame ? "pairs again" : resumed.message.c_str());
+  check(resumed.status == SourceStatus::frame, "stall: no pair after the right view resumed");
+  print_statistics(*source);
+}
+
 // (c) A device removed while streaming: reported, sticky, and a clean teardown.
 void test_disconnect(const std::string& left_node, const std::string& right_node) {
   std::printf("== (c) disconnect while streaming\n");
@@ -585,6 +635,7 @@ int main(int argc, char** argv) {
     print_device(left_node);
     print_device(right_node);
     test_capture(left_node, right_node);
+    test_drops_and_stall(left_node, right_node);
     test_refusals(left_node, right_node, left_output);
     test_loopback(left_node, right_node, left_output, right_output, argv[1]);
     test_disconnect(left_node, right_node);
