@@ -11,10 +11,11 @@
 //                                    on the host (raw int16 Q4, little-endian, 640x480)
 //
 // (a) capture: both capture nodes on vivid's webcam input (input 0, discrete sizes and frame
-//     intervals) through open_v4l2_stereo_source, once per format GREY, YUYV, UYVY, NV12 at
-//     320x180 and 30 fps: format and size as asked, sequence numbers and CLOCK_MONOTONIC timestamps
+//     intervals) through open_v4l2_stereo_source, once per format GREY, YUYV, UYVY, NV12, RGB888
+//     and BGR888 at 320x180 and 30 fps: format and size as asked, sequence numbers and CLOCK_MONOTONIC timestamps
 //     increasing on each side, the two views of each pair within the pairing tolerance, and the
-//     luma of YUYV, UYVY and NV12 the same bytes (vivid's test pattern, its text switched off);
+//     luma of YUYV, UYVY and NV12 the same bytes, and of RGB888 and BGR888 (vivid's test pattern,
+//     its text switched off);
 //     then one node side by side (640x360 as two 320x360 views). Then the refusals: an output
 //     node as a view, a size the webcam does not have, two views of different sizes.
 // (b) loopback: each instance's HDMI output looped to its HDMI capture input (vivid's "Loop
@@ -357,7 +358,7 @@ void test_capture(const std::string& left_node, const std::string& right_node) {
     std::printf("  %s: input %d (Webcam), osd_text_mode none\n", node.c_str(), input);
   }
   std::map<std::string, Plane> luma_by_format;
-  for (const char* format : {"GREY", "YUYV", "UYVY", "NV12"}) {
+  for (const char* format : {"GREY", "YUYV", "UYVY", "NV12", "RGB888", "BGR888"}) {
     SourceOptions options;
     options.width = 320;
     options.height = 180;
@@ -385,11 +386,15 @@ void test_capture(const std::string& left_node, const std::string& right_node) {
   // vivid's test pattern generator computes one Y per pixel for every Y'CbCr format (GREY is
   // full range, the others limited range, so GREY differs): the luma of YUYV, UYVY and NV12 must
   // be the same bytes, which checks that each layout's Y samples were picked from the right places.
-  for (const char* format : {"UYVY", "NV12"}) {
-    if (!luma_by_format.count("YUYV") || !luma_by_format.count(format)) continue;
-    const long differing = differing_pixels(luma_by_format["YUYV"], luma_by_format[format]);
-    std::printf("  luma of %s vs YUYV: %ld differing pixels\n", format, differing);
-    check(differing == 0, std::string(format) + ": luma differs from YUYV's in " + std::to_string(differing) + " pixels");
+  // Likewise RGB888 and BGR888 carry one picture in two byte orders; red and blue weigh differently
+  // in BT.601 luma, so a swapped order would show.
+  for (const auto& [reference, format] : {std::pair<const char*, const char*>{"YUYV", "UYVY"},
+                                          {"YUYV", "NV12"}, {"RGB888", "BGR888"}}) {
+    if (!luma_by_format.count(reference) || !luma_by_format.count(format)) continue;
+    const long differing = differing_pixels(luma_by_format[reference], luma_by_format[format]);
+    std::printf("  luma of %s vs %s: %ld differing pixels\n", format, reference, differing);
+    check(differing == 0, std::string(format) + ": luma differs from " + reference + "'s in " +
+                              std::to_string(differing) + " pixels");
   }
   SourceOptions options;
   options.width = 320;  // of each view: the device runs 640x360, a vivid webcam size
