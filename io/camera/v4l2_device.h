@@ -105,7 +105,8 @@ class V4l2CaptureDevice {
   // Gives a dequeued buffer back to the driver. A failure here means the device went away: it is
   // remembered and the next dequeue() reports it.
   void requeue(const V4l2Buffer& buffer);
-  // Buffers the driver marked V4L2_BUF_FLAG_ERROR or filled short (skipped, not delivered).
+  // Buffers the driver marked V4L2_BUF_FLAG_ERROR or filled short: skipped, given back, not
+  // delivered (the gap they leave in the delivered sequence numbers counts them as drops).
   uint64_t corrupt_buffers() const { return corrupt_buffers_; }
 
   // STREAMOFF, munmap, REQBUFS(0); errors from a removed device are ignored. The destructor calls it.

@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <sstream>
 #include <stdexcept>
 
@@ -129,7 +130,8 @@ class V4l2PairSource final : public StereoSource {
       const int ready = ::poll(waiting, 2, static_cast<int>(remaining_until(deadline).count()));
       polled = true;
       if (ready < 0 && errno != EINTR) {
-        return stop(terminal(SourceStatus::disconnected, "v4l2: poll failed while streaming"));
+        return stop(terminal(SourceStatus::disconnected,
+                             "v4l2: poll failed while streaming (" + std::string(std::strerror(errno)) + ")"));
       }
       for (int side = 0; side < 2 && ready > 0; ++side) {
         if (waiting[side].revents == 0) continue;
@@ -144,8 +146,8 @@ class V4l2PairSource final : public StereoSource {
     statistics.pairs_delivered = pairs_delivered_;
     statistics.left_frames = counts.pushed[0];
     statistics.right_frames = counts.pushed[1];
-    statistics.left_driver_drops = counts.driver_drops[0] + left_->corrupt_buffers();
-    statistics.right_driver_drops = counts.driver_drops[1] + right_->corrupt_buffers();
+    statistics.left_driver_drops = counts.driver_drops[0];
+    statistics.right_driver_drops = counts.driver_drops[1];
     statistics.left_unpaired = counts.unpaired[0];
     statistics.right_unpaired = counts.unpaired[1];
     return statistics;
@@ -253,7 +255,7 @@ class V4l2SideBySideSource final : public StereoSource {
   SourceStatistics statistics() const override {
     SourceStatistics statistics;
     statistics.pairs_delivered = statistics.left_frames = statistics.right_frames = frames_;
-    statistics.left_driver_drops = statistics.right_driver_drops = driver_drops_ + device_->corrupt_buffers();
+    statistics.left_driver_drops = statistics.right_driver_drops = driver_drops_;
     return statistics;
   }
 
