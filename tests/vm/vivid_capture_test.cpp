@@ -22,7 +22,8 @@
 //     Video" control; both sides 640x480p59.94 DV timings, GREY 640x480 progressive, OSD text off),
 //     left.png on instance 0, right.png on instance 1; the captured pairs must equal the files byte
 //     for byte, and the disparity of a captured pair must equal the disparity of the pair read from
-//     the files here and the host's reference.s16.
+//     the files here and the host's reference.s16. Then left.png | right.png as one 1280x720
+//     HDMI picture through the side-by-side source: the two views must be the files.
 // (c) disconnect: while the pair streams, vivid's "Disconnect" control on the right node (it
 //     unregisters the node as a hot-unplug does); next() must report `disconnected` naming the
 //     node, keep reporting it, and the source must tear down without hanging.
@@ -30,6 +31,7 @@
 // check passed; each failed check prints one "FAIL:" line.
 #include <dirent.h>
 #include <fcntl.h>
+#include <linux/v4l2-dv-timings.h>
 #include <linux/videodev2.h>
 #include <png.h>
 #include <sys/ioctl.h>
@@ -207,14 +209,25 @@ std::vector<StereoFrame> capture_and_check(StereoSource& source, int pairs, cons
     }
     if (!frames.empty()) {
       const StereoFrame& previous = frames.back();
-      check(frame.left_sequence > previous.left_sequence && frame.right_sequence > previous.right_sequence,
-            label + ": sequence numbers did not increase");
+      // vivid numbers a frame by the frame periods elapsed since STREAMON, rounded to the nearest
+      // (vivid-kthread-cap.c); when its thread runs late under load, two consecutive frames can
+      // get the same number. So: never backwards, and timestamps strictly increasing (below).
+      check(frame.left_sequence >= previous.left_sequence && frame.right_sequence >= previous.right_sequence,
+            label + ": sequence numbers went backwards");
+      if (frame.left_sequence == previous.left_sequence || frame.right_sequence == previous.right_sequence) {
+        std::printf("  %s: a sequence number repeated (vivid's thread ran late)\n", label.c_str());
+      }
       check(frame.left_timestamp_ns > previous.left_timestamp_ns &&
                 frame.right_timestamp_ns > previous.right_timestamp_ns,
             label + ": timestamps did not increase");
       check(frame.index == previous.index + 1, label + ": pair index did not count up");
     }
     frames.push_back(frame);
+  }
+  if (frames.size() > 1) {
+    check(frames.back().left_sequence > frames.front().left_sequence &&
+              frames.back().right_sequence > frames.front().right_sequence,
+          label + ": sequence numbers did not increase over " + std::to_string(frames.size()) + " pairs");
   }
   return frames;
 }
@@ -241,24 +254,28 @@ int select_input_named(V4l2CaptureDevice& device, const std::string& prefix) {
   throw std::runtime_error(device.name() + ": no input named " + prefix + "*");
 }
 
-v4l2_dv_timings timings_640x480p60() {
-  // V4L2_DV_BT_CEA_640X480P59_94 (linux/v4l2-dv-timings.h), field by field.
-  v4l2_dv_timings timings{};
-  timings.type = V4L2_DV_BT_656_1120;
-  v4l2_bt_timings& bt = timings.bt;
-  bt.width = 640;
-  bt.height = 480;
-  bt.pixelclock = 25175000;
-  bt.hfrontporch = 16;
-  bt.hsync = 96;
-  bt.hbackporch = 48;
-  bt.vfrontporch = 10;
-  bt.vsync = 2;
-  bt.vbackporch = 33;
-  bt.standards = V4L2_DV_BT_STD_DMT | V4L2_DV_BT_STD_CEA861;
-  bt.flags = V4L2_DV_FL_HAS_CEA861_VIC;
-  bt.cea861_vic = 1;
-  return timings;
+// The HDMI timings of a picture size: the CEA-861 ones vivid accepts (linux/v4l2-dv-timings.h).
+v4l2_dv_timings hdmi_timings(int width, int height) {
+  if (width == 640 && height == 480) return V4L2_DV_BT_CEA_640X480P59_94;
+  if (width == 1280 && height == 720) return V4L2_DV_BT_CEA_1280X720P60;
+  throw std::runtime_error("no HDMI timings for " + std::to_string(width) + "x" + std::to_string(height) +
+                           " (expected 640x480 or 1280x720)");
+}
+
+// A capture node on its HDMI input with the timings of width x height, looping its instance's
+// video output, without text over the picture.
+void loop_hdmi_input(const std::string& node, int width, int height) {
+  V4l2CaptureDevice device(node);
+  const int input = select_input_named(device, "HDMI");
+  v4l2_dv_timings timings = hdmi_timings(width, height);
+  if (::ioctl(device.fd(), VIDIOC_S_DV_TIMINGS, &timings) != 0) {
+    throw std::runtime_error(node + ": VIDIOC_S_DV_TIMINGS " + std::to_string(width) + "x" + std::to_string(height) +
+                             " failed (" + std::strerror(errno) + ")");
+  }
+  device.set_control(kVividLoopVideo, 1);
+  device.set_control(kVividOsdTextMode, 2);  // no text drawn over the looped picture
+  std::printf("  %s: input %d (HDMI), %dx%d timings, loop_video 1, osd_text_mode none\n", node.c_str(), input, width,
+              height);
 }
 
 // A vivid video output node streaming one picture for ever: vivid's output thread keeps the last
@@ -279,8 +296,8 @@ class LoopOutput {
       }
     }
     if (output < 0 || ::ioctl(fd_, VIDIOC_S_OUTPUT, &output) != 0) fail("no HDMI output to select");
-    v4l2_dv_timings timings = timings_640x480p60();
-    if (::ioctl(fd_, VIDIOC_S_DV_TIMINGS, &timings) != 0) fail("VIDIOC_S_DV_TIMINGS 640x480p60");
+    v4l2_dv_timings timings = hdmi_timings(picture.width(), picture.height());
+    if (::ioctl(fd_, VIDIOC_S_DV_TIMINGS, &timings) != 0) fail("VIDIOC_S_DV_TIMINGS");
     v4l2_format format{};
     format.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
     format.fmt.pix.width = static_cast<uint32_t>(picture.width());
@@ -288,10 +305,13 @@ class LoopOutput {
     format.fmt.pix.pixelformat = V4L2_PIX_FMT_GREY;
     format.fmt.pix.field = V4L2_FIELD_NONE;
     if (::ioctl(fd_, VIDIOC_S_FMT, &format) != 0) fail("VIDIOC_S_FMT GREY");
-    if (format.fmt.pix.pixelformat != V4L2_PIX_FMT_GREY || format.fmt.pix.width != 640u ||
-        format.fmt.pix.height != 480u || format.fmt.pix.field != V4L2_FIELD_NONE) {
-      fail("expected GREY 640x480 progressive, the driver set " + fourcc_text(format.fmt.pix.pixelformat) + " " +
-           std::to_string(format.fmt.pix.width) + "x" + std::to_string(format.fmt.pix.height));
+    if (format.fmt.pix.pixelformat != V4L2_PIX_FMT_GREY ||
+        format.fmt.pix.width != static_cast<uint32_t>(picture.width()) ||
+        format.fmt.pix.height != static_cast<uint32_t>(picture.height()) || format.fmt.pix.field != V4L2_FIELD_NONE) {
+      throw std::runtime_error(path + ": expected GREY " + std::to_string(picture.width()) + "x" +
+                               std::to_string(picture.height()) + " progressive, the driver set " +
+                               fourcc_text(format.fmt.pix.pixelformat) + " " + std::to_string(format.fmt.pix.width) +
+                               "x" + std::to_string(format.fmt.pix.height));
     }
     std::printf("  output %s: HDMI output %d, GREY %ux%u, bytesperline %u, sizeimage %u\n", path.c_str(), output,
                 format.fmt.pix.width, format.fmt.pix.height, format.fmt.pix.bytesperline, format.fmt.pix.sizeimage);
@@ -462,17 +482,8 @@ void test_loopback(const std::string& left_node, const std::string& right_node, 
     check(false, "loopback: the pair must be 640x480 (the HDMI timings)");
     return;
   }
-  for (const std::string& node : {left_node, right_node}) {
-    V4l2CaptureDevice device(node);
-    const int input = select_input_named(device, "HDMI");
-    v4l2_dv_timings timings = timings_640x480p60();
-    if (::ioctl(device.fd(), VIDIOC_S_DV_TIMINGS, &timings) != 0) {
-      throw std::runtime_error(node + ": VIDIOC_S_DV_TIMINGS 640x480p60 failed (" + std::strerror(errno) + ")");
-    }
-    device.set_control(kVividLoopVideo, 1);
-    device.set_control(kVividOsdTextMode, 2);  // no text drawn over the looped picture
-    std::printf("  %s: input %d (HDMI), 640x480p59.94, loop_video 1, osd_text_mode none\n", node.c_str(), input);
-  }
+  loop_hdmi_input(left_node, kLoopWidth, kLoopHeight);
+  loop_hdmi_input(right_node, kLoopWidth, kLoopHeight);
   LoopOutput left_loop(left_output, left_file);
   LoopOutput right_loop(right_output, right_file);
 
@@ -573,6 +584,49 @@ void test_drops_and_stall(const std::string& left_node, const std::string& right
   print_statistics(*source);
 }
 
+// The side-by-side source on a looped picture: left.png | right.png in one 1280x720 HDMI frame
+// (the pair in the top 480 rows, black below), split into two 640x720 views that must be the
+// files byte for byte (black below).
+void test_side_by_side_loopback(const std::string& node, const std::string& output, const std::string& data_dir) {
+  std::printf("== side by side through the loopback\n");
+  const Plane left_file = read_grey_png(data_dir + "/left.png");
+  const Plane right_file = read_grey_png(data_dir + "/right.png");
+  constexpr int kViewWidth = 640, kViewHeight = 720;
+  Plane picture(2 * kViewWidth, kViewHeight, {ElementType::u8, 0});
+  Plane left_expected(kViewWidth, kViewHeight, {ElementType::u8, 0});
+  Plane right_expected(kViewWidth, kViewHeight, {ElementType::u8, 0});
+  for (int y = 0; y < left_file.height(); ++y) {
+    std::memcpy(picture.row<uint8_t>(y), left_file.row<uint8_t>(y), static_cast<size_t>(left_file.width()));
+    std::memcpy(picture.row<uint8_t>(y) + kViewWidth, right_file.row<uint8_t>(y), static_cast<size_t>(right_file.width()));
+    std::memcpy(left_expected.row<uint8_t>(y), left_file.row<uint8_t>(y), static_cast<size_t>(left_file.width()));
+    std::memcpy(right_expected.row<uint8_t>(y), right_file.row<uint8_t>(y), static_cast<size_t>(right_file.width()));
+  }
+  loop_hdmi_input(node, 2 * kViewWidth, kViewHeight);
+  LoopOutput loop(output, picture);
+  SourceOptions options;
+  options.width = kViewWidth;  // of each view
+  options.height = kViewHeight;
+  options.pixel_format = "GREY";
+  auto source = open_v4l2_stereo_source({node}, true, options);
+  std::printf("  %s\n", source->description().c_str());
+  const std::vector<StereoFrame> frames = capture_and_check(*source, 5, "sbs loop", 0);
+  int first_equal = -1, equal = 0;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const long left_differing = differing_pixels(frames[i].left, left_expected);
+    const long right_differing = differing_pixels(frames[i].right, right_expected);
+    const bool same = left_differing == 0 && right_differing == 0;
+    if (same && first_equal < 0) first_equal = static_cast<int>(i);
+    if (first_equal >= 0) {
+      check(same, "sbs loop: frame " + std::to_string(i) + " differs from the pair (" + std::to_string(left_differing) +
+                      " left and " + std::to_string(right_differing) + " right pixels)");
+    }
+    equal += same;
+  }
+  std::printf("  %d of %zu side-by-side frames split into left.png and right.png byte for byte (first: %d)\n", equal,
+              frames.size(), first_equal);
+  check(equal >= 3, "sbs loop: expected at least 3 frames equal to the pair, got " + std::to_string(equal));
+}
+
 // (c) A device removed while streaming: reported, sticky, and a clean teardown.
 void test_disconnect(const std::string& left_node, const std::string& right_node) {
   std::printf("== (c) disconnect while streaming\n");
@@ -643,6 +697,7 @@ int main(int argc, char** argv) {
     test_drops_and_stall(left_node, right_node);
     test_refusals(left_node, right_node, left_output);
     test_loopback(left_node, right_node, left_output, right_output, argv[1]);
+    test_side_by_side_loopback(left_node, left_output, argv[1]);
     test_disconnect(left_node, right_node);
   } catch (const std::exception& error) {
     check(false, std::string("exception: ") + error.what());
