@@ -573,8 +573,8 @@ void test_drops_and_stall(const std::string& left_node, const std::string& right
   std::printf("  next(500 ms) after %d calls: %s in %.3f s: %s\n", calls,
               stalled.status == SourceStatus::timeout ? "timeout" : "NOT timeout", waited_s, stalled.message.c_str());
   check(stalled.status == SourceStatus::timeout, "stall: expected status timeout");
-  // A bound against a hang, not a measurement: the wait must end near its timeout.
-  check(waited_s < 2.5, "stall: next(500 ms) took " + std::to_string(waited_s) + " s");
+  // A bound against a hang, not a measurement (a loaded host slows the VM): the wait must end.
+  check(waited_s < 5.0, "stall: next(500 ms) took " + std::to_string(waited_s) + " s");
   check(source->statistics().left_unpaired > dropped.left_unpaired,
         "stall: the streaming left view's frames were not discarded");
   right_controls.set_control(kVividPercentDropped, 0);
