@@ -366,6 +366,16 @@ void print_device(const std::string& path) {
               formats.c_str());
 }
 
+// 320x180 at 30 fps: one of vivid's webcam sizes and intervals, small enough for the VM.
+SourceOptions webcam_options(const std::string& pixel_format) {
+  SourceOptions options;
+  options.width = 320;
+  options.height = 180;
+  options.frame_rate_hz = 30;
+  options.pixel_format = pixel_format;
+  return options;
+}
+
 // (a) Two webcam inputs through the stereo source in each format; then one node side by side.
 void test_capture(const std::string& left_node, const std::string& right_node) {
   std::printf("== (a) capture from two vivid capture devices\n");
@@ -379,12 +389,7 @@ void test_capture(const std::string& left_node, const std::string& right_node) {
   }
   std::map<std::string, Plane> luma_by_format;
   for (const char* format : {"GREY", "YUYV", "UYVY", "NV12", "RGB888", "BGR888"}) {
-    SourceOptions options;
-    options.width = 320;
-    options.height = 180;
-    options.frame_rate_hz = 30;
-    options.pixel_format = format;
-    auto source = open_v4l2_stereo_source({left_node, right_node}, false, options);
+    auto source = open_v4l2_stereo_source({left_node, right_node}, false, webcam_options(format));
     std::printf("  %s\n", source->description().c_str());
     const std::string expected_format = std::string(format) + " 320x180";
     check(source->description().find(expected_format + " at 30 fps") != std::string::npos,
@@ -539,12 +544,7 @@ void test_loopback(const std::string& left_node, const std::string& right_node, 
 // numbers still count them), then that view stalling completely while the other streams on.
 void test_drops_and_stall(const std::string& left_node, const std::string& right_node) {
   std::printf("== drops and a stalled view\n");
-  SourceOptions options;
-  options.width = 320;
-  options.height = 180;
-  options.frame_rate_hz = 30;
-  options.pixel_format = "GREY";
-  auto source = open_v4l2_stereo_source({left_node, right_node}, false, options);
+  auto source = open_v4l2_stereo_source({left_node, right_node}, false, webcam_options("GREY"));
   std::printf("  %s\n", source->description().c_str());
   V4l2CaptureDevice right_controls(right_node);  // a second handle: controls may change while streaming
   right_controls.set_control(kVividPercentDropped, 50);
@@ -635,12 +635,7 @@ void test_disconnect(const std::string& left_node, const std::string& right_node
     device.set_control(kVividLoopVideo, 0);
     select_input_named(device, "Webcam");
   }
-  SourceOptions options;
-  options.width = 320;
-  options.height = 180;
-  options.frame_rate_hz = 30;
-  options.pixel_format = "YUYV";
-  auto source = open_v4l2_stereo_source({left_node, right_node}, false, options);
+  auto source = open_v4l2_stereo_source({left_node, right_node}, false, webcam_options("YUYV"));
   std::printf("  %s\n", source->description().c_str());
   capture_and_check(*source, 3, "before", default_pairing_tolerance_ns(30));
   {
