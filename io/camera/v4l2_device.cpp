@@ -300,9 +300,9 @@ double V4l2CaptureDevice::set_frame_rate(double frame_rate_hz) {
   return frame_rate_hz_;
 }
 
-void V4l2CaptureDevice::start(int buffer_count) {
-  if (streaming_) return;
-  if (format_.width == 0) fail("start before set_format");
+void V4l2CaptureDevice::prepare_buffers(int buffer_count) {
+  if (streaming_ || !mappings_.empty()) fail("buffers prepared twice");
+  if (format_.width == 0) fail("buffers prepared before set_format");
   v4l2_requestbuffers request{};
   request.count = static_cast<uint32_t>(buffer_count < 2 ? 2 : buffer_count);
   request.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
@@ -331,6 +331,11 @@ void V4l2CaptureDevice::start(int buffer_count) {
       fail("VIDIOC_QBUF " + std::to_string(index) + " failed (" + error_text(errno) + ")");
     }
   }
+}
+
+void V4l2CaptureDevice::stream_on() {
+  if (streaming_) return;
+  if (mappings_.empty()) fail("STREAMON before the buffers were prepared");
   int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   if (xioctl(fd_, VIDIOC_STREAMON, &type) != 0) fail("VIDIOC_STREAMON failed (" + error_text(errno) + ")");
   streaming_ = true;

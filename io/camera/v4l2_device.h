@@ -95,7 +95,15 @@ class V4l2CaptureDevice {
   double frame_rate_hz() const { return frame_rate_hz_; }
 
   // REQBUFS(buffer_count, at least 2), map, queue all, STREAMON.
-  void start(int buffer_count);
+  void start(int buffer_count) {
+    prepare_buffers(buffer_count);
+    stream_on();
+  }
+  // start() in two steps, so that two devices can be switched on back to back: a driver that
+  // starts its frame clock at STREAMON (vivid does) then runs both views nearly in phase, which
+  // keeps their timestamps well inside the pairing tolerance.
+  void prepare_buffers(int buffer_count);  // REQBUFS, QUERYBUF, mmap, QBUF
+  void stream_on();                        // STREAMON
   bool streaming() const { return streaming_; }
   // Whether the timestamps are the driver's (true) or taken at the dequeue (false).
   bool driver_timestamps() const { return driver_timestamps_; }

@@ -85,8 +85,11 @@ class V4l2PairSource final : public StereoSource {
                         " and right " + right_->name() + " " + size_text(right.width, right.height) +
                         ": expected one size for both views");
     }
-    left_->start(options.buffer_count);
-    right_->start(options.buffer_count);
+    left_->prepare_buffers(options.buffer_count);
+    right_->prepare_buffers(options.buffer_count);
+    // Back to back, so that drivers that start their frame clock here run the views in phase.
+    left_->stream_on();
+    right_->stream_on();
   }
 
   std::string description() const override {
