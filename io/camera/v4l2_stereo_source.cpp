@@ -36,12 +36,31 @@ std::string rate_text(double frame_rate_hz) {
 
 std::optional<CameraPixelFormat> requested_format(const SourceOptions& options) {
   if (options.pixel_format.empty()) return std::nullopt;
-  const auto format = pixel_format_from_name(options.pixel_format);
-  if (!format) {
-    throw SourceError("v4l2: pixel format '" + options.pixel_format +
-                      "' unknown, expected one of GREY YUYV UYVY NV12 RGB888 BGR888");
+  return pixel_format_from_name(options.pixel_format);
+}
+
+// The options a device cannot be asked for, refused before any device is opened.
+void check_options(const SourceOptions& options, bool side_by_side) {
+  const std::string kind = side_by_side ? "v4l2-sbs" : "v4l2";
+  if (!options.pixel_format.empty() && !requested_format(options)) {
+    throw std::invalid_argument(kind + ": pixel format '" + options.pixel_format +
+                                "' unknown, expected one of GREY YUYV UYVY NV12 RGB888 BGR888");
   }
-  return format;
+  if (options.width < 0 || options.height < 0 || (options.width == 0) != (options.height == 0)) {
+    throw std::invalid_argument(kind + ": size " + size_text(options.width, options.height) +
+                                ": expected both positive, or 0x0 for the device's current size");
+  }
+  if (!(options.frame_rate_hz >= 0)) {
+    throw std::invalid_argument(kind + ": frame rate " + std::to_string(options.frame_rate_hz) +
+                                " Hz: expected >= 0 (0 = the device's current)");
+  }
+  if (options.buffer_count < 2) {
+    throw std::invalid_argument(kind + ": buffer count " + std::to_string(options.buffer_count) + ": expected >= 2");
+  }
+  if (options.pairing_tolerance_ns < -1) {
+    throw std::invalid_argument(kind + ": pairing tolerance " + std::to_string(options.pairing_tolerance_ns) +
+                                " ns: expected >= 0 (or -1 = half the frame period)");
+  }
 }
 
 // Opens and configures one device (format, size, rate); streaming starts later, once every
@@ -274,6 +293,7 @@ class V4l2SideBySideSource final : public StereoSource {
 
 std::unique_ptr<StereoSource> open_v4l2_stereo_source(const std::vector<std::string>& devices, bool side_by_side,
                                                       const SourceOptions& options) {
+  check_options(options, side_by_side);
   if (side_by_side) {
     if (devices.size() != 1) {
       throw std::invalid_argument("v4l2-sbs: expected one device, got " + std::to_string(devices.size()));

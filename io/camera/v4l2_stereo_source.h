@@ -24,8 +24,10 @@ namespace lpstereo::io {
 inline constexpr size_t kV4l2PairingQueueFrames = 4;  // per view: 4 frames of latency at most
 
 // devices: two paths (left, right), or one path with side_by_side. Throws SourceError (one line)
-// for a device that cannot be opened or negotiated and std::invalid_argument for a wrong device
-// count or an odd side-by-side width.
+// for a device that cannot be opened or negotiated, and std::invalid_argument, before opening
+// anything, for a wrong device count or an option no device can be asked for (an unknown pixel
+// format name, a negative or half-given size, a negative rate, fewer than 2 buffers, a tolerance
+// below -1).
 std::unique_ptr<StereoSource> open_v4l2_stereo_source(const std::vector<std::string>& devices, bool side_by_side,
                                                       const SourceOptions& options);
 

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "io/camera/v4l2_stereo_source.h"
 #include "tests/support/scratch_directory.h"
@@ -76,6 +77,45 @@ TEST(V4l2StereoSource, RefusesAWrongDeviceCount) {
   EXPECT_THROW(open_v4l2_stereo_source({"/dev/video0"}, false, SourceOptions{}), std::invalid_argument);
   EXPECT_THROW(open_v4l2_stereo_source({"/dev/video0", "/dev/video1"}, true, SourceOptions{}), std::invalid_argument);
   EXPECT_THROW(open_v4l2_stereo_source({"/dev/video0", "/dev/video0"}, false, SourceOptions{}), std::invalid_argument);
+}
+
+TEST(V4l2StereoSource, RefusesOptionsNoDeviceCanBeAskedForBeforeOpeningAnything) {
+  // The device does not exist: the option's error must come first, so it is checked first.
+  const auto option_error = [](const SourceOptions& options, bool side_by_side) -> std::string {
+    const std::vector<std::string> devices = side_by_side ? std::vector<std::string>{"/dev/video-lpstereo-none"}
+                                                          : std::vector<std::string>{"/dev/video-lpstereo-none",
+                                                                                     "/dev/video-lpstereo-none2"};
+    try {
+      open_v4l2_stereo_source(devices, side_by_side, options);
+    } catch (const std::invalid_argument& error) {
+      return error.what();
+    } catch (const SourceError& error) {
+      return std::string("SourceError: ") + error.what();
+    }
+    return "(no error)";
+  };
+  SourceOptions options;
+  options.pixel_format = "MJPG";
+  EXPECT_EQ(option_error(options, false),
+            "v4l2: pixel format 'MJPG' unknown, expected one of GREY YUYV UYVY NV12 RGB888 BGR888");
+  options = SourceOptions{};
+  options.width = 640;
+  EXPECT_EQ(option_error(options, true),
+            "v4l2-sbs: size 640x0: expected both positive, or 0x0 for the device's current size");
+  options = SourceOptions{};
+  options.frame_rate_hz = -30;
+  EXPECT_EQ(option_error(options, false).rfind("v4l2: frame rate -30", 0), 0u);
+  options = SourceOptions{};
+  options.buffer_count = 1;
+  EXPECT_EQ(option_error(options, false), "v4l2: buffer count 1: expected >= 2");
+  options = SourceOptions{};
+  options.pairing_tolerance_ns = -2;
+  EXPECT_EQ(option_error(options, false),
+            "v4l2: pairing tolerance -2 ns: expected >= 0 (or -1 = half the frame period)");
+  options = SourceOptions{};
+  options.pixel_format = "yuyv";  // names are case-insensitive: the device's error comes
+  EXPECT_EQ(option_error(options, false),
+            "SourceError: /dev/video-lpstereo-none: expected a V4L2 video capture device, got no such file");
 }
 
 TEST(V4l2Device, FourccTextIsTheFourCharacters) {
