@@ -12,12 +12,14 @@
 //
 // (a) capture: both capture nodes on vivid's webcam input (input 0, discrete sizes and frame
 //     intervals) through open_v4l2_stereo_source, once per format GREY, YUYV, UYVY, NV12, RGB888
-//     and BGR888 at 320x180 and 30 fps: format and size as asked, sequence numbers and CLOCK_MONOTONIC timestamps
-//     increasing on each side, the two views of each pair within the pairing tolerance, and the
-//     luma of YUYV, UYVY and NV12 the same bytes, and of RGB888 and BGR888 (vivid's test pattern,
-//     its text switched off);
-//     then one node side by side (640x360 as two 320x360 views). Then the refusals: an output
-//     node as a view, a size the webcam does not have, two views of different sizes.
+//     and BGR888 at 320x180 and 30 fps: format and size as asked, sequence numbers and
+//     CLOCK_MONOTONIC timestamps increasing on each side, the two views of each pair within the
+//     pairing tolerance, and the luma of YUYV, UYVY and NV12 the same bytes, and of RGB888 and
+//     BGR888 (vivid's test pattern, its text switched off); then one node side by side (640x360 as
+//     two 320x360 views). Then driver drops on the right view (vivid's "Percentage of Dropped
+//     Buffers" at 50 %: counted), a stalled right view (100 %: next() times out within its bound),
+//     and the refusals: an output node as a view, a size the webcam does not have, two views of
+//     different sizes.
 // (b) loopback: each instance's HDMI output looped to its HDMI capture input (vivid's "Loop
 //     Video" control; both sides 640x480p59.94 DV timings, GREY 640x480 progressive, OSD text off),
 //     left.png on instance 0, right.png on instance 1; the captured pairs must equal the files byte

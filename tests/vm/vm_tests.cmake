@@ -28,7 +28,7 @@ set(LPSTEREO_VM_WORK_DIR ${CMAKE_CURRENT_BINARY_DIR}/vm-work)
 # pair's PNG files. Its data come from the host's lpstereo in the build: a 640x480 synthetic pair
 # (`lpstereo synth`, the size of the smallest HDMI timings vivid loops) and its disparity
 # (`lpstereo disparity --num-disp 64 --format s16`), which the VM must reproduce from the frames it
-# captures. About 40 s on a 2-core host (TCG); the VM's own limit is 170 s, the test's 200 s.
+# captures. 10 to 35 s on the 2-core build host (TCG); the VM's own limit is 170 s, the test's 200 s.
 if(LPSTEREO_VM_AVAILABLE)
   find_library(LPSTEREO_PNG_STATIC NAMES libpng16.a libpng.a)
   find_library(LPSTEREO_Z_STATIC NAMES libz.a)
