@@ -41,3 +41,51 @@ if(LPSTEREO_VM_AVAILABLE AND TARGET lpstereo_libcamera)
     set_tests_properties(Vm.vimc_libcamera PROPERTIES TIMEOUT 240)
   endif()
 endif()
+
+# Vm.vivid_capture: the V4L2 capture path against vivid (tests/vm/vivid_capture_test.cpp: two
+# capture devices in GREY, YUYV, UYVY and NV12, side by side, the output-to-capture loopback of a
+# known pair with its disparity, and a disconnect while streaming). The program is linked
+# statically (the VM holds busybox and nothing else), with Debian's static libpng and zlib for the
+# pair's PNG files. Its data come from the host's lpstereo in the build: a 640x480 synthetic pair
+# (`lpstereo synth`, the size of the smallest HDMI timings vivid loops) and its disparity
+# (`lpstereo disparity --num-disp 64 --format s16`), which the VM must reproduce from the frames it
+# captures. 10 to 35 s on the 2-core build host (TCG); the VM's own limit is 170 s, the test's 200 s.
+if(LPSTEREO_VM_AVAILABLE)
+  find_library(LPSTEREO_PNG_STATIC NAMES libpng16.a libpng.a)
+  find_library(LPSTEREO_Z_STATIC NAMES libz.a)
+  if(NOT TARGET lpstereo)
+    message(STATUS "VM test vivid_capture: not registered, its data need the lpstereo command line (LPSTEREO_BUILD_TOOLS)")
+  elseif(NOT LPSTEREO_PNG_STATIC OR NOT LPSTEREO_Z_STATIC)
+    message(STATUS "VM test vivid_capture: not registered, static libpng16.a or libz.a missing (libpng-dev, zlib1g-dev)")
+  else()
+    add_executable(vivid_capture_test ${LPSTEREO_VM_DIR}/vivid_capture_test.cpp)
+    target_include_directories(vivid_capture_test PRIVATE ${PROJECT_SOURCE_DIR})
+    target_link_libraries(vivid_capture_test PRIVATE lpstereo::camera lpstereo::arm ${LPSTEREO_PNG_STATIC}
+                                                     ${LPSTEREO_Z_STATIC} m)
+    target_link_options(vivid_capture_test PRIVATE -static)
+    lpstereo_warnings(vivid_capture_test)
+
+    set(vivid_data ${LPSTEREO_VM_WORK_DIR}/vivid-data)
+    add_custom_command(
+      OUTPUT ${vivid_data}/left.png ${vivid_data}/right.png ${vivid_data}/reference.s16
+      COMMAND ${CMAKE_COMMAND} -E rm -rf ${vivid_data}/scene
+      COMMAND $<TARGET_FILE:lpstereo> synth -o ${vivid_data}/scene --width 640 --height 480 --seed 3
+      COMMAND ${CMAKE_COMMAND} -E copy ${vivid_data}/scene/left.png ${vivid_data}/scene/right.png ${vivid_data}/
+      COMMAND $<TARGET_FILE:lpstereo> disparity ${vivid_data}/left.png ${vivid_data}/right.png
+              -o ${vivid_data}/reference.s16 --format s16 --num-disp 64
+      DEPENDS lpstereo
+      COMMENT "vivid_capture_test data: a synthetic 640x480 pair and its disparity"
+      VERBATIM)
+    add_custom_target(vivid_capture_data ALL
+                      DEPENDS ${vivid_data}/left.png ${vivid_data}/right.png ${vivid_data}/reference.s16)
+    add_dependencies(vivid_capture_test vivid_capture_data)
+
+    add_test(NAME Vm.vivid_capture
+             COMMAND ${LPSTEREO_VM_DIR}/run-in-vm.sh --work ${LPSTEREO_VM_WORK_DIR}/vivid --timeout 170
+                     --module "vivid:n_devs=2 node_types=0x101,0x101"
+                     --file ${vivid_data}/left.png=/data/left.png --file ${vivid_data}/right.png=/data/right.png
+                     --file ${vivid_data}/reference.s16=/data/reference.s16
+                     -- $<TARGET_FILE:vivid_capture_test> /data)
+    set_tests_properties(Vm.vivid_capture PROPERTIES TIMEOUT 200)
+  endif()
+endif()
