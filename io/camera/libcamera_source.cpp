@@ -19,6 +19,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "io/camera/timestamp_pairing.h"
+
 namespace lpstereo::io {
 
 namespace {
@@ -534,31 +536,36 @@ class LibcameraStereoSource final : public StereoSource {
     }
     std::deque<CompletedFrame>& right = cameras_[1]->completed;
     const int64_t tolerance_ns = pairing_tolerance_ns();
-    while (!left.empty() && !right.empty()) {
-      const int64_t difference_ns = left.front().timestamp_ns - right.front().timestamp_ns;
-      if (std::llabs(difference_ns) <= tolerance_ns) {
+    // The V4L2 source's rule (io/camera/timestamp_pairing.h) on the completed-request queues.
+    const auto timestamp = [](const std::deque<CompletedFrame>& queue, size_t i) -> std::optional<int64_t> {
+      if (queue.size() <= i) return std::nullopt;
+      return queue[i].timestamp_ns;
+    };
+    while (true) {
+      const PairingStep step = next_pairing_step(timestamp(left, 0), timestamp(left, 1), timestamp(right, 0),
+                                                 timestamp(right, 1), tolerance_ns);
+      if (step == PairingStep::wait) return false;
+      if (step == PairingStep::pair) {
         frames[0] = left.front();
         frames[1] = right.front();
         left.pop_front();
         right.pop_front();
         return true;
       }
-      const bool left_older = difference_ns < 0;
-      std::deque<CompletedFrame>& older = left_older ? left : right;
-      discarded.emplace_back(cameras_[left_older ? 0 : 1].get(), older.front().request);
-      ++(left_older ? statistics_.left_unpaired : statistics_.right_unpaired);
-      older.pop_front();
+      const bool discard_left = step == PairingStep::discard_left;
+      std::deque<CompletedFrame>& discarded_queue = discard_left ? left : right;
+      discarded.emplace_back(cameras_[discard_left ? 0 : 1].get(), discarded_queue.front().request);
+      ++(discard_left ? statistics_.left_unpaired : statistics_.right_unpaired);
+      discarded_queue.pop_front();
     }
-    return false;
   }
 
-  // Under mutex_: SourceOptions' tolerance, or half the frame period (30 fps when nothing is known).
+  // Under mutex_: SourceOptions' tolerance, or half the frame period (the measured one, else the
+  // requested rate, else 30 fps).
   int64_t pairing_tolerance_ns() const {
     if (options_.pairing_tolerance_ns >= 0) return options_.pairing_tolerance_ns;
-    int64_t period_ns = cameras_[0]->frame_period_ns;
-    if (period_ns <= 0 && options_.frame_rate_hz > 0) period_ns = static_cast<int64_t>(1e9 / options_.frame_rate_hz);
-    if (period_ns <= 0) period_ns = 1'000'000'000 / 30;
-    return period_ns / 2;
+    const int64_t period_ns = cameras_[0]->frame_period_ns;
+    return default_pairing_tolerance_ns(period_ns > 0 ? 1e9 / static_cast<double>(period_ns) : options_.frame_rate_hz);
   }
 
   // Under mutex_, when a wait timed out: a camera whose V4L2 nodes have all left sysfs is gone,
