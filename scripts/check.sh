@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it (.ci/run calls this): installs the Debian packages, then
-#   1. release build, every test;
+#   1. release build, every test (with the real-driver tests in a VM: vivid, vimc; their logs printed);
 #   2. debug-asan build (AddressSanitizer + UndefinedBehaviorSanitizer), every test;
 #   3. the release tests that exercise every kernel, run on an emulated CPU without AVX-512
 #      (qemu-x86_64 -cpu Haswell): the binary built here must run there, dispatching to AVX2;
@@ -20,6 +20,8 @@ echo "== release: build and test"
 cmake --preset release >/dev/null
 cmake --build --preset release -j "$jobs"
 ctest --preset release
+echo "== real-driver tests in the VM: their logs"
+./scripts/print-vm-test-logs.sh build/release
 
 if [ "${LPSTEREO_CHECK_SKIP_ASAN:-0}" != "1" ]; then
   echo "== debug-asan: build and test"
