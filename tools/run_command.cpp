@@ -13,6 +13,7 @@
 #include <deque>
 #include <exception>
 #include <filesystem>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -455,6 +456,7 @@ int RunCommand::run() const {
   double processing_ms_total = 0, latency_ms = 0, latency_ms_total = 0;
   RateMeter arrivals, completions;
   std::unique_ptr<CaptureThread> capture;
+  std::future<std::string> budget_profile;  // live sources: the budget line, profiled beside the run
   std::string end_reason, failure;
   Clock::time_point started = Clock::now();
 
@@ -544,13 +546,31 @@ int RunCommand::run() const {
     completions.add(pair_done);
 
     if (processed == 1) {
-      // The budget once, on this first pair; then the clocks (and, live, the capture thread) start.
-      if (target) {
+      // The budget once, on this first pair. A recording waits for it; a live source does not (the
+      // camera would drop frames meanwhile): the profile runs beside the processing on copies of the
+      // pair and its planes, and the status line shows it once it is done. Then the clocks (and, live,
+      // the capture thread) start.
+      if (target && !live) {
         budget = budget_line(*target, source_fps, threads_, calibration_files_, pair, rectifier ? left : nullptr,
                              rectifier ? right : nullptr, disparity_parameters, disparity, detector ? &parameters : nullptr);
+      } else if (target) {
+        budget = target->name + " being profiled";
+        io::StereoFrame raw = pair;
+        raw.left = pair.left.clone();
+        raw.right = pair.right.clone();
+        const std::optional<Plane> rectified_left = rectifier ? std::optional<Plane>(left->clone()) : std::nullopt;
+        const std::optional<Plane> rectified_right = rectifier ? std::optional<Plane>(right->clone()) : std::nullopt;
+        budget_profile = std::async(std::launch::async, [&, raw, rectified_left, rectified_right, disparity_copy = disparity.clone()] {
+          return budget_line(*target, source_fps, threads_, calibration_files_, raw, rectified_left ? &*rectified_left : nullptr,
+                             rectified_right ? &*rectified_right : nullptr, disparity_parameters, disparity_copy,
+                             detector ? &parameters : nullptr);
+        });
       }
       started = Clock::now();
       if (live) capture = std::make_unique<CaptureThread>(*source, timeout, recorder.get());
+    }
+    if (budget_profile.valid() && budget_profile.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+      budget = budget_profile.get();
     }
     if (terminal) {
       std::fprintf(stderr, "\r%s\033[K", status_line().c_str());
@@ -559,6 +579,7 @@ int RunCommand::run() const {
     }
   }
   if (capture) capture->stop();
+  if (budget_profile.valid()) budget = budget_profile.get();
   if (end_reason.empty() && failure.empty()) {
     end_reason = stop_signal != 0 ? (stop_signal == SIGINT ? "stopped by SIGINT" : "stopped by SIGTERM")
                                   : "--frames " + std::to_string(frame_limit_) + " reached";
