@@ -205,6 +205,42 @@ double milliseconds(std::chrono::steady_clock::duration duration) {
 
 }  // namespace
 
+void add_obstacle_tuning_options(CLI::App& command, arm::ObstacleParameters& p) {
+  // arm/obstacle_detector.h, arm/tasks/obstacle_clusters.h, kernels/vldh_mask.cpp say what each does.
+  command.add_option("--near-height-m", p.clusters.near_min_height_m, "eq. 4.3: smallest obstacle height near the vehicle, m")
+      ->capture_default_str();
+  command.add_option("--far-height-m", p.clusters.far_min_height_m, "eq. 4.3: smallest obstacle height far away, m")
+      ->capture_default_str();
+  command.add_option("--switch-distance-m", p.clusters.height_switch_distance_m, "eq. 4.3: where far begins, m")
+      ->capture_default_str();
+  command.add_option("--min-width-m", p.clusters.min_width_m, "smallest obstacle width for the cell threshold, m (0 = off)")
+      ->capture_default_str();
+  command.add_option("--min-cells", p.clusters.min_cells, "clusters with fewer grid cells are dropped")->capture_default_str();
+  command.add_option("--min-pixels", p.clusters.min_pixels, "clusters with fewer mask pixels are dropped")->capture_default_str();
+  command.add_option("--columns-per-cell", p.grid.columns_per_cell, "image columns per grid cell")->capture_default_str();
+  command.add_option("--grid-rows", p.grid.geometry.grid_rows, "grid rows (log-scaled in disparity, eq. 4.2)")->capture_default_str();
+  command.add_option("--grid-k", p.grid.geometry.exponent_k, "eq. 4.2's k (> 1: more rows far away)")->capture_default_str();
+  command.add_option("--obstacle-weight", p.grid.obstacle_weight, "grid vote of an obstacle pixel")->capture_default_str();
+  command.add_option("--free-weight", p.grid.free_weight, "grid penalty of a free-space pixel")->capture_default_str();
+  command.add_option("--vldh-rows", p.vldh.window_rows, "VLDH window: rows below a pixel")->capture_default_str();
+  command.add_option("--vldh-min-count", p.vldh.min_count, "VLDH: rows of the window that must match")->capture_default_str();
+  command.add_option("--vldh-tolerance-q4", p.vldh.match_tolerance_q4, "VLDH: match tolerance, 1/16 px")->capture_default_str();
+  command.add_option("--road-margin-q4", p.vldh.road_margin_q4, "VLDH: height above the road's disparity, 1/16 px")
+      ->capture_default_str();
+  command.add_option("--road-margin-per-mille", p.vldh.road_margin_per_mille, "VLDH: plus this share of the road's disparity")
+      ->capture_default_str();
+  command.add_option("--feature-validation", p.feature_validation,
+                       "drop clusters without a Harris corner on their obstacle pixels (true/false)")
+      ->capture_default_str();
+  command.add_option("--harris-threshold", p.features.harris_threshold, "feature validation: Harris response threshold")
+      ->capture_default_str();
+  command.add_option("--min-features", p.validation.min_features, "feature validation: corners a cluster needs")
+      ->capture_default_str();
+  command.add_option("--mask-radius", p.validation.mask_radius_px,
+                       "feature validation: a corner counts with an obstacle pixel this near (-1: anywhere in the box)")
+      ->capture_default_str();
+}
+
 ObstaclesCommand::ObstaclesCommand(CLI::App& app) {
   command_ = app.add_subcommand("obstacles",
                                 "obstacles in front of the vehicle from a rectified pair: disparity engine, then V-disparity road "
@@ -236,40 +272,7 @@ ObstaclesCommand::ObstaclesCommand(CLI::App& app) {
       ->check(CLI::Range(0, 256));
   add_disparity_engine_options(*command_, engine_options_,
                                "disparities searched: [min-disp, min-disp + num-disp) (default 64)");
-  // Tuning (arm/obstacle_detector.h, arm/tasks/obstacle_clusters.h, kernels/vldh_mask.cpp say what each does).
-  arm::ObstacleParameters& p = detector_parameters_;
-  command_->add_option("--near-height-m", p.clusters.near_min_height_m, "eq. 4.3: smallest obstacle height near the vehicle, m")
-      ->capture_default_str();
-  command_->add_option("--far-height-m", p.clusters.far_min_height_m, "eq. 4.3: smallest obstacle height far away, m")
-      ->capture_default_str();
-  command_->add_option("--switch-distance-m", p.clusters.height_switch_distance_m, "eq. 4.3: where far begins, m")
-      ->capture_default_str();
-  command_->add_option("--min-width-m", p.clusters.min_width_m, "smallest obstacle width for the cell threshold, m (0 = off)")
-      ->capture_default_str();
-  command_->add_option("--min-cells", p.clusters.min_cells, "clusters with fewer grid cells are dropped")->capture_default_str();
-  command_->add_option("--min-pixels", p.clusters.min_pixels, "clusters with fewer mask pixels are dropped")->capture_default_str();
-  command_->add_option("--columns-per-cell", p.grid.columns_per_cell, "image columns per grid cell")->capture_default_str();
-  command_->add_option("--grid-rows", p.grid.geometry.grid_rows, "grid rows (log-scaled in disparity, eq. 4.2)")->capture_default_str();
-  command_->add_option("--grid-k", p.grid.geometry.exponent_k, "eq. 4.2's k (> 1: more rows far away)")->capture_default_str();
-  command_->add_option("--obstacle-weight", p.grid.obstacle_weight, "grid vote of an obstacle pixel")->capture_default_str();
-  command_->add_option("--free-weight", p.grid.free_weight, "grid penalty of a free-space pixel")->capture_default_str();
-  command_->add_option("--vldh-rows", p.vldh.window_rows, "VLDH window: rows below a pixel")->capture_default_str();
-  command_->add_option("--vldh-min-count", p.vldh.min_count, "VLDH: rows of the window that must match")->capture_default_str();
-  command_->add_option("--vldh-tolerance-q4", p.vldh.match_tolerance_q4, "VLDH: match tolerance, 1/16 px")->capture_default_str();
-  command_->add_option("--road-margin-q4", p.vldh.road_margin_q4, "VLDH: height above the road's disparity, 1/16 px")
-      ->capture_default_str();
-  command_->add_option("--road-margin-per-mille", p.vldh.road_margin_per_mille, "VLDH: plus this share of the road's disparity")
-      ->capture_default_str();
-  command_->add_option("--feature-validation", p.feature_validation,
-                       "drop clusters without a Harris corner on their obstacle pixels (true/false)")
-      ->capture_default_str();
-  command_->add_option("--harris-threshold", p.features.harris_threshold, "feature validation: Harris response threshold")
-      ->capture_default_str();
-  command_->add_option("--min-features", p.validation.min_features, "feature validation: corners a cluster needs")
-      ->capture_default_str();
-  command_->add_option("--mask-radius", p.validation.mask_radius_px,
-                       "feature validation: a corner counts with an obstacle pixel this near (-1: anywhere in the box)")
-      ->capture_default_str();
+  add_obstacle_tuning_options(*command_, detector_parameters_);
 }
 
 int ObstaclesCommand::run() const {

@@ -61,6 +61,9 @@ nlohmann::json obstacle_frame_json(int width, int height, const arm::ObstacleFra
 void check_obstacle_geometry(const io::RectifiedGeometry& geometry, const std::vector<std::string>& calibration_files);
 // The detector's parameters (the tuning flags' values) with the calibration's camera and the
 // engine's search range.
+// The detector's tuning flags (--near-height-m ... --mask-radius, listed above), writing into `parameters`
+// (their defaults are its own).
+void add_obstacle_tuning_options(CLI::App& command, arm::ObstacleParameters& parameters);
 arm::ObstacleParameters detector_parameters_for(arm::ObstacleParameters parameters, const io::RectifiedGeometry& geometry,
                                                 const arm::DisparityParameters& disparity_parameters);
 

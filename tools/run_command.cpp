@@ -373,12 +373,7 @@ RunCommand::RunCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0, 256));
   add_disparity_engine_options(*command_, engine_options_, "disparities searched: [min-disp, min-disp + num-disp) (default 64)");
-  command_->add_option("--feature-validation", detector_parameters_.feature_validation,
-                       "obstacles: drop clusters without a Harris corner on their obstacle pixels (true/false)")
-      ->capture_default_str();
-  command_->add_option("--min-features", detector_parameters_.validation.min_features,
-                       "obstacles: feature validation: corners a cluster needs")
-      ->capture_default_str();
+  add_obstacle_tuning_options(*command_, detector_parameters_);  // --graph obstacles: the tuning of lpstereo obstacles
 }
 
 int RunCommand::run() const {

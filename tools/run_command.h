@@ -1,6 +1,7 @@
 // lpstereo run --source SPEC --calib C [--calib C2] --graph disparity|obstacles [--frames N]
 //     [--record DIR] [--out DIR] [--target cv1-class|none] [--timeout-ms T] [--fps F] [--realtime]
 //     [--width W --height H --pixel-format F] [--status-every N] [--threads T] [the disparity options]
+//     [the obstacle tuning options of lpstereo obstacles]
 // A stereo source (io/camera/stereo_source.h: v4l2:, v4l2-sbs:, libcamera:, files:) through a graph,
 // pair after pair:
 //   pair -> rectification with the calibration unless it says the views are already rectified (the

@@ -16,6 +16,13 @@ namespace {
 
 std::string size_text(int width, int height) { return std::to_string(width) + "x" + std::to_string(height); }
 
+// "1226x370 at 10 fps", the end of both descriptions.
+std::string size_and_rate_text(int width, int height, double frame_rate_hz) {
+  char rate[32];
+  std::snprintf(rate, sizeof rate, "%.3g", frame_rate_hz);
+  return size_text(width, height) + " at " + rate + " fps";
+}
+
 bool exists(const std::string& path) {
   std::error_code ignored;
   return std::filesystem::exists(path, ignored);
@@ -53,14 +60,21 @@ class QuietOpenCvLog {
   cv::utils::logging::LogLevel previous_;
 };
 
-StereoFrame recording_frame(Plane left, Plane right, int64_t frame, double frame_rate_hz, uint64_t index) {
-  StereoFrame pair;
+// The pair of recorded frame `frame` as delivered: timestamps frame / rate, sequences = frame number,
+// index = pairs delivered before; counted in `statistics`.
+SourceResult delivered_pair(Plane left, Plane right, int64_t frame, double frame_rate_hz, SourceStatistics& statistics) {
+  SourceResult result;
+  result.status = SourceStatus::frame;
+  StereoFrame& pair = result.frame;
   pair.left = std::move(left);
   pair.right = std::move(right);
   pair.left_timestamp_ns = pair.right_timestamp_ns = recording_timestamp_ns(frame, frame_rate_hz);
   pair.left_sequence = pair.right_sequence = static_cast<uint64_t>(frame);
-  pair.index = index;
-  return pair;
+  pair.index = statistics.pairs_delivered;
+  ++statistics.pairs_delivered;
+  ++statistics.left_frames;
+  ++statistics.right_frames;
+  return result;
 }
 
 }  // namespace
@@ -132,21 +146,14 @@ SourceResult ImageSequenceSource::next(std::chrono::milliseconds /*timeout*/) {
   const int frame = first_frame_ + next_offset_;
   Plane left = next_offset_ == 0 ? std::move(first_left_) : read_view(left_.path(frame), frame);
   Plane right = next_offset_ == 0 ? std::move(first_right_) : read_view(right_.path(frame), frame);
-  result.status = SourceStatus::frame;
-  result.frame = recording_frame(std::move(left), std::move(right), frame, frame_rate_hz_, statistics_.pairs_delivered);
   ++next_offset_;
-  ++statistics_.pairs_delivered;
-  ++statistics_.left_frames;
-  ++statistics_.right_frames;
-  return result;
+  return delivered_pair(std::move(left), std::move(right), frame, frame_rate_hz_, statistics_);
 }
 
 std::string ImageSequenceSource::description() const {
-  char rate[32];
-  std::snprintf(rate, sizeof rate, "%.3g", frame_rate_hz_);
   return "files " + left_.pattern() + " + " + right_.pattern() + ": frames " + std::to_string(first_frame_) + ".." +
          std::to_string(first_frame_ + frame_count_ - 1) + " (" + std::to_string(frame_count_) + " pairs), " +
-         size_text(width_, height_) + " at " + rate + " fps";
+         size_and_rate_text(width_, height_, frame_rate_hz_);
 }
 
 // ---- video files ----
@@ -227,19 +234,12 @@ SourceResult VideoFileSource::next(std::chrono::milliseconds /*timeout*/) {
                         ", expected " + size_text(width_, height_) + " (the size its container reports)");
     }
   }
-  result.status = SourceStatus::frame;
-  result.frame = recording_frame(std::move(left_view), std::move(right_view), frame, frame_rate_hz_, statistics_.pairs_delivered);
-  ++statistics_.pairs_delivered;
-  ++statistics_.left_frames;
-  ++statistics_.right_frames;
-  return result;
+  return delivered_pair(std::move(left_view), std::move(right_view), frame, frame_rate_hz_, statistics_);
 }
 
 std::string VideoFileSource::description() const {
-  char rate[32];
-  std::snprintf(rate, sizeof rate, "%.3g", frame_rate_hz_);
   return "video files " + left_path_ + " + " + right_path_ + ": " + std::to_string(frame_count_) + " frames, " +
-         size_text(width_, height_) + " at " + rate + " fps";
+         size_and_rate_text(width_, height_, frame_rate_hz_);
 }
 
 }  // namespace lpstereo::io
