@@ -7,6 +7,7 @@
 //     (frame / 10 Hz), the road near the rendered camera height and tracked obstacles;
 //   - --record then replaying the recording gives the same disparity, the recorded views are the
 //     source's pixels (lossless) and timestamps.txt holds one line per pair;
+//   - two video files run every frame at the container's rate;
 //   - --realtime replays through the capture thread; SIGTERM stops it after the current pair with
 //     exit 0 and a complete recording;
 //   - bad input (no first frame, views of different sizes, a view missing mid-sequence, an unknown
@@ -31,6 +32,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "io/disparity_io.h"
 #include "io/image_io.h"
@@ -191,6 +193,24 @@ TEST_F(RunCli, RecordThenReplayGivesTheSameDisparity) {
                             lpstereo::io::read_kitti_disparity_png(numbered(first, "disparity", frame))))
         << frame;
   }
+}
+
+TEST_F(RunCli, VideoFilesRunEveryFrame) {
+  // The sequence as two MJPEG videos (OpenCV's own writer), at 20 fps: every frame is processed at
+  // the container's rate.
+  for (const char* view : {"left", "right"}) {
+    cv::VideoWriter writer(path(std::string(view) + ".avi"), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 20.0, cv::Size(640, 288), true);
+    ASSERT_TRUE(writer.isOpened());
+    for (int frame = 0; frame < kFrames; ++frame) writer.write(cv::imread(numbered(sequence_, view, frame), cv::IMREAD_COLOR));
+  }
+  const std::string out = path("out");
+  const Result result = run("run --source files:" + path("left.avi") + "," + path("right.avi") + calib() + " --out " + out + kEngine);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("video files"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("3 pairs processed (end of stream)"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("(budget 50.0 ms at 20 fps: "), std::string::npos) << result.out;
+  for (int frame = 0; frame < kFrames; ++frame) EXPECT_TRUE(fs::is_regular_file(numbered(out, "disparity", frame))) << frame;
+  EXPECT_FALSE(fs::exists(numbered(out, "disparity", kFrames)));
 }
 
 // Runs lpstereo with `arguments` in the background; the process id (the shell execs lpstereo).
