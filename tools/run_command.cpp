@@ -400,7 +400,9 @@ int RunCommand::run() const {
   // The calibration, checked against the views' size before any pair is processed.
   const CalibrationForImages calibration = load_calibration_for(calibration_files_, width, height);
   std::unique_ptr<ViewRectifier> rectifier;
-  if (!calibration.calibration.already_rectified) rectifier = std::make_unique<ViewRectifier>(calibration_files_, width, height, std::nullopt, threads_);
+  if (!calibration.calibration.already_rectified) {
+    rectifier = std::make_unique<ViewRectifier>(calibration_files_, width, height, std::nullopt, threads_);
+  }
   if (obstacles) check_obstacle_geometry(calibration.maps.geometry, calibration_files_);
   const arm::DisparityParameters disparity_parameters =
       tools::disparity_parameters(engine_options_, width, arm::DisparityParameters{}.num_disparities);

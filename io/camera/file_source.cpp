@@ -168,12 +168,20 @@ VideoFileSource::VideoFileSource(const std::string& left_path, const std::string
   const auto open = [](std::unique_ptr<cv::VideoCapture>& capture, const std::string& path) {
     if (!exists(path)) throw SourceError(path + ": no such file");
     const QuietOpenCvLog quiet;
-    try {
-      capture = std::make_unique<cv::VideoCapture>(path);
-    } catch (const cv::Exception& error) {
-      throw SourceError(path + ": cannot open as a video: " + error.what());
+    // The back ends that read files, in turn: FFmpeg, OpenCV's own MJPEG reader (AVI), GStreamer.
+    // Not cv::CAP_ANY: on a file none of these opens it goes on to probe camera back ends (and
+    // libdc1394 enumerates USB devices).
+    for (const int backend : {cv::CAP_FFMPEG, cv::CAP_OPENCV_MJPEG, cv::CAP_GSTREAMER}) {
+      try {
+        capture = std::make_unique<cv::VideoCapture>(path, backend);
+      } catch (const cv::Exception&) {
+        capture.reset();  // this back end refused it: the next one may not
+      }
+      if (capture && capture->isOpened()) break;
     }
-    if (!capture->isOpened()) throw SourceError(path + ": cannot open as a video (no OpenCV back end decodes it)");
+    if (!capture || !capture->isOpened()) {
+      throw SourceError(path + ": cannot open as a video (neither FFmpeg, OpenCV's MJPEG reader nor GStreamer decodes it)");
+    }
     return Opened{static_cast<int>(capture->get(cv::CAP_PROP_FRAME_WIDTH)), static_cast<int>(capture->get(cv::CAP_PROP_FRAME_HEIGHT)),
                   static_cast<int64_t>(capture->get(cv::CAP_PROP_FRAME_COUNT)), capture->get(cv::CAP_PROP_FPS)};
   };

@@ -199,7 +199,8 @@ TEST_F(RunCli, VideoFilesRunEveryFrame) {
   // The sequence as two MJPEG videos (OpenCV's own writer), at 20 fps: every frame is processed at
   // the container's rate.
   for (const char* view : {"left", "right"}) {
-    cv::VideoWriter writer(path(std::string(view) + ".avi"), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 20.0, cv::Size(640, 288), true);
+    cv::VideoWriter writer(path(std::string(view) + ".avi"), cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 20.0,
+                           cv::Size(640, 288), true);
     ASSERT_TRUE(writer.isOpened());
     for (int frame = 0; frame < kFrames; ++frame) writer.write(cv::imread(numbered(sequence_, view, frame), cv::IMREAD_COLOR));
   }
