@@ -28,8 +28,9 @@ cv::Mat decode_image(const std::string& path, int flags) {
   return image;
 }
 
-Plane read_luma_u8(const std::string& path) {
-  cv::Mat image = decode_image(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+Plane read_luma_u8(const std::string& path) { return luma_u8(decode_image(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR), path); }
+
+Plane luma_u8(cv::Mat image, const std::string& path) {
   if (image.channels() == 3) {
     cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);  // BT.601 luma weights
   } else if (image.channels() == 4) {

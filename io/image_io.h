@@ -26,6 +26,9 @@ cv::Mat decode_image(const std::string& path, int flags);
 
 // Reads an image file as 8-bit luma. 16-bit images are scaled to 8 bits (value >> 8).
 Plane read_luma_u8(const std::string& path);
+// A decoded image (or video frame) as 8-bit luma, as read_luma_u8 converts it; `path` names it in
+// the ImageError for a channel count or depth it cannot take.
+Plane luma_u8(cv::Mat image, const std::string& path);
 
 // Copies between planes and OpenCV matrices (same element size; the plane keeps its own stride).
 cv::Mat plane_to_mat(const Plane& plane);

@@ -316,21 +316,33 @@ CalibrationForImages load_calibration_for(const std::vector<std::string>& calibr
   }
 }
 
-RectifiedViews rectify_views(const Plane& left, const Plane& right, const std::vector<std::string>& calibration_files,
-                             const std::optional<io::LatLongOptions>& latlong) {
+ViewRectifier::ViewRectifier(const std::vector<std::string>& calibration_files, int width, int height,
+                             const std::optional<io::LatLongOptions>& latlong, int worker_threads) {
   try {
     io::register_calibration_rectification_generator();
-    Graph graph(io::rectification_graph_spec(calibration_files, latlong));
+    graph_ = std::make_unique<Graph>(io::rectification_graph_spec(calibration_files, latlong));
     VerifyOptions options;
-    options.frame_width = left.width();
-    options.frame_height = left.height();
-    graph.verify(options);
-    arm::FrameRunner runner(graph);
-    runner.process({{"left", &left}, {"right", &right}});
-    return {runner.buffer("left_rectified").clone(), runner.buffer("right_rectified").clone()};
+    options.frame_width = width;
+    options.frame_height = height;
+    graph_->verify(options);
+    runner_ = std::make_unique<arm::FrameRunner>(*graph_, worker_threads);
   } catch (const cv::Exception& error) {
     throw CommandError(kExitInput, "OpenCV: " + error.err);
   }
+}
+
+ViewRectifier::~ViewRectifier() = default;
+
+std::pair<const Plane&, const Plane&> ViewRectifier::rectify(const Plane& left, const Plane& right) {
+  runner_->process({{"left", &left}, {"right", &right}});
+  return {runner_->buffer("left_rectified"), runner_->buffer("right_rectified")};
+}
+
+RectifiedViews rectify_views(const Plane& left, const Plane& right, const std::vector<std::string>& calibration_files,
+                             const std::optional<io::LatLongOptions>& latlong) {
+  ViewRectifier rectifier(calibration_files, left.width(), left.height(), latlong);
+  const auto [left_rectified, right_rectified] = rectifier.rectify(left, right);
+  return {left_rectified.clone(), right_rectified.clone()};
 }
 
 GeometryCommands::GeometryCommands(CLI::App& app) {

@@ -15,13 +15,20 @@
 
 #include <CLI/CLI.hpp>
 
+#include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "dag/graph.h"
 #include "dag/plane.h"
 #include "io/calibration.h"
 #include "io/rectification.h"
+
+namespace lpstereo::arm {
+class FrameRunner;
+}
 
 namespace lpstereo::tools {
 
@@ -46,6 +53,23 @@ CalibrationForImages load_calibration_for(const std::vector<std::string>& calibr
 struct RectifiedViews {
   Plane left, right;  // u8, the input size
 };
+// The same rectification for a stream of pairs (`lpstereo run`): the graph is built and verified
+// once for width x height views, then rectify() runs it on each pair.
+class ViewRectifier {
+ public:
+  ViewRectifier(const std::vector<std::string>& calibration_files, int width, int height,
+                const std::optional<io::LatLongOptions>& latlong = std::nullopt, int worker_threads = 0);
+  ~ViewRectifier();
+  ViewRectifier(const ViewRectifier&) = delete;
+  ViewRectifier& operator=(const ViewRectifier&) = delete;
+  // The rectified left and right views (u8, the input size), valid until the next call.
+  std::pair<const Plane&, const Plane&> rectify(const Plane& left, const Plane& right);
+
+ private:
+  std::unique_ptr<Graph> graph_;
+  std::unique_ptr<arm::FrameRunner> runner_;
+};
+
 RectifiedViews rectify_views(const Plane& left, const Plane& right, const std::vector<std::string>& calibration_files,
                              const std::optional<io::LatLongOptions>& latlong = std::nullopt);
 

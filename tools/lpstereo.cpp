@@ -11,6 +11,8 @@
 //   rectify, check-rectification, calibrate   cameras (tools/geometry_commands.h)
 //   points, synth   point clouds (tools/points_command.h), synthetic scenes (tools/synth_command.h)
 //   obstacles   the obstacle detector on a rectified pair (tools/obstacles_command.h)
+//   run         a graph on a stereo source (camera or recording), live status, outputs, recording
+//               (tools/run_command.h)
 //
 // Exit codes: 0 done; 1 bad input or a graph that fails verify (one line on stderr); 2 bad usage;
 // 3 over budget with --enforce.
@@ -48,7 +50,9 @@
 #include "tools/geometry_commands.h"
 #include "tools/obstacles_command.h"
 #include "tools/points_command.h"
+#include "tools/run_command.h"
 #include "tools/synth_command.h"
+#include "tools/target_profile.h"
 
 namespace {
 
@@ -70,17 +74,9 @@ void check_frame_size(const FrameSize& size) {
   }
 }
 
-// A graph verified for a target at a frame size. check_sram = false places the tiles as if the
-// SRAM were large enough (a profile of a graph that does not fit).
+// A graph verified for a target at a frame size (tools/target_profile.h).
 Graph verified_for_target(const GraphSpec& spec, const host_sim::Target& target, const FrameSize& size, bool check_sram = true) {
-  Graph graph(spec);
-  VerifyOptions options;
-  options.frame_width = size.width;
-  options.frame_height = size.height;
-  options.memory = target.memory_budget();
-  if (!check_sram) options.memory.sram_bytes = 0;  // 0 = unchecked: tiles as if the SRAM were large enough
-  graph.verify(options);
-  return graph;
+  return tools::verified_for_target(spec, target, size.width, size.height, check_sram);
 }
 
 Graph load_and_verify(const std::string& graph_name, const host_sim::Target& target, const FrameSize& size,
@@ -294,18 +290,7 @@ double density_pct(const Plane& disparity_q4, int16_t invalid_q4) {
   return 100.0 * static_cast<double>(valid) / (static_cast<double>(disparity_q4.width()) * disparity_q4.height());
 }
 
-// The engine's graph profiled on a target in the chip's schedule: the single row-streaming SGM
-// passes (parallel_path_passes = false), which give the same bits as the host's two-passes-side-by-
-// side schedule but keep fewer W x H x D volumes in DRAM. Verified against the target's memory.
-host_sim::ProfileReport profile_engine_on_target(const arm::DisparityParameters& parameters, int width, int height,
-                                                 const host_sim::Target& target,
-                                                 const std::map<std::string, const Plane*>& inputs,
-                                                 const host_sim::ProfileOptions& options) {
-  arm::DisparityParameters chip = parameters;
-  chip.parallel_path_passes = false;
-  const Graph graph = verified_for_target(arm::DisparityEngine::graph_spec(chip), target, {width, height});
-  return host_sim::profile_graph(graph, target, inputs, options);
-}
+using tools::profile_engine_on_target;  // tools/target_profile.h
 
 // The built-in scene: disparity.png, disparity_color.png, the views, the truth and the profile on a
 // target, all into one folder.
@@ -632,6 +617,7 @@ int main(int argc, char** argv) {
   tools::PointsCommand points(app);  // points (tools/points_command.h)
   tools::ObstaclesCommand obstacles(app);  // obstacles (tools/obstacles_command.h)
   tools::SynthCommand synth(app);    // synth (tools/synth_command.h)
+  tools::RunCommand run(app);        // run (tools/run_command.h)
 
   try {
     app.parse(argc, argv);
@@ -656,6 +642,7 @@ int main(int argc, char** argv) {
     if (points.selected()) return points.run();
     if (obstacles.selected()) return obstacles.run();
     if (synth.selected()) return synth.run();
+    if (run.selected()) return run.run();
   } catch (const CommandError& error) {
     std::cerr << "lpstereo: " << error.what() << "\n";
     return error.exit_code;

@@ -4,8 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <limits>
+#include <memory>
 #include <set>
 
 #include <unistd.h>
@@ -17,6 +16,8 @@
 #include "arm/disparity_engine.h"
 #include "arm/obstacle_detector.h"
 #include "dag/atomic_file.h"
+#include "io/camera/file_source.h"
+#include "io/frame_pattern.h"
 #include "io/image_io.h"
 #include "io/rectification.h"
 #include "kernels/obstacle_mask.h"
@@ -165,8 +166,9 @@ nlohmann::json obstacle_json(const arm::Obstacle& obstacle, bool features_counte
                                    : nlohmann::json(nullptr)}};
 }
 
-// The output object of one frame (single-frame mode's file, one line of sequence mode's).
-nlohmann::json frame_json(int width, int height, const arm::ObstacleFrame& frame, const arm::ObstacleParameters& parameters) {
+}  // namespace
+
+nlohmann::json obstacle_frame_json(int width, int height, const arm::ObstacleFrame& frame, const arm::ObstacleParameters& parameters) {
   nlohmann::json obstacles = nlohmann::json::array();
   for (const arm::Obstacle& obstacle : frame.obstacles) {
     obstacles.push_back(obstacle_json(obstacle, parameters.feature_validation, parameters.tracking));
@@ -174,8 +176,7 @@ nlohmann::json frame_json(int width, int height, const arm::ObstacleFrame& frame
   return {{"width", width}, {"height", height}, {"road", road_json(frame.road)}, {"obstacles", obstacles}};
 }
 
-// The calibration must give what the detector needs: a baseline and a pinhole rectification.
-void check_geometry(const io::RectifiedGeometry& geometry, const std::vector<std::string>& calibration_files) {
+void check_obstacle_geometry(const io::RectifiedGeometry& geometry, const std::vector<std::string>& calibration_files) {
   const std::string calibration_name = calibration_files[0] + (calibration_files.size() == 2 ? "," + calibration_files[1] : "");
   if (!(geometry.baseline_m > 0.0) || !std::isfinite(geometry.baseline_m)) {
     throw CommandError(kExitInput, "calibration " + calibration_name +
@@ -187,8 +188,6 @@ void check_geometry(const io::RectifiedGeometry& geometry, const std::vector<std
   }
 }
 
-// The detector's parameters (the tuning flags' values) with the calibration's camera and the
-// engine's search range.
 arm::ObstacleParameters detector_parameters_for(arm::ObstacleParameters parameters, const io::RectifiedGeometry& geometry,
                                                 const arm::DisparityParameters& disparity_parameters) {
   parameters.focal_px = geometry.focal_px;
@@ -198,59 +197,49 @@ arm::ObstacleParameters detector_parameters_for(arm::ObstacleParameters paramete
   return parameters.for_disparity_range(disparity_parameters.min_disparity, disparity_parameters.num_disparities);
 }
 
+namespace {
+
 double milliseconds(std::chrono::steady_clock::duration duration) {
   return std::chrono::duration<double, std::milli>(duration).count();
 }
 
-// A frame file pattern: text with exactly one printf integer conversion, %d or %0<width>d / %<width>d
-// ("%%" is a literal %). Parsed once, then expanded per frame without handing the user's text to printf.
-struct FramePattern {
-  std::string prefix, suffix;
-  int width = 0;
-  bool zero_padded = false;
-
-  FramePattern(const std::string& flag, const std::string& pattern) {
-    int conversions = 0;
-    std::string* text = &prefix;
-    for (size_t i = 0; i < pattern.size(); ++i) {
-      if (pattern[i] != '%') {
-        *text += pattern[i];
-        continue;
-      }
-      if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
-        *text += '%';
-        ++i;
-        continue;
-      }
-      size_t j = i + 1;
-      const bool zero = j < pattern.size() && pattern[j] == '0';
-      if (zero) ++j;
-      const size_t digits_begin = j;
-      while (j < pattern.size() && pattern[j] >= '0' && pattern[j] <= '9' && j - digits_begin < 2) ++j;
-      if (j >= pattern.size() || pattern[j] != 'd' || ++conversions > 1) {
-        throw CommandError(kExitUsage, flag + " '" + pattern +
-                                           "': expected a file pattern with one frame-number conversion such as %06d or %d, got " +
-                                           (conversions > 1 ? "more than one" : "'" + pattern.substr(i, j + 1 - i) + "'"));
-      }
-      zero_padded = zero;
-      width = j > digits_begin ? std::stoi(pattern.substr(digits_begin, j - digits_begin)) : 0;
-      text = &suffix;
-      i = j;
-    }
-    if (conversions == 0) {
-      throw CommandError(kExitUsage, flag + " '" + pattern +
-                                         "': expected a file pattern with one frame-number conversion such as %06d or %d, got none");
-    }
-  }
-
-  std::string path(int frame) const {
-    std::string number = std::to_string(frame);
-    if (static_cast<int>(number.size()) < width) number.insert(0, static_cast<size_t>(width) - number.size(), zero_padded ? '0' : ' ');
-    return prefix + number + suffix;
-  }
-};
-
 }  // namespace
+
+void add_obstacle_tuning_options(CLI::App& command, arm::ObstacleParameters& p) {
+  // arm/obstacle_detector.h, arm/tasks/obstacle_clusters.h, kernels/vldh_mask.cpp say what each does.
+  command.add_option("--near-height-m", p.clusters.near_min_height_m, "eq. 4.3: smallest obstacle height near the vehicle, m")
+      ->capture_default_str();
+  command.add_option("--far-height-m", p.clusters.far_min_height_m, "eq. 4.3: smallest obstacle height far away, m")
+      ->capture_default_str();
+  command.add_option("--switch-distance-m", p.clusters.height_switch_distance_m, "eq. 4.3: where far begins, m")
+      ->capture_default_str();
+  command.add_option("--min-width-m", p.clusters.min_width_m, "smallest obstacle width for the cell threshold, m (0 = off)")
+      ->capture_default_str();
+  command.add_option("--min-cells", p.clusters.min_cells, "clusters with fewer grid cells are dropped")->capture_default_str();
+  command.add_option("--min-pixels", p.clusters.min_pixels, "clusters with fewer mask pixels are dropped")->capture_default_str();
+  command.add_option("--columns-per-cell", p.grid.columns_per_cell, "image columns per grid cell")->capture_default_str();
+  command.add_option("--grid-rows", p.grid.geometry.grid_rows, "grid rows (log-scaled in disparity, eq. 4.2)")->capture_default_str();
+  command.add_option("--grid-k", p.grid.geometry.exponent_k, "eq. 4.2's k (> 1: more rows far away)")->capture_default_str();
+  command.add_option("--obstacle-weight", p.grid.obstacle_weight, "grid vote of an obstacle pixel")->capture_default_str();
+  command.add_option("--free-weight", p.grid.free_weight, "grid penalty of a free-space pixel")->capture_default_str();
+  command.add_option("--vldh-rows", p.vldh.window_rows, "VLDH window: rows below a pixel")->capture_default_str();
+  command.add_option("--vldh-min-count", p.vldh.min_count, "VLDH: rows of the window that must match")->capture_default_str();
+  command.add_option("--vldh-tolerance-q4", p.vldh.match_tolerance_q4, "VLDH: match tolerance, 1/16 px")->capture_default_str();
+  command.add_option("--road-margin-q4", p.vldh.road_margin_q4, "VLDH: height above the road's disparity, 1/16 px")
+      ->capture_default_str();
+  command.add_option("--road-margin-per-mille", p.vldh.road_margin_per_mille, "VLDH: plus this share of the road's disparity")
+      ->capture_default_str();
+  command.add_option("--feature-validation", p.feature_validation,
+                       "drop clusters without a Harris corner on their obstacle pixels (true/false)")
+      ->capture_default_str();
+  command.add_option("--harris-threshold", p.features.harris_threshold, "feature validation: Harris response threshold")
+      ->capture_default_str();
+  command.add_option("--min-features", p.validation.min_features, "feature validation: corners a cluster needs")
+      ->capture_default_str();
+  command.add_option("--mask-radius", p.validation.mask_radius_px,
+                       "feature validation: a corner counts with an obstacle pixel this near (-1: anywhere in the box)")
+      ->capture_default_str();
+}
 
 ObstaclesCommand::ObstaclesCommand(CLI::App& app) {
   command_ = app.add_subcommand("obstacles",
@@ -283,40 +272,7 @@ ObstaclesCommand::ObstaclesCommand(CLI::App& app) {
       ->check(CLI::Range(0, 256));
   add_disparity_engine_options(*command_, engine_options_,
                                "disparities searched: [min-disp, min-disp + num-disp) (default 64)");
-  // Tuning (arm/obstacle_detector.h, arm/tasks/obstacle_clusters.h, kernels/vldh_mask.cpp say what each does).
-  arm::ObstacleParameters& p = detector_parameters_;
-  command_->add_option("--near-height-m", p.clusters.near_min_height_m, "eq. 4.3: smallest obstacle height near the vehicle, m")
-      ->capture_default_str();
-  command_->add_option("--far-height-m", p.clusters.far_min_height_m, "eq. 4.3: smallest obstacle height far away, m")
-      ->capture_default_str();
-  command_->add_option("--switch-distance-m", p.clusters.height_switch_distance_m, "eq. 4.3: where far begins, m")
-      ->capture_default_str();
-  command_->add_option("--min-width-m", p.clusters.min_width_m, "smallest obstacle width for the cell threshold, m (0 = off)")
-      ->capture_default_str();
-  command_->add_option("--min-cells", p.clusters.min_cells, "clusters with fewer grid cells are dropped")->capture_default_str();
-  command_->add_option("--min-pixels", p.clusters.min_pixels, "clusters with fewer mask pixels are dropped")->capture_default_str();
-  command_->add_option("--columns-per-cell", p.grid.columns_per_cell, "image columns per grid cell")->capture_default_str();
-  command_->add_option("--grid-rows", p.grid.geometry.grid_rows, "grid rows (log-scaled in disparity, eq. 4.2)")->capture_default_str();
-  command_->add_option("--grid-k", p.grid.geometry.exponent_k, "eq. 4.2's k (> 1: more rows far away)")->capture_default_str();
-  command_->add_option("--obstacle-weight", p.grid.obstacle_weight, "grid vote of an obstacle pixel")->capture_default_str();
-  command_->add_option("--free-weight", p.grid.free_weight, "grid penalty of a free-space pixel")->capture_default_str();
-  command_->add_option("--vldh-rows", p.vldh.window_rows, "VLDH window: rows below a pixel")->capture_default_str();
-  command_->add_option("--vldh-min-count", p.vldh.min_count, "VLDH: rows of the window that must match")->capture_default_str();
-  command_->add_option("--vldh-tolerance-q4", p.vldh.match_tolerance_q4, "VLDH: match tolerance, 1/16 px")->capture_default_str();
-  command_->add_option("--road-margin-q4", p.vldh.road_margin_q4, "VLDH: height above the road's disparity, 1/16 px")
-      ->capture_default_str();
-  command_->add_option("--road-margin-per-mille", p.vldh.road_margin_per_mille, "VLDH: plus this share of the road's disparity")
-      ->capture_default_str();
-  command_->add_option("--feature-validation", p.feature_validation,
-                       "drop clusters without a Harris corner on their obstacle pixels (true/false)")
-      ->capture_default_str();
-  command_->add_option("--harris-threshold", p.features.harris_threshold, "feature validation: Harris response threshold")
-      ->capture_default_str();
-  command_->add_option("--min-features", p.validation.min_features, "feature validation: corners a cluster needs")
-      ->capture_default_str();
-  command_->add_option("--mask-radius", p.validation.mask_radius_px,
-                       "feature validation: a corner counts with an obstacle pixel this near (-1: anywhere in the box)")
-      ->capture_default_str();
+  add_obstacle_tuning_options(*command_, detector_parameters_);
 }
 
 int ObstaclesCommand::run() const {
@@ -339,7 +295,7 @@ int ObstaclesCommand::run_single_frame() const {
   const Plane& left = pair.left;
   const Plane& right = pair.right;
   const io::RectifiedGeometry& geometry = pair.geometry;
-  check_geometry(geometry, calibration_files_);
+  check_obstacle_geometry(geometry, calibration_files_);
 
   const arm::DisparityParameters disparity_parameters =
       tools::disparity_parameters(engine_options_, left.width(), arm::DisparityParameters{}.num_disparities);
@@ -355,7 +311,7 @@ int ObstaclesCommand::run_single_frame() const {
   const double disparity_ms = milliseconds(disparity_done - started);
   const double obstacle_stage_ms = milliseconds(obstacles_done - disparity_done);
 
-  write_file_atomically(output_, frame_json(left.width(), left.height(), frame, parameters).dump(2) + "\n");
+  write_file_atomically(output_, obstacle_frame_json(left.width(), left.height(), frame, parameters).dump(2) + "\n");
   if (!overlay_path_.empty()) io::write_image(overlay_path_, overlay_picture(left_, frame.obstacles));
   if (!grid_path_.empty()) io::write_image(grid_path_, grid_picture(*frame.grid, parameters, frame.obstacles));
   if (!mask_path_.empty()) io::write_image(mask_path_, mask_picture(*frame.mask));
@@ -388,28 +344,25 @@ int ObstaclesCommand::run_sequence() const {
   for (const char* flag : {"--overlay", "--grid", "--mask", "--vdisp"}) {
     if (command_->count(flag) > 0) throw CommandError(kExitUsage, std::string(flag) + " is a single-frame option (with LEFT RIGHT)");
   }
-  const FramePattern left_frames("--left", left_pattern_), right_frames("--right", right_pattern_);
-  namespace fs = std::filesystem;
-  // The frames, found by name alone (for the progress bar's total): from --first to the first one
-  // with a view missing, at most --frames.
-  int frame_count = 0;
-  while ((frame_limit_ == 0 || frame_count < frame_limit_) && first_frame_ + frame_count < std::numeric_limits<int>::max() &&
-         fs::exists(left_frames.path(first_frame_ + frame_count)) && fs::exists(right_frames.path(first_frame_ + frame_count))) {
-    ++frame_count;
+  for (const auto& [flag, pattern] : {std::pair{"--left", &left_pattern_}, std::pair{"--right", &right_pattern_}}) {
+    try {
+      io::FramePattern{*pattern};
+    } catch (const std::invalid_argument& error) {
+      throw CommandError(kExitUsage, std::string(flag) + " " + error.what());
+    }
   }
-  if (frame_count == 0) {
-    const std::string left_path = left_frames.path(first_frame_), right_path = right_frames.path(first_frame_);
-    throw CommandError(kExitInput, "frame " + std::to_string(first_frame_) + " (the first): expected " + left_path + " and " +
-                                       right_path + ", " + (fs::exists(left_path) ? right_path : left_path) + " not found");
-  }
-
-  const RectifiedPair first_pair =
-      read_rectified_pair(left_frames.path(first_frame_), right_frames.path(first_frame_), calibration_files_);
-  check_geometry(first_pair.geometry, calibration_files_);
-  const int width = first_pair.left.width(), height = first_pair.left.height();
+  // The frames through the image-sequence source (io/camera/file_source.h), as `lpstereo run
+  // --source files:` reads them: from --first to the first number with a view missing, at most --frames.
+  // A SourceError (no first frame, a size change, an unreadable file) ends the command with its line, exit 1.
+  const auto source = std::make_unique<io::ImageSequenceSource>(left_pattern_, right_pattern_, io::SourceOptions{}, first_frame_,
+                                                                frame_limit_);
+  const int frame_count = source->frame_count();
+  const int width = source->width(), height = source->height();
+  const io::RectifiedGeometry geometry = rectified_geometry(calibration_files_, width, height);
+  check_obstacle_geometry(geometry, calibration_files_);
   const arm::DisparityParameters disparity_parameters =
       tools::disparity_parameters(engine_options_, width, arm::DisparityParameters{}.num_disparities);
-  arm::ObstacleParameters parameters = detector_parameters_for(detector_parameters_, first_pair.geometry, disparity_parameters);
+  arm::ObstacleParameters parameters = detector_parameters_for(detector_parameters_, geometry, disparity_parameters);
   parameters.tracking = true;
   parameters.tracking_settings.frame_period_s = 1.0 / fps_;
   arm::DisparityEngine engine(width, height, disparity_parameters, {}, threads_);
@@ -430,25 +383,13 @@ int ObstaclesCommand::run_sequence() const {
   double processing_ms = 0.0;
   for (int i = 0; i < frame_count; ++i) {
     const int index = first_frame_ + i;
-    Plane left_read, right_read;
-    if (i > 0) {
-      const std::string left_path = left_frames.path(index), right_path = right_frames.path(index);
-      left_read = io::read_luma_u8(left_path);
-      right_read = io::read_luma_u8(right_path);
-      for (const auto& [view, path] : {std::pair{&left_read, &left_path}, std::pair{&right_read, &right_path}}) {
-        if (view->width() != width || view->height() != height) {
-          throw CommandError(kExitInput, "frame " + std::to_string(index) + ": " + *path + " is " + std::to_string(view->width()) +
-                                             "x" + std::to_string(view->height()) + ", expected " + std::to_string(width) + "x" +
-                                             std::to_string(height) + " (the size of frame " + std::to_string(first_frame_) + ")");
-        }
-      }
-    }
-    const Plane& left = i > 0 ? left_read : first_pair.left;
-    const Plane& right = i > 0 ? right_read : first_pair.right;
+    const io::SourceResult pair = source->next(std::chrono::milliseconds(0));  // frame_count pairs are there by name
+    const Plane& left = pair.frame.left;
+    const Plane& right = pair.frame.right;
     const auto started = std::chrono::steady_clock::now();
     const arm::ObstacleFrame frame = detector.run(engine.compute(left, right), left);
     processing_ms += milliseconds(std::chrono::steady_clock::now() - started);
-    nlohmann::json line = frame_json(width, height, frame, parameters);
+    nlohmann::json line = obstacle_frame_json(width, height, frame, parameters);
     line["frame"] = index;
     lines += line.dump() + "\n";
     for (const arm::Obstacle& obstacle : frame.obstacles) {

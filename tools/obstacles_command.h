@@ -42,13 +42,30 @@
 
 #include <CLI/CLI.hpp>
 
+#include <nlohmann/json.hpp>
+
 #include <string>
 #include <vector>
 
 #include "arm/obstacle_detector.h"
+#include "io/rectification.h"
 #include "tools/disparity_options.h"
 
 namespace lpstereo::tools {
+
+// Shared with `lpstereo run --graph obstacles` (tools/run_command.h), so both write the same records.
+// The output object of one frame: single-frame mode's file, one line of sequence mode's (with "frame").
+nlohmann::json obstacle_frame_json(int width, int height, const arm::ObstacleFrame& frame, const arm::ObstacleParameters& parameters);
+// The calibration must give what the detector needs: a baseline and a pinhole rectification
+// (CommandError naming the calibration files otherwise).
+void check_obstacle_geometry(const io::RectifiedGeometry& geometry, const std::vector<std::string>& calibration_files);
+// The detector's parameters (the tuning flags' values) with the calibration's camera and the
+// engine's search range.
+// The detector's tuning flags (--near-height-m ... --mask-radius, listed above), writing into `parameters`
+// (their defaults are its own).
+void add_obstacle_tuning_options(CLI::App& command, arm::ObstacleParameters& parameters);
+arm::ObstacleParameters detector_parameters_for(arm::ObstacleParameters parameters, const io::RectifiedGeometry& geometry,
+                                                const arm::DisparityParameters& disparity_parameters);
 
 class ObstaclesCommand {
  public:

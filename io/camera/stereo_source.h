@@ -89,7 +89,8 @@ class StereoSource {
   // The frame rate the source runs at (0 when unknown).
   virtual double frame_rate_hz() const = 0;
   // The next pair, waiting at most `timeout` (bounded: never blocks longer). After disconnected or
-  // end_of_stream every later call returns the same status.
+  // end_of_stream every later call returns the same status. A recording that cannot go on (a view
+  // missing, corrupt or of another size mid-sequence) throws SourceError naming the file.
   virtual SourceResult next(std::chrono::milliseconds timeout) = 0;
   virtual SourceStatistics statistics() const = 0;
 };

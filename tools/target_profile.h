@@ -1,0 +1,28 @@
+// Profiles on a simulated target that several sub-commands share (`lpstereo profile`, `disparity
+// --target`, `run`): a graph verified against a target's memory at a frame size, and the disparity
+// engine's graph profiled in the chip's schedule.
+#pragma once
+
+#include <map>
+#include <string>
+
+#include "arm/disparity_engine.h"
+#include "dag/graph.h"
+#include "host_sim/simulator.h"
+#include "host_sim/target.h"
+
+namespace lpstereo::tools {
+
+// A graph verified for a target at width x height. check_sram = false places the tiles as if the
+// SRAM were large enough (a profile of a graph that does not fit).
+Graph verified_for_target(const GraphSpec& spec, const host_sim::Target& target, int width, int height, bool check_sram = true);
+
+// The engine's graph profiled on a target in the chip's schedule: the single row-streaming SGM
+// passes (parallel_path_passes = false), which give the same bits as the host's two-passes-side-by-
+// side schedule but keep fewer W x H x D volumes in DRAM. Verified against the target's memory.
+host_sim::ProfileReport profile_engine_on_target(const arm::DisparityParameters& parameters, int width, int height,
+                                                 const host_sim::Target& target,
+                                                 const std::map<std::string, const Plane*>& inputs,
+                                                 const host_sim::ProfileOptions& options);
+
+}  // namespace lpstereo::tools
