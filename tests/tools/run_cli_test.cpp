@@ -287,7 +287,8 @@ TEST_F(RunCli, BadInputGivesOneLineAndANonZeroExit) {
   expect_refused(run("run --source " + files(mixed) + calib()), 1, "sizes differ");
   expect_refused(run("run --source camera:/dev/video0" + calib()), 2, "unknown kind 'camera'");
   expect_refused(run("run --source files:" + sequence_ + "/left/%06d.png" + calib()), 2, "expected files:LEFT,RIGHT");
-  expect_refused(run("run --source v4l2:/dev/video0,/dev/video1" + calib()), 1, "no V4L2 source");
+  expect_refused(run("run --source v4l2:/dev/lpstereo-no-such-camera-0,/dev/lpstereo-no-such-camera-1" + calib()), 1,
+                 "/dev/lpstereo-no-such-camera-0: expected a V4L2 video capture device, got no such file");
   expect_refused(run("run --source " + source() + " --calib " + path("absent.yaml")), 1, "absent.yaml");
   expect_refused(run("run --source " + source() + " --calib " + path("small_calib.txt")), 1, "320x160");
   expect_refused(run("run --source " + source() + calib() + " --record " + used), 1, "expected a new or empty folder");
