@@ -18,6 +18,8 @@ packages=(
   # the real-driver tests (tests/vm): Debian's kernel (ships the vivid module), its headers and
   # sources (vimc is built out of tree from them), qemu to boot it, busybox for the initramfs
   linux-image-amd64 linux-headers-amd64 linux-source qemu-system-x86 busybox-static cpio kmod
+  # v4l2-ctl presses vivid's controls while `lpstereo run` runs in the VM
+  v4l-utils
   # libcamera lists only devices udev has initialised: the vimc test runs systemd-udevd in the VM
   udev
 )

@@ -6,8 +6,8 @@
 # with the program's exit code (124 when the VM did not finish within --timeout seconds).
 #
 #   run-in-vm.sh --work DIR [--module NAME[:ARGS]]... [--extra-module FILE.ko[:ARGS]]...
-#                [--file SRC=DEST]... [--libraries-of FILE]... [--timeout S] [--memory-mb N]
-#                -- PROGRAM [ARGS...]
+#                [--file SRC=DEST]... [--libraries-of FILE]... [--host-root] [--timeout S]
+#                [--memory-mb N] -- PROGRAM [ARGS...]
 #
 #   --module NAME[:ARGS]      a module of the installed kernel, loaded with modprobe in the order
 #                             given (ARGS: its parameters, space separated, e.g. "vivid:n_devs=2")
@@ -16,6 +16,10 @@
 #   --file SRC=DEST           a file copied into the VM at DEST (absolute)
 #   --libraries-of FILE       the shared libraries FILE needs (ldd), and the dynamic loader, copied
 #                             to the same paths (for dynamically linked programs and plugins)
+#   --host-root               the host's file system, read-only, at /host in the VM (virtio 9p), so
+#                             a dynamically linked program of the host runs there unchanged with
+#                             `chroot /host` (the VM's /dev, /proc, /sys and a tmpfs /tmp are
+#                             mounted over the host's in /host)
 #   PROGRAM                   copied to /test/PROGRAM's basename and run from /test; statically
 #                             linked, or use --libraries-of PROGRAM
 #
@@ -26,7 +30,7 @@ set -euo pipefail
 die() { echo "run-in-vm: $*" >&2; exit 125; }
 
 work="" timeout_s=120 memory_mb=768
-modules=() extra_modules=() files=() library_owners=()
+modules=() extra_modules=() files=() library_owners=() host_root=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --work) work="$2"; shift 2 ;;
@@ -34,6 +38,7 @@ while [ $# -gt 0 ]; do
     --extra-module) extra_modules+=("$2"); shift 2 ;;
     --file) files+=("$2"); shift 2 ;;
     --libraries-of) library_owners+=("$2"); shift 2 ;;
+    --host-root) host_root=1; shift ;;
     --timeout) timeout_s="$2"; shift 2 ;;
     --memory-mb) memory_mb="$2"; shift 2 ;;
     --) shift; break ;;
@@ -76,6 +81,12 @@ copy_module() {
   for dependency in ${depends//,/ }; do copy_module "$dependency"; done
 }
 load_lines=()
+qemu_extra=()
+if [ "$host_root" = 1 ]; then
+  # virtio-pci is no dependency of 9pnet_virtio (the bus driver is found by the device), so it is named.
+  modules=("virtio_pci" "9pnet_virtio" "9p" "${modules[@]}")
+  qemu_extra=(-virtfs "local,path=/,mount_tag=hostroot,security_model=none,readonly=on,multidevs=remap")
+fi
 for entry in "${modules[@]}"; do
   name="${entry%%:*}"; arguments=""; [ "$entry" != "$name" ] && arguments="${entry#*:}"
   copy_module "$name"
@@ -120,6 +131,10 @@ for argument in "$@"; do quoted_arguments+=" '${argument//\'/\'\\\'\'}'"; done
   echo 'fail=0'
   echo "echo \"VM: kernel \$(uname -r), $(( ${#modules[@]} + ${#extra_modules[@]} )) modules to load\""
   printf '%s\n' "${load_lines[@]}"
+  if [ "$host_root" = 1 ]; then
+    echo 'mkdir -p /host && mount -t 9p -o trans=virtio,version=9p2000.L,ro,msize=262144,cache=loose hostroot /host || { echo "VM: mounting the host root failed"; fail=1; }'
+    echo 'mount -o bind /dev /host/dev && mount -t proc proc /host/proc && mount -t sysfs sysfs /host/sys && mount -t tmpfs tmpfs /host/tmp || { echo "VM: mounts in /host failed"; fail=1; }'
+  fi
   echo 'cd /test'
   echo 'if [ "$fail" = 0 ]; then'
   echo "  ./$program_name$quoted_arguments"
@@ -135,7 +150,7 @@ log="$work/console.log"
 status=0
 timeout "$timeout_s" qemu-system-x86_64 -accel tcg -cpu max -smp 1 -m "$memory_mb" -nographic -no-reboot \
   -kernel "/boot/vmlinuz-$kernel_version" -initrd "$work/initramfs.gz" \
-  -append "console=ttyS0 quiet loglevel=3 panic=-1" </dev/null >"$log" 2>&1 || status=$?
+  -append "console=ttyS0 quiet loglevel=3 panic=-1" "${qemu_extra[@]}" </dev/null >"$log" 2>&1 || status=$?
 # The console with the terminal control sequences of the firmware taken out.
 sed -e 's/\x1b\[[0-9;?]*[A-Za-z]//g' -e 's/\x1bc//g' -e 's/\r$//' "$log"
 if [ "$status" -eq 124 ]; then

@@ -89,3 +89,21 @@ if(LPSTEREO_VM_AVAILABLE)
     set_tests_properties(Vm.vivid_capture PROPERTIES TIMEOUT 200)
   endif()
 endif()
+
+# Vm.vivid_lpstereo_run: the host's own `lpstereo run` (dynamically linked: the VM mounts the
+# host's file system read-only over virtio 9p and runs it with chroot) on two vivid cameras: a live
+# run with a recording that replays, a stalled camera, an output node refused, and a camera
+# unplugged mid-run (v4l2-ctl presses vivid's Disconnect) ending the run with one line, exit 1 and
+# a complete recording (tests/vm/vivid_lpstereo_run.sh). About 40 s on the 2-core build host.
+if(LPSTEREO_VM_AVAILABLE AND TARGET lpstereo)
+  find_program(LPSTEREO_V4L2_CTL v4l2-ctl)
+  if(NOT LPSTEREO_V4L2_CTL)
+    message(STATUS "VM test vivid_lpstereo_run: not registered, v4l2-ctl missing (v4l-utils, scripts/install-deps.sh)")
+  else()
+    add_test(NAME Vm.vivid_lpstereo_run
+             COMMAND ${LPSTEREO_VM_DIR}/run-in-vm.sh --work ${LPSTEREO_VM_WORK_DIR}/vivid_lpstereo_run --timeout 280
+                     --host-root --module "vivid:n_devs=2 node_types=0x101,0x101"
+                     -- ${LPSTEREO_VM_DIR}/vivid_lpstereo_run.sh $<TARGET_FILE:lpstereo>)
+    set_tests_properties(Vm.vivid_lpstereo_run PROPERTIES TIMEOUT 300)
+  endif()
+endif()
