@@ -12,11 +12,7 @@ set -euo pipefail
 die() { echo "build-vimc-module: $*" >&2; exit 125; }
 
 output="${1:?usage: build-vimc-module.sh OUTPUT_DIR}"
-kernel_version=""
-for image in $(ls -1 /boot/vmlinuz-* 2>/dev/null | sort -V -r); do
-  version="${image#/boot/vmlinuz-}"
-  if [ -d "/lib/modules/$version/kernel" ]; then kernel_version="$version"; break; fi
-done
+source "$(dirname "$0")/installed-kernel.sh"
 [ -n "$kernel_version" ] || die "no installed kernel (package linux-image-amd64)"
 headers="/usr/src/linux-headers-$kernel_version"
 [ -f "$headers/Makefile" ] || die "no headers for kernel $kernel_version at $headers (package linux-headers-amd64)"

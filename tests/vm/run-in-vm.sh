@@ -53,11 +53,7 @@ program="$1"; shift
 command -v qemu-system-x86_64 >/dev/null || die "qemu-system-x86_64 not installed (package qemu-system-x86)"
 [ -x /bin/busybox ] && file -L /bin/busybox | grep -q "statically linked" || die "/bin/busybox is not busybox-static"
 command -v depmod >/dev/null || command -v /sbin/depmod >/dev/null || die "depmod not installed (package kmod)"
-kernel_version=""
-for image in $(ls -1 /boot/vmlinuz-* 2>/dev/null | sort -V -r); do
-  version="${image#/boot/vmlinuz-}"
-  if [ -d "/lib/modules/$version/kernel" ]; then kernel_version="$version"; break; fi
-done
+source "$(dirname "$0")/installed-kernel.sh"
 [ -n "$kernel_version" ] || die "no /boot/vmlinuz-VERSION with /lib/modules/VERSION (package linux-image-amd64)"
 
 root="$work/root"

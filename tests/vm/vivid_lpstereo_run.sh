@@ -30,6 +30,13 @@ printf 'cam0=[300 0 159.5; 0 300 89.5; 0 0 1]\ncam1=[300 0 159.5; 0 300 89.5; 0 
 common="--source v4l2:$left,$right --calib /tmp/calib.txt --width 320 --height 180 --pixel-format YUYV --fps 30 --num-disp 32 --threads 1"
 lines_of() { grep -c '' "$1"; }
 count_png() { ls "$1" 2>/dev/null | grep -c '\.png$'; }
+replays() {  # replays DIR PAIRS: the recording in DIR (a path in /host) replays through files:, every pair
+  in_host "$lpstereo" run --source "files:$1/left/%06d.png,$1/right/%06d.png" --calib /tmp/calib.txt \
+    --num-disp 32 --threads 1 --target none >/tmp/replay.out 2>/tmp/replay.err
+  replay_status=$?
+  check "the recording replays (exit $replay_status)" [ "$replay_status" = 0 ]
+  check "the replay processed all $2 recorded pairs" grep -q "run: $2 pairs processed" /tmp/replay.out
+}
 
 echo "== 1. live run: 12 pairs, recorded"
 in_host "$lpstereo" run $common --frames 12 --record /tmp/rec1 --out /tmp/out1 >/tmp/run1.out 2>/tmp/run1.err
@@ -41,11 +48,7 @@ check "12 disparity maps written" [ "$(count_png /host/tmp/out1/disparity)" = 12
 recorded=$(count_png /host/tmp/rec1/left)
 check "as many left as right views recorded, at least 12 ($recorded, $(count_png /host/tmp/rec1/right))" \
   [ "$recorded" = "$(count_png /host/tmp/rec1/right)" -a "$recorded" -ge 12 ]
-in_host "$lpstereo" run --source files:/tmp/rec1/left/%06d.png,/tmp/rec1/right/%06d.png --calib /tmp/calib.txt \
-  --num-disp 32 --threads 1 --target none >/tmp/replay1.out 2>/tmp/replay1.err
-status=$?
-check "the recording replays (exit $status)" [ "$status" = 0 ]
-check "the replay processed $recorded pairs" grep -q "$recorded pairs" /tmp/replay1.out /tmp/replay1.err
+replays /tmp/rec1 "$recorded"
 
 echo "== 2. a stalled camera"
 in_host v4l2-ctl -d "$left" --set-ctrl=percentage_of_dropped_buffers=100
@@ -86,11 +89,7 @@ check "stderr names the device and the disconnect" grep -q "$right.*disconnected
 recorded_left=$(count_png /host/tmp/rec2/left); recorded_right=$(count_png /host/tmp/rec2/right)
 check "as many left as right views recorded ($recorded_left, $recorded_right)" [ "$recorded_left" = "$recorded_right" -a "$recorded_left" -ge 5 ]
 check "a timestamp line per recorded pair" [ "$(lines_of /host/tmp/rec2/timestamps.txt)" -ge "$recorded_left" ]
-in_host "$lpstereo" run --source files:/tmp/rec2/left/%06d.png,/tmp/rec2/right/%06d.png --calib /tmp/calib.txt \
-  --num-disp 32 --threads 1 --target none >/tmp/replay2.out 2>/tmp/replay2.err
-status=$?
-check "every recorded pair is complete: the recording replays (exit $status)" [ "$status" = 0 ]
-check "the replay processed $recorded_left pairs" grep -q "$recorded_left pairs" /tmp/replay2.out /tmp/replay2.err
+replays /tmp/rec2 "$recorded_left"  # every recorded pair complete and readable
 
 echo "vivid_lpstereo_run: $failures failed checks"
 [ "$failures" = 0 ]
