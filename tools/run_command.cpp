@@ -363,6 +363,11 @@ RunCommand::RunCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   command_->add_option("--pixel-format", pixel_format_, "requested pixel format (GREY, YUYV, UYVY, NV12, ...; live sources)");
+  command_->add_option("--pairing-tolerance-ms", pairing_tolerance_ms_,
+                       "two cameras' frames pair when their capture times differ by at most this, ms (-1 = half the "
+                       "frame period; raise it for free-running cameras whose phases drift near half a period)")
+      ->capture_default_str()
+      ->check(CLI::Range(-1.0, 10000.0));
   command_->add_flag("--realtime", realtime_,
                      "replay a recording at its frame rate as a live camera would deliver it (pairs skipped when "
                      "processing lags, latency from the replayed capture time)");
@@ -387,6 +392,7 @@ int RunCommand::run() const {
   source_options.height = height_;
   source_options.frame_rate_hz = fps_;
   source_options.pixel_format = pixel_format_;
+  source_options.pairing_tolerance_ns = pairing_tolerance_ms_ < 0 ? -1 : static_cast<int64_t>(pairing_tolerance_ms_ * 1e6);
   std::unique_ptr<io::StereoSource> source;
   try {
     source = io::open_stereo_source(source_spec_, source_options);

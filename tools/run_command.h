@@ -1,6 +1,6 @@
 // lpstereo run --source SPEC --calib C [--calib C2] --graph disparity|obstacles [--frames N]
 //     [--record DIR] [--out DIR] [--target cv1-class|none] [--timeout-ms T] [--fps F] [--realtime]
-//     [--width W --height H --pixel-format F] [--status-every N] [--threads T] [the disparity options]
+//     [--width W --height H --pixel-format F] [--pairing-tolerance-ms T] [--status-every N] [--threads T] [the disparity options]
 //     [the obstacle tuning options of lpstereo obstacles]
 // A stereo source (io/camera/stereo_source.h: v4l2:, v4l2-sbs:, libcamera:, files:) through a graph,
 // pair after pair:
@@ -65,6 +65,7 @@ class RunCommand {
   double fps_ = 0;                  // SourceOptions.frame_rate_hz (0: the source's own; recordings 10)
   int width_ = 0, height_ = 0;      // requested size of a live source (0: the device's)
   std::string pixel_format_;
+  double pairing_tolerance_ms_ = -1;  // SourceOptions.pairing_tolerance_ns in ms (-1: half the frame period)
   bool realtime_ = false;
   int status_every_ = 10;
   int threads_ = 0;

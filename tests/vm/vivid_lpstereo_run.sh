@@ -39,10 +39,12 @@ replays() {  # replays DIR PAIRS: the recording in DIR (a path in /host) replays
 }
 
 echo "== 1. live run: 12 pairs, recorded"
-in_host "$lpstereo" run $common --frames 12 --record /tmp/rec1 --out /tmp/out1 >/tmp/run1.out 2>/tmp/run1.err
+in_host "$lpstereo" run $common --frames 12 --record /tmp/rec1 --out /tmp/out1 --pairing-tolerance-ms 20 \
+  >/tmp/run1.out 2>/tmp/run1.err
 status=$?
 cat /tmp/run1.err /tmp/run1.out | tr '\r' '\n' | grep -v '^$' | tail -6
 check "exit 0 (got $status)" [ "$status" = 0 ]
+check "the source pairs within the requested 20 ms" grep -q "paired within 20000 us" /tmp/run1.out
 check "12 disparity maps written" [ "$(count_png /host/tmp/out1/disparity)" = 12 ]
 # The recording keeps every pair the cameras delivered, also those processing skipped.
 recorded=$(count_png /host/tmp/rec1/left)
