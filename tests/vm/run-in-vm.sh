@@ -16,10 +16,11 @@
 #   --file SRC=DEST           a file copied into the VM at DEST (absolute)
 #   --libraries-of FILE       the shared libraries FILE needs (ldd), and the dynamic loader, copied
 #                             to the same paths (for dynamically linked programs and plugins)
-#   --host-root               the host's file system, read-only, at /host in the VM (virtio 9p), so
-#                             a dynamically linked program of the host runs there unchanged with
-#                             `chroot /host` (the VM's /dev, /proc, /sys and a tmpfs /tmp are
-#                             mounted over the host's in /host)
+#   --host-root               the host's file system at /host in the VM, so a dynamically linked
+#                             program of the host runs there unchanged with `chroot /host`: the
+#                             host's root read-only over virtio 9p under an overlay whose upper
+#                             layer is a tmpfs (writes stay in the VM; the host's files, its /tmp
+#                             included, are all visible), with the VM's /dev, /proc and /sys
 #   PROGRAM                   copied to /test/PROGRAM's basename and run from /test; statically
 #                             linked, or use --libraries-of PROGRAM
 #
@@ -80,7 +81,7 @@ load_lines=()
 qemu_extra=()
 if [ "$host_root" = 1 ]; then
   # virtio-pci is no dependency of 9pnet_virtio (the bus driver is found by the device), so it is named.
-  modules=("virtio_pci" "9pnet_virtio" "9p" "${modules[@]}")
+  modules=("virtio_pci" "9pnet_virtio" "9p" "overlay" "${modules[@]}")
   qemu_extra=(-virtfs "local,path=/,mount_tag=hostroot,security_model=none,readonly=on,multidevs=remap")
 fi
 for entry in "${modules[@]}"; do
@@ -128,8 +129,11 @@ for argument in "$@"; do quoted_arguments+=" '${argument//\'/\'\\\'\'}'"; done
   echo "echo \"VM: kernel \$(uname -r), $(( ${#modules[@]} + ${#extra_modules[@]} )) modules to load\""
   printf '%s\n' "${load_lines[@]}"
   if [ "$host_root" = 1 ]; then
-    echo 'mkdir -p /host && mount -t 9p -o trans=virtio,version=9p2000.L,ro,msize=262144,cache=loose hostroot /host || { echo "VM: mounting the host root failed"; fail=1; }'
-    echo 'mount -o bind /dev /host/dev && mount -t proc proc /host/proc && mount -t sysfs sysfs /host/sys && mount -t tmpfs tmpfs /host/tmp || { echo "VM: mounts in /host failed"; fail=1; }'
+    echo 'mkdir -p /host /host-9p /host-writes'
+    echo 'mount -t 9p -o trans=virtio,version=9p2000.L,ro,msize=262144,cache=loose hostroot /host-9p || { echo "VM: mounting the host root failed"; fail=1; }'
+    echo 'mount -t tmpfs tmpfs /host-writes && mkdir -p /host-writes/upper /host-writes/work'
+    echo 'mount -t overlay overlay -o lowerdir=/host-9p,upperdir=/host-writes/upper,workdir=/host-writes/work /host || { echo "VM: the overlay on the host root failed"; fail=1; }'
+    echo 'mount -o bind /dev /host/dev && mount -t proc proc /host/proc && mount -t sysfs sysfs /host/sys || { echo "VM: mounts in /host failed"; fail=1; }'
   fi
   echo 'cd /test'
   echo 'if [ "$fail" = 0 ]; then'
