@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -18,12 +19,6 @@ namespace {
 
 constexpr double kCollinearTolerance = 1e-6;        // whole sets: exactly collinear within rounding
 constexpr double kSampleCollinearTolerance = 1e-3;  // minimal samples: a sliver is as bad as a line
-
-std::string fmt(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.3g", value);
-  return text;
-}
 
 // sqrt(lambda_min / lambda_max) of the 2 x 2 scatter of the listed points: 0 on a line or a point.
 double spread_ratio(const std::vector<Eigen::Vector2d>& points, const std::vector<int>& used) {
@@ -71,8 +66,8 @@ FundamentalEstimate eight_point_subset(const std::vector<Eigen::Vector2d>& view1
   const double spread2 = spread_ratio(view2_px, used);
   if (spread1 <= collinear_tolerance || spread2 <= collinear_tolerance) {
     result.failure = std::string("8-point algorithm: the points of view ") + (spread1 <= collinear_tolerance ? "1" : "2") +
-                     " are collinear or coincident (spread ratio " + fmt(std::min(spread1, spread2)) + ", expected > " +
-                     fmt(collinear_tolerance) + ")";
+                     " are collinear or coincident (spread ratio " + format_number(std::min(spread1, spread2)) + ", expected > " +
+                     format_number(collinear_tolerance) + ")";
     return result;
   }
   const Eigen::Matrix3d t1 = normalising_transform(view1_px, used);
@@ -105,13 +100,8 @@ FundamentalEstimate eight_point_subset(const std::vector<Eigen::Vector2d>& view1
 }
 
 void check_parameters(const FundamentalRansacParameters& p) {
-  auto fail = [](const std::string& name, const std::string& expected, double value) {
-    throw std::invalid_argument("fundamental RANSAC parameter " + name + ": expected " + expected + ", got " + fmt(value));
-  };
-  if (!(p.inlier_threshold_px > 0) || !std::isfinite(p.inlier_threshold_px)) fail("inlier_threshold_px", "> 0", p.inlier_threshold_px);
-  if (p.max_iterations < 1) fail("max_iterations", ">= 1", p.max_iterations);
-  if (!(p.confidence > 0 && p.confidence < 1)) fail("confidence", "in (0, 1)", p.confidence);
-  if (p.min_inliers < 8) fail("min_inliers", ">= 8", p.min_inliers);
+  check_ransac_parameters("fundamental RANSAC", "inlier_threshold_px", p.inlier_threshold_px, p.max_iterations, p.confidence,
+                          p.min_inliers, 8);
 }
 
 std::string size_mismatch(size_t a, size_t b) {
@@ -169,34 +159,26 @@ FundamentalRansacResult fundamental_ransac(const std::vector<Eigen::Vector2d>& v
     }
     return inliers;
   };
-  RansacRandom random{parameters.seed};
-  std::vector<int> best_inliers;
-  Eigen::Matrix3d best_fundamental = Eigen::Matrix3d::Zero();
-  int needed = parameters.max_iterations;
-  std::vector<int> sample(8);
-  for (int iteration = 0; iteration < needed; ++iteration) {
-    random.draw_distinct(count, 8, sample.data());
-    result.iterations = iteration + 1;
-    const FundamentalEstimate candidate = eight_point_subset(view1_px, view2_px, sample, kSampleCollinearTolerance);
-    if (!candidate.ok) continue;
-    std::vector<int> inliers = inliers_of(candidate.fundamental);
-    if (inliers.size() > best_inliers.size()) {
-      best_inliers = std::move(inliers);
-      best_fundamental = candidate.fundamental;
-      needed = ransac_iterations_needed(static_cast<double>(best_inliers.size()) / count, 8, parameters.confidence,
-                                        parameters.max_iterations);
-    }
-  }
+  const auto consensus = find_consensus<Eigen::Matrix3d>(
+      count, 8, parameters.max_iterations, parameters.confidence, parameters.seed,
+      [&](const std::vector<int>& sample) -> std::optional<Eigen::Matrix3d> {
+        const FundamentalEstimate candidate = eight_point_subset(view1_px, view2_px, sample, kSampleCollinearTolerance);
+        if (!candidate.ok) return std::nullopt;
+        return candidate.fundamental;
+      },
+      inliers_of);
+  result.iterations = consensus.iterations;
+  const std::vector<int>& best_inliers = consensus.inliers;
   if (static_cast<int>(best_inliers.size()) < parameters.min_inliers) {
     result.failure = "fundamental RANSAC: best model has " + std::to_string(best_inliers.size()) + " inliers within " +
-                     fmt(parameters.inlier_threshold_px) + " px (Sampson), expected at least min_inliers = " +
+                     format_number(parameters.inlier_threshold_px) + " px (Sampson), expected at least min_inliers = " +
                      std::to_string(parameters.min_inliers) + " (of " + std::to_string(count) + " pairs, " +
                      std::to_string(result.iterations) + " samples)";
     return result;
   }
   // Refit on the inliers; keep it when it explains at least as many pairs (least squares over noisy
   // inliers can tilt F; then the best sample's F stays).
-  Eigen::Matrix3d fundamental = best_fundamental;
+  Eigen::Matrix3d fundamental = *consensus.model;
   std::vector<int> final_inliers = best_inliers;
   const FundamentalEstimate refit = eight_point_subset(view1_px, view2_px, best_inliers, kCollinearTolerance);
   if (refit.ok) {

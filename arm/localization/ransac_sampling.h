@@ -12,6 +12,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace lpstereo::arm::localization {
 
@@ -51,6 +56,62 @@ inline int ransac_iterations_needed(double inlier_ratio, int sample_size, double
   const double needed = std::ceil(std::log(1.0 - confidence) / std::log(1.0 - all_inliers));
   if (!(needed < static_cast<double>(max_iterations))) return max_iterations;
   return std::max(1, static_cast<int>(needed));
+}
+
+// The hypothesise-and-verify loop both estimators run: minimal samples of sample_size distinct
+// indices in [0, count) drawn by RansacRandom{seed}; fit(sample) gives std::optional<Model> (none
+// for a degenerate sample, which still counts as an iteration); inliers_of(model) the indices it
+// explains; the model with the most inliers wins (ties keep the earlier); the count adapts to its
+// inlier ratio (ransac_iterations_needed).
+template <typename Model>
+struct RansacConsensus {
+  std::optional<Model> model;
+  std::vector<int> inliers;
+  int iterations = 0;
+};
+
+template <typename Model, typename Fit, typename InliersOf>
+RansacConsensus<Model> find_consensus(int count, int sample_size, int max_iterations, double confidence, uint64_t seed,
+                                      const Fit& fit, const InliersOf& inliers_of) {
+  RansacConsensus<Model> best;
+  RansacRandom random{seed};
+  std::vector<int> sample(static_cast<size_t>(sample_size));
+  int needed = max_iterations;
+  for (int iteration = 0; iteration < needed; ++iteration) {
+    random.draw_distinct(count, sample_size, sample.data());
+    best.iterations = iteration + 1;
+    std::optional<Model> candidate = fit(sample);
+    if (!candidate) continue;
+    std::vector<int> inliers = inliers_of(*candidate);
+    if (inliers.size() > best.inliers.size()) {
+      best.inliers = std::move(inliers);
+      best.model = std::move(candidate);
+      needed = ransac_iterations_needed(static_cast<double>(best.inliers.size()) / count, sample_size, confidence, max_iterations);
+    }
+  }
+  return best;
+}
+
+inline std::string format_number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", value);
+  return text;
+}
+
+// Throws std::invalid_argument "<owner> parameter <name>: expected <expected>, got <value>".
+[[noreturn]] inline void throw_parameter_error(const std::string& owner, const std::string& name, const std::string& expected,
+                                               double value) {
+  throw std::invalid_argument(owner + " parameter " + name + ": expected " + expected + ", got " + format_number(value));
+}
+
+// The parameters every RANSAC here has: threshold > 0 and finite, max_iterations >= 1,
+// confidence in (0, 1), min_inliers >= the minimal sample.
+inline void check_ransac_parameters(const std::string& owner, const std::string& threshold_name, double threshold,
+                                    int max_iterations, double confidence, int min_inliers, int sample_size) {
+  if (!(threshold > 0) || !std::isfinite(threshold)) throw_parameter_error(owner, threshold_name, "> 0", threshold);
+  if (max_iterations < 1) throw_parameter_error(owner, "max_iterations", ">= 1", max_iterations);
+  if (!(confidence > 0 && confidence < 1)) throw_parameter_error(owner, "confidence", "in (0, 1)", confidence);
+  if (min_inliers < sample_size) throw_parameter_error(owner, "min_inliers", ">= " + std::to_string(sample_size), min_inliers);
 }
 
 }  // namespace lpstereo::arm::localization

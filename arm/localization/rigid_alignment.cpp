@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -28,12 +29,6 @@ double spread_ratio(const std::vector<Eigen::Vector3d>& points, const std::vecto
   const double second = std::max(eigenvalues(1), 0.0);
   if (largest <= 0) return 0;
   return std::sqrt(second / largest);
-}
-
-std::string fmt(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.3g", value);
-  return text;
 }
 
 // align_rigid over the pairs listed in `used`.
@@ -64,7 +59,7 @@ RigidAlignment align_subset(const std::vector<Eigen::Vector3d>& source_m, const 
   if (source_spread <= collinear_tolerance || target_spread <= collinear_tolerance) {
     result.failure = std::string("rigid alignment: the ") + (source_spread <= collinear_tolerance ? "source" : "target") +
                      " points are collinear or coincident (second/first singular value " +
-                     fmt(std::min(source_spread, target_spread)) + ", expected > " + fmt(collinear_tolerance) +
+                     format_number(std::min(source_spread, target_spread)) + ", expected > " + format_number(collinear_tolerance) +
                      "): the rotation about their line is undetermined";
     return result;
   }
@@ -93,15 +88,11 @@ RigidAlignment align_subset(const std::vector<Eigen::Vector3d>& source_m, const 
 }
 
 void check_parameters(const RigidRansacParameters& p) {
-  auto fail = [](const std::string& name, const std::string& expected, double value) {
-    throw std::invalid_argument("rigid RANSAC parameter " + name + ": expected " + expected + ", got " + fmt(value));
-  };
-  if (!(p.inlier_threshold_m > 0) || !std::isfinite(p.inlier_threshold_m)) fail("inlier_threshold_m", "> 0", p.inlier_threshold_m);
-  if (p.max_iterations < 1) fail("max_iterations", ">= 1", p.max_iterations);
-  if (!(p.confidence > 0 && p.confidence < 1)) fail("confidence", "in (0, 1)", p.confidence);
-  if (p.min_inliers < 3) fail("min_inliers", ">= 3", p.min_inliers);
-  if (!(p.sample_collinear_tolerance >= 0 && p.sample_collinear_tolerance < 1))
-    fail("sample_collinear_tolerance", "in [0, 1)", p.sample_collinear_tolerance);
+  check_ransac_parameters("rigid RANSAC", "inlier_threshold_m", p.inlier_threshold_m, p.max_iterations, p.confidence,
+                          p.min_inliers, 3);
+  if (!(p.sample_collinear_tolerance >= 0 && p.sample_collinear_tolerance < 1)) {
+    throw_parameter_error("rigid RANSAC", "sample_collinear_tolerance", "in [0, 1)", p.sample_collinear_tolerance);
+  }
 }
 
 }  // namespace
@@ -144,25 +135,19 @@ RigidRansacResult align_rigid_ransac(const std::vector<Eigen::Vector3d>& source_
     return inliers;
   };
 
-  RansacRandom random{parameters.seed};
-  std::vector<int> best_inliers;
-  int needed = parameters.max_iterations;
-  std::vector<int> sample(3);
-  for (int iteration = 0; iteration < needed; ++iteration) {
-    random.draw_distinct(count, 3, sample.data());
-    result.iterations = iteration + 1;
-    const RigidAlignment candidate = align_subset(source_m, target_m, sample, parameters.sample_collinear_tolerance);
-    if (!candidate.ok) continue;
-    std::vector<int> inliers = inliers_of(candidate.target_from_source);
-    if (inliers.size() > best_inliers.size()) {
-      best_inliers = std::move(inliers);
-      needed = ransac_iterations_needed(static_cast<double>(best_inliers.size()) / count, 3, parameters.confidence,
-                                        parameters.max_iterations);
-    }
-  }
+  const auto consensus = find_consensus<Eigen::Isometry3d>(
+      count, 3, parameters.max_iterations, parameters.confidence, parameters.seed,
+      [&](const std::vector<int>& sample) -> std::optional<Eigen::Isometry3d> {
+        const RigidAlignment candidate = align_subset(source_m, target_m, sample, parameters.sample_collinear_tolerance);
+        if (!candidate.ok) return std::nullopt;
+        return candidate.target_from_source;
+      },
+      inliers_of);
+  result.iterations = consensus.iterations;
+  std::vector<int> best_inliers = consensus.inliers;
   if (static_cast<int>(best_inliers.size()) < parameters.min_inliers) {
     result.failure = "rigid RANSAC: best model has " + std::to_string(best_inliers.size()) + " inliers within " +
-                     fmt(parameters.inlier_threshold_m) + " m, expected at least min_inliers = " +
+                     format_number(parameters.inlier_threshold_m) + " m, expected at least min_inliers = " +
                      std::to_string(parameters.min_inliers) + " (of " + std::to_string(count) + " pairs, " +
                      std::to_string(result.iterations) + " samples)";
     return result;

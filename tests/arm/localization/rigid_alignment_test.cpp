@@ -31,15 +31,15 @@ double rotation_error_rad(const Eigen::Matrix3d& estimate, const Eigen::Matrix3d
   return Eigen::AngleAxisd(estimate * truth.transpose()).angle();
 }
 
+Eigen::Vector3d centroid(const std::vector<Eigen::Vector3d>& points) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const auto& point : points) sum += point;
+  return sum / static_cast<double>(points.size());
+}
+
 // The naive SVD answer V U^T of eq. 3.9, without the fix, computed here independently.
 double naive_determinant(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {
-  Eigen::Vector3d ca = Eigen::Vector3d::Zero(), cb = Eigen::Vector3d::Zero();
-  for (size_t i = 0; i < a.size(); ++i) {
-    ca += a[i];
-    cb += b[i];
-  }
-  ca /= static_cast<double>(a.size());
-  cb /= static_cast<double>(b.size());
+  const Eigen::Vector3d ca = centroid(a), cb = centroid(b);
   Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
   for (size_t i = 0; i < a.size(); ++i) h += (a[i] - ca) * (b[i] - cb).transpose();
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -125,14 +125,7 @@ TEST(RigidAlignment, MirroredTargetGivesAProperRotation) {
       Eigen::Isometry3d perturbed = result.target_from_source;
       perturbed.linear() = Eigen::AngleAxisd(angle, Eigen::Vector3d::Unit(axis)).toRotationMatrix() * rotation;
       // Re-centre the translation for the perturbed rotation (the optimum for a given R).
-      Eigen::Vector3d ca = Eigen::Vector3d::Zero(), cb = Eigen::Vector3d::Zero();
-      for (size_t i = 0; i < source.size(); ++i) {
-        ca += source[i];
-        cb += target[i];
-      }
-      ca /= static_cast<double>(source.size());
-      cb /= static_cast<double>(source.size());
-      perturbed.translation() = cb - perturbed.linear() * ca;
+      perturbed.translation() = centroid(target) - perturbed.linear() * centroid(source);
       EXPECT_GE(squared_error(perturbed), best) << "axis " << axis << " angle " << angle;
     }
   }
