@@ -259,7 +259,10 @@ KeyframeDatabase KeyframeDatabase::load(const std::string& path, const KeyframeP
                                 std::to_string(kHeaderBytes + kTrailerBytes) + " (header and checksum; truncated)");
   }
   if (std::memcmp(bytes.data(), kMagic, 4) != 0) {
-    throw KeyframeDatabaseError("keyframe database " + path + ": magic is not \"LPKF\" (not a keyframe database)");
+    char found[48];
+    std::snprintf(found, sizeof found, "%02X %02X %02X %02X", bytes[0], bytes[1], bytes[2], bytes[3]);
+    throw KeyframeDatabaseError("keyframe database " + path + ": magic bytes " + found +
+                                ", expected \"LPKF\" (4C 50 4B 46): not a keyframe database");
   }
   const size_t body_end = bytes.size() - kTrailerBytes;
   Reader header(bytes, body_end, path);

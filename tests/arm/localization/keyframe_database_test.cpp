@@ -230,7 +230,7 @@ TEST_F(KeyframeFile, CountsBeyondTheDataAreRefusedEvenWithAValidChecksum) {
 
 TEST_F(KeyframeFile, NotADatabaseAndMissingFile) {
   write_bytes(std::vector<uint8_t>(64, 'x'));
-  EXPECT_NE(load_error().find("magic"), std::string::npos);
+  EXPECT_NE(load_error().find("magic bytes 78 78 78 78, expected \"LPKF\""), std::string::npos);
   std::filesystem::remove(path_);
   EXPECT_NE(load_error().find("cannot open"), std::string::npos);
 }
