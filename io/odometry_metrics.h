@@ -19,7 +19,12 @@
 //   strictly greater (distance(j) > distance(i) + L), which differs from >= only when a frame lands
 //   exactly on the length (evenly spaced synthetic trajectories, where >= makes a segment exactly L
 //   long); and the angle is atan2(|axis part|, (trace - 1) / 2) in double precision instead of
-//   acos((trace - 1) / 2) in float, which loses small angles (acos(1 - 1e-8) has no float answer).
+//   acos((trace - 1) / 2) in float. acos is steep near 1: pose files printed with 7 digits (KITTI's,
+//   the shared kitti_odometry_06) are only nearly orthonormal, which moves the trace, and acos then
+//   reads small angles short (0.25 degrees as 0.2497; a yaw drift of 0.05 degrees per frame injected
+//   into kitti_odometry_06 as 0.0435 deg/m over all segments instead of 0.0442, while atan2 gives the
+//   injected drift exactly at every length, e.g. 0.0500 over the 5-frame segments of 5 m); float adds
+//   its own loss (acos(1 - 1e-8) has no float answer).
 //
 // Short sequences: KITTI's lengths need a path of more than 800 m; the project's sets are short
 // (kitti_odometry_06 is 51 frames, 59.9 m). automatic_segment_lengths_m picks the lengths the data

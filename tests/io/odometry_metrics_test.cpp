@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -204,6 +206,21 @@ TEST(OdometryMetrics, RotationAngleIsAccurateNearZeroAndNearPi) {
     const Eigen::Matrix3d rotation = Eigen::AngleAxisd(angle_rad, Eigen::Vector3d(1, -2, 0.5).normalized()).toRotationMatrix();
     EXPECT_NEAR(rotation_angle_rad(rotation), angle_rad, 1e-12 + 1e-9 * angle_rad) << angle_rad;
   }
+}
+
+TEST(OdometryMetrics, RotationAngleSurvivesPosesPrintedWithSevenDigits) {
+  // KITTI's pose files carry 7 significant digits (%e), so a relative rotation is only nearly
+  // orthonormal. Between two such poses 0.25 degrees apart, acos((trace - 1) / 2) reads 0.24967
+  // degrees (the rounding shifts the trace, and acos is steep near 1); the axis part does not move.
+  auto printed = [](double value) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.6e", value);
+    return std::atof(text);
+  };
+  const Eigen::Matrix3d first = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, 1, -0.3).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d second = first * Eigen::AngleAxisd(0.25 * kPi / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Matrix3d relative = first.unaryExpr(printed).transpose() * second.unaryExpr(printed);
+  EXPECT_NEAR(rotation_angle_rad(relative) * 180 / kPi, 0.25, 2e-5);
 }
 
 TEST(OdometryMetrics, RefusesTrajectoriesThatCannotBeCompared) {
