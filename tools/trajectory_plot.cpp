@@ -1,7 +1,6 @@
 #include "tools/trajectory_plot.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -12,7 +11,8 @@ namespace lpstereo::tools {
 
 namespace {
 
-constexpr int kCanvas_px = 900;
+constexpr int kCanvasHeight_px = 900;
+constexpr int kLegendGap_px = 24;  // between the plot area and the legend on its right
 constexpr int kPlotLeft_px = 90, kPlotTop_px = 90, kPlotSize_px = 750;  // square: same metres per pixel on both axes
 constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
 constexpr double kFontScale = 0.5;
@@ -109,34 +109,6 @@ std::string tick_label(double value_m, double spacing_m) {
   return text;
 }
 
-// The corner of the plot area (top-left, top-right, bottom-right, bottom-left) whose legend box
-// covers the fewest trajectory points.
-cv::Rect legend_box(const cv::Size& size, const std::vector<std::vector<cv::Point2d>>& lines) {
-  constexpr int kInset_px = 12;
-  const int left = kPlotLeft_px + kInset_px, right = kPlotLeft_px + kPlotSize_px - kInset_px - size.width;
-  const int top = kPlotTop_px + kInset_px, bottom = kPlotTop_px + kPlotSize_px - kInset_px - size.height;
-  const std::array<cv::Rect, 4> corners = {cv::Rect({left, top}, size), cv::Rect({right, top}, size),
-                                           cv::Rect({right, bottom}, size), cv::Rect({left, bottom}, size)};
-  cv::Rect best = corners[0];
-  size_t fewest = std::numeric_limits<size_t>::max();
-  for (const cv::Rect& corner : corners) {
-    size_t covered = 0;
-    for (const std::vector<cv::Point2d>& line : lines) {
-      for (size_t i = 0; i < line.size(); ++i) {
-        // The points and the midpoints of the steps, so that a long step across the box counts.
-        const cv::Point2d midpoint = i > 0 ? (line[i - 1] + line[i]) * 0.5 : line[i];
-        covered += corner.contains(cv::Point(static_cast<int>(line[i].x), static_cast<int>(line[i].y))) +
-                   corner.contains(cv::Point(static_cast<int>(midpoint.x), static_cast<int>(midpoint.y)));
-      }
-    }
-    if (covered < fewest) {
-      fewest = covered;
-      best = corner;
-    }
-  }
-  return best;
-}
-
 }  // namespace
 
 double tick_spacing(double span, int max_ticks) {
@@ -150,7 +122,16 @@ double tick_spacing(double span, int max_ticks) {
 
 cv::Mat draw_trajectory_plot(const std::vector<Eigen::Isometry3d>& estimate, const std::vector<Eigen::Isometry3d>& ground_truth,
                              const TrajectoryPlotLabels& labels) {
-  cv::Mat image(kCanvas_px, kCanvas_px, CV_8UC3, kWhite);
+  // The legend sits to the right of the plot area, where no path can run under it.
+  const std::vector<std::string> entries = {"ground truth (" + labels.ground_truth_name + ")",
+                                            "estimate (" + labels.estimate_name + ")", "start", "end (ground truth)",
+                                            "end (estimate)"};
+  int widest = 0;
+  for (const std::string& entry : entries) widest = std::max(widest, text_size(entry).width);
+  constexpr int kRow_px = 22, kSample_px = 44, kPadding_px = 10;
+  const cv::Rect box(kPlotLeft_px + kPlotSize_px + kLegendGap_px, kPlotTop_px, kPadding_px * 3 + kSample_px + widest,
+                     kPadding_px * 2 + kRow_px * static_cast<int>(entries.size()));
+  cv::Mat image(kCanvasHeight_px, box.x + box.width + kLegendGap_px, CV_8UC3, kWhite);
 
   // The square of ground that holds both trajectories with a 5 % margin (at least 1 m across).
   double x_min = std::numeric_limits<double>::infinity(), x_max = -x_min, z_min = x_min, z_max = -x_min;
@@ -190,7 +171,7 @@ cv::Mat draw_trajectory_plot(const std::vector<Eigen::Isometry3d>& estimate, con
   }
   cv::rectangle(image, plot_area, kBlack, 1);
   const std::string x_title = "x [m] (right)";
-  put_text(image, x_title, {kPlotLeft_px + (kPlotSize_px - text_size(x_title).width) / 2, kCanvas_px - 14});
+  put_text(image, x_title, {kPlotLeft_px + (kPlotSize_px - text_size(x_title).width) / 2, kCanvasHeight_px - 14});
   put_text(image, "z [m] (forward)", {kPlotLeft_px - 60, kPlotTop_px - 10});
   put_text(image, labels.title, {kPlotLeft_px - 60, 26}, 0.6, 1);
   put_text(image, "top view of the camera path (KITTI camera frame), same scale on both axes", {kPlotLeft_px - 60, 50});
@@ -215,15 +196,6 @@ cv::Mat draw_trajectory_plot(const std::vector<Eigen::Isometry3d>& estimate, con
   if (!estimate_px.empty()) draw_triangle_marker(image, estimate_px.back(), kEstimateColour);
 
   // Legend.
-  const std::vector<std::string> entries = {"ground truth (" + labels.ground_truth_name + ")",
-                                            "estimate (" + labels.estimate_name + ")", "start", "end (ground truth)",
-                                            "end (estimate)"};
-  int widest = 0;
-  for (const std::string& entry : entries) widest = std::max(widest, text_size(entry).width);
-  constexpr int kRow_px = 22, kSample_px = 44, kPadding_px = 10;
-  const cv::Size box_size(kPadding_px * 3 + kSample_px + widest, kPadding_px * 2 + kRow_px * static_cast<int>(entries.size()));
-  const cv::Rect box = legend_box(box_size, {truth_px, estimate_px});
-  cv::rectangle(image, box, kWhite, cv::FILLED);
   cv::rectangle(image, box, kBlack, 1);
   for (size_t k = 0; k < entries.size(); ++k) {
     const int row_y = box.y + kPadding_px + kRow_px * static_cast<int>(k) + kRow_px / 2;
