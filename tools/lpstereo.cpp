@@ -562,7 +562,8 @@ int main(int argc, char** argv) {
 
   // eval
   tools::EvalOptions eval_options;
-  CLI::App* eval = app.add_subcommand("eval", "accuracy on the real pairs of the shared data folder (bad-N, D1, EPE, density)");
+  CLI::App* eval = app.add_subcommand("eval", "accuracy: disparity on the real pairs of the shared data folder (bad-N, D1, "
+                                              "EPE, density), or a trajectory against its ground truth (KITTI odometry metric)");
   eval->add_option("benchmark", eval_options.benchmark,
                    "middlebury (8 pairs), kitti (2015, 000046) or odometry (TRAJ.txt POSES.txt: KITTI odometry metric)")
       ->required()
