@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <map>
 #include <string>
@@ -13,9 +14,13 @@
 #include "arm/disparity_engine.h"
 #include "dag/atomic_file.h"
 #include "io/disparity_metrics.h"
+#include "io/image_io.h"
+#include "io/kitti_poses.h"
+#include "io/odometry_metrics.h"
 #include "io/opencv_sgbm.h"
 #include "io/stereo_datasets.h"
 #include "tools/command_error.h"
+#include "tools/trajectory_plot.h"
 
 namespace lpstereo::tools {
 
@@ -124,11 +129,140 @@ std::string range_text(int min_disparity_px, int num_disparities) {
   return "[" + std::to_string(min_disparity_px) + ", " + std::to_string(min_disparity_px + num_disparities) + ")";
 }
 
+
+// --- eval odometry -------------------------------------------------------------------------------
+
+std::vector<Eigen::Isometry3d> read_trajectory(const std::string& path) {
+  std::vector<Eigen::Isometry3d> poses = io::read_kitti_poses(path);  // PoseFileError names the file and line
+  if (poses.empty()) throw CommandError(kExitInput, path + ": no pose (expected one line of 12 numbers per frame)");
+  return poses;
+}
+
+std::string lengths_text(const std::vector<double>& lengths_m) {
+  std::string text;
+  for (double length_m : lengths_m) text += (text.empty() ? "" : ", ") + number(length_m, "%g");
+  return text + " m";
+}
+
+nlohmann::json number_or_null(double value) { return std::isnan(value) ? nlohmann::json(nullptr) : nlohmann::json(value); }
+
+// The KITTI metric of `estimate_path` against `truth_path`, printed, and optionally drawn and saved.
+int run_eval_odometry(const EvalOptions& options) {
+  if (options.files.size() != 2) {
+    throw CommandError(kExitUsage, "eval odometry: expected 2 files (TRAJ.txt POSES.txt: the estimate, then the ground truth), got " +
+                                       std::to_string(options.files.size()));
+  }
+  for (const auto& [given, flag] : {std::pair<bool, const char*>{!options.data_directory.empty(), "--data"},
+                                    {!options.baseline.empty(), "--baseline"},
+                                    {options.num_disparities.has_value(), "--num-disp"},
+                                    {options.min_disparity_px.has_value(), "--min-disp"}}) {
+    if (given) throw CommandError(kExitUsage, std::string(flag) + ": only for eval middlebury|kitti, not eval odometry");
+  }
+  const std::string& estimate_path = options.files[0];
+  const std::string& truth_path = options.files[1];
+  const std::vector<Eigen::Isometry3d> estimate = read_trajectory(estimate_path);
+  const std::vector<Eigen::Isometry3d> ground_truth = read_trajectory(truth_path);
+  if (estimate.size() != ground_truth.size()) {
+    throw CommandError(kExitInput, estimate_path + " has " + std::to_string(estimate.size()) + " poses, " + truth_path + " has " +
+                                       std::to_string(ground_truth.size()) + ": expected one pose per frame in both");
+  }
+  // The relative errors do not depend on where a trajectory starts; the end-point error and the ATE
+  // compare positions as given, which is what a trajectory starting at the identity means.
+  for (const auto& [path, poses] : {std::pair<const std::string&, const std::vector<Eigen::Isometry3d>&>{estimate_path, estimate},
+                                    {truth_path, ground_truth}}) {
+    if (!poses.front().isApprox(Eigen::Isometry3d::Identity(), 1e-6)) {
+      std::fprintf(stderr, "eval odometry: note: %s does not start at the identity; the end-point error and the ATE compare "
+                           "positions as given\n", path.c_str());
+    }
+  }
+  io::OdometrySettings settings;
+  settings.segment_lengths_m = options.segment_lengths_m;
+  settings.step_frames = options.step_frames.value_or(1);
+  io::OdometryErrors errors;
+  try {
+    errors = io::evaluate_odometry(estimate, ground_truth, settings);
+  } catch (const io::OdometryEvaluationError& error) {
+    const std::string advice = options.segment_lengths_m.empty() ? "" : " (--lengths)";
+    throw CommandError(kExitInput, truth_path + ": " + error.what() + advice);
+  }
+  std::vector<double> lengths_m;
+  for (const io::LengthErrors& summary : errors.per_length) lengths_m.push_back(summary.length_m);
+  const std::string lengths_source = options.segment_lengths_m.empty() ? "automatic: the lengths the path allows" : "--lengths";
+
+  std::printf("eval odometry: %s (estimate) against %s (ground truth): %d frames\n", estimate_path.c_str(), truth_path.c_str(),
+              errors.frames);
+  std::printf("path length: ground truth %.2f m, estimate %.2f m\n", errors.ground_truth_path_m, errors.estimate_path_m);
+  std::printf("KITTI odometry metric (devkit evaluate_odometry): segments from every %d frame(s), lengths %s (%s); error = "
+              "relative pose error over the segment / its length\n",
+              errors.step_frames, lengths_text(lengths_m).c_str(), lengths_source.c_str());
+  std::printf("  %10s %9s %15s %17s\n", "length m", "segments", "translation %", "rotation deg/m");
+  for (const io::LengthErrors& summary : errors.per_length) {
+    std::printf("  %10s %9d %15s %17s\n", number(summary.length_m, "%g").c_str(), summary.segments,
+                number(summary.translation_error_pct, "%.3f").c_str(), number(summary.rotation_error_deg_per_m, "%.5f").c_str());
+  }
+  std::printf("  %10s %9zu %15.3f %17.5f   (mean over all segments, as KITTI)\n", "all", errors.segments.size(),
+              errors.translation_error_pct, errors.rotation_error_deg_per_m);
+  std::printf("end point: %.3f m (%s %% of the path), rotation %.3f deg\n", errors.end_point_error_m,
+              number(errors.end_point_error_pct, "%.2f").c_str(), errors.end_rotation_error_deg);
+  std::printf("ATE (RMS position error over the frames, no alignment): %.3f m\n", errors.ate_rmse_m);
+  std::printf("translation error %.3f %%, rotation error %.5f deg/m\n", errors.translation_error_pct,
+              errors.rotation_error_deg_per_m);
+
+  if (!options.plot_path.empty()) {
+    TrajectoryPlotLabels labels;
+    char title[160];
+    std::snprintf(title, sizeof title, "translation error %.2f %%, rotation error %.4f deg/m, end point %.2f m",
+                  errors.translation_error_pct, errors.rotation_error_deg_per_m, errors.end_point_error_m);
+    labels.title = title;
+    labels.estimate_name = std::filesystem::path(estimate_path).filename().string();
+    labels.ground_truth_name = std::filesystem::path(truth_path).filename().string();
+    io::write_image(options.plot_path, draw_trajectory_plot(estimate, ground_truth, labels));
+    std::printf("plot: %s\n", options.plot_path.c_str());
+  }
+  if (!options.json_path.empty()) {
+    nlohmann::json report;
+    report["benchmark"] = "odometry";
+    report["estimate"] = estimate_path;
+    report["ground_truth"] = truth_path;
+    report["frames"] = errors.frames;
+    report["step_frames"] = errors.step_frames;
+    report["lengths_m"] = lengths_m;
+    report["lengths_source"] = options.segment_lengths_m.empty() ? "automatic" : "--lengths";
+    report["ground_truth_path_m"] = errors.ground_truth_path_m;
+    report["estimate_path_m"] = errors.estimate_path_m;
+    report["segments"] = errors.segments.size();
+    report["translation_error_pct"] = errors.translation_error_pct;
+    report["rotation_error_deg_per_m"] = errors.rotation_error_deg_per_m;
+    report["per_length"] = nlohmann::json::array();
+    for (const io::LengthErrors& summary : errors.per_length) {
+      report["per_length"].push_back({{"length_m", summary.length_m},
+                                      {"segments", summary.segments},
+                                      {"translation_error_pct", number_or_null(summary.translation_error_pct)},
+                                      {"rotation_error_deg_per_m", number_or_null(summary.rotation_error_deg_per_m)}});
+    }
+    report["end_point_error_m"] = errors.end_point_error_m;
+    report["end_point_error_pct"] = number_or_null(errors.end_point_error_pct);
+    report["end_rotation_error_deg"] = errors.end_rotation_error_deg;
+    report["ate_rmse_m"] = errors.ate_rmse_m;
+    write_file_atomically(options.json_path, report.dump(2) + "\n");
+    std::printf("report: %s\n", options.json_path.c_str());
+  }
+  return 0;
+}
+
 }  // namespace
 
 int run_eval(const EvalOptions& options) {
+  if (options.benchmark == "odometry") return run_eval_odometry(options);
   if (options.benchmark != "middlebury" && options.benchmark != "kitti") {
-    throw CommandError(kExitUsage, "eval: expected 'middlebury' or 'kitti', got '" + options.benchmark + "'");
+    throw CommandError(kExitUsage, "eval: expected 'middlebury', 'kitti' or 'odometry', got '" + options.benchmark + "'");
+  }
+  if (!options.files.empty()) {
+    throw CommandError(kExitUsage, "eval " + options.benchmark + ": expected no file (the pairs come from --data), got '" +
+                                       options.files.front() + "'");
+  }
+  if (!options.segment_lengths_m.empty() || options.step_frames || !options.plot_path.empty()) {
+    throw CommandError(kExitUsage, "--lengths, --step, --plot: only for eval odometry, not eval " + options.benchmark);
   }
   const bool with_opencv = options.baseline == "opencv";
   if (!options.baseline.empty() && !with_opencv) {

@@ -3,7 +3,8 @@
 //               s16; optional multi-resolution, rectification with a calibration, right-view map,
 //               fill, colour view, profile on a target), or --synthetic: the built-in scene into a
 //               folder with its colour view, truth and cv1-class profile
-//   eval        middlebury | kitti: accuracy on the shared data, optionally beside OpenCV StereoSGBM
+//   eval        middlebury | kitti: accuracy on the shared data, optionally beside OpenCV StereoSGBM;
+//               odometry: a trajectory against its ground truth (KITTI odometry metric)
 //   profile     the cost of a graph on a target at a frame size: report JSON, Perfetto trace,
 //               Markdown summary; --enforce exits 3 when over the time or bandwidth budget
 //   graph       verify | dot
@@ -561,10 +562,13 @@ int main(int argc, char** argv) {
 
   // eval
   tools::EvalOptions eval_options;
-  CLI::App* eval = app.add_subcommand("eval", "accuracy on the real pairs of the shared data folder (bad-N, D1, EPE, density)");
-  eval->add_option("benchmark", eval_options.benchmark, "middlebury (8 pairs) or kitti (2015, 000046)")
+  CLI::App* eval = app.add_subcommand("eval", "accuracy: disparity on the real pairs of the shared data folder (bad-N, D1, "
+                                              "EPE, density), or a trajectory against its ground truth (KITTI odometry metric)");
+  eval->add_option("benchmark", eval_options.benchmark,
+                   "middlebury (8 pairs), kitti (2015, 000046) or odometry (TRAJ.txt POSES.txt: KITTI odometry metric)")
       ->required()
-      ->check(CLI::IsMember({"middlebury", "kitti"}));
+      ->check(CLI::IsMember({"middlebury", "kitti", "odometry"}));
+  eval->add_option("files", eval_options.files, "odometry: the estimated trajectory and the ground truth (KITTI pose files)");
   eval->add_option("--data", eval_options.data_directory,
                    "shared data folder (default: $LPSTEREO_SHARED_DATA, else ../shared/data)");
   eval->add_option("--baseline", eval_options.baseline, "opencv: StereoSGBM in MODE_SGBM, MODE_SGBM_3WAY and MODE_HH too")
@@ -575,6 +579,14 @@ int main(int argc, char** argv) {
   eval->add_option("--threads", eval_options.threads, "engine worker threads (0 = one per hardware thread)")
       ->capture_default_str()
       ->check(CLI::Range(0, 256));
+  eval->add_option("--lengths", eval_options.segment_lengths_m,
+                   "odometry: segment lengths in metres, comma-separated (default: the lengths the path allows, "
+                   "KITTI's 100,...,800 beyond 800 m)")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
+  eval->add_option("--step", eval_options.step_frames, "odometry: segments start every N frames (default 1; KITTI's devkit: 10)")
+      ->check(CLI::PositiveNumber);
+  eval->add_option("--plot", eval_options.plot_path, "odometry: top view of the estimate against the ground truth (PNG)");
 
   // profile
   std::string profile_graph, profile_target = "cv1-class";
