@@ -315,11 +315,8 @@ void write_stereo_flight(const std::string& directory, const StereoFlightOptions
     json["frames"] = count;
     json["fps"] = options.frames > 0 ? (count - 1) / plan.duration_s : options.fps;
     json["duration_s"] = plan.duration_s;
-    json["samples_per_pixel"] = options.samples_per_axis * options.samples_per_axis;
-    json["noise_sigma"] = options.noise_sigma;
-    json["right_gain"] = options.right_gain;
-    json["right_offset"] = options.right_offset;
-    json["seed"] = options.seed;
+    synth_detail::add_sensor_settings(json, options.samples_per_axis, options.noise_sigma, options.right_gain, options.right_offset,
+                                      options.seed);
     json["ground_frame"] = "origin at the pad centre on the ground, Z up, X right and Y up in the first image, metres";
     json["camera_frame"] = "left camera: x right, y down, z forward (looking down), metres; poses.txt maps it into the first frame's";
     json["pad"] = {{"centre_m", {0, 0, 0}}, {"size_m", kPadSide_m}};

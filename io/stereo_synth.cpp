@@ -571,11 +571,8 @@ void write_stereo_synth(const std::string& directory, const StereoSynthScene& sc
     json["slope_deg"] = options.slope_deg;
     json["slope_start_m"] = options.slope_start_m;
     json["background_distance_m"] = options.background_distance_m;
-    json["samples_per_pixel"] = options.samples_per_axis * options.samples_per_axis;
-    json["noise_sigma"] = options.noise_sigma;
-    json["right_gain"] = options.right_gain;
-    json["right_offset"] = options.right_offset;
-    json["seed"] = options.seed;
+    synth_detail::add_sensor_settings(json, options.samples_per_axis, options.noise_sigma, options.right_gain, options.right_offset,
+                                      options.seed);
     json["frame"] = "left camera: x right, y down, z forward, metres";
     json["objects"] = nlohmann::json::array();
     for (const SynthObjectTruth& t : scene.objects) {

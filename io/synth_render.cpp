@@ -102,6 +102,15 @@ cv::Mat kitti_disparity_truth(const cv::Mat& disparity_px) {
   return kitti;
 }
 
+void add_sensor_settings(nlohmann::json& json, int samples_per_axis, double noise_sigma, double right_gain, double right_offset,
+                         uint32_t seed) {
+  json["samples_per_pixel"] = samples_per_axis * samples_per_axis;
+  json["noise_sigma"] = noise_sigma;
+  json["right_gain"] = right_gain;
+  json["right_offset"] = right_offset;
+  json["seed"] = seed;
+}
+
 std::string number(double x) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%.12e", x);

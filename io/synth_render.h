@@ -13,6 +13,7 @@
 #include <functional>
 #include <string>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "io/calibration.h"
@@ -118,6 +119,11 @@ std::string kitti_projection_line(const std::string& name, double focal_px, doub
 // format (>= 256 px) has none either rather than a wrong one. Not io::write_kitti_disparity_png: that
 // one takes s16 Q4 (1/16 px) and the truth keeps the format's full 1/256 px.
 cv::Mat kitti_disparity_truth(const cv::Mat& disparity_px);
+
+// The sensor settings both generators record in their JSON: samples_per_pixel, noise_sigma,
+// right_gain, right_offset, seed.
+void add_sensor_settings(nlohmann::json& json, int samples_per_axis, double noise_sigma, double right_gain, double right_offset,
+                         uint32_t seed);
 
 // "%.12e": numbers in calibration files, full precision.
 std::string number(double x);
