@@ -192,8 +192,8 @@ FlightState flight_state_at(const StereoFlightOptions& options, const FlightPlan
   state.yaw_rad = leg->from_yaw_rad + s * (leg->to_yaw_rad - leg->from_yaw_rad);
   if (options.yaw_mode == FlightYawMode::continuous) {
     // The integral of a rate envelope that ramps linearly 0 -> 1 over r, stays 1, ramps 1 -> 0 over
-    // the last r (the flight lasts far longer than 2 r: the take-off alone is several seconds).
-    const double r = kContinuousYawRamp_s, end = plan.duration_s;
+    // the last r (r shrinks for a flight shorter than two ramps, which only extreme speeds give).
+    const double end = plan.duration_s, r = std::min(kContinuousYawRamp_s, end / 2);
     double integral = t - r / 2;
     if (t < r) integral = t * t / (2 * r);
     if (t > end - r) integral = (end - r) - (end - t) * (end - t) / (2 * r);
@@ -336,7 +336,8 @@ void write_stereo_flight(const std::string& directory, const StereoFlightOptions
                               {"start_s", leg.start_s},
                               {"end_s", leg.end_s},
                               {"to_m", {leg.to_m.x(), leg.to_m.y(), leg.to_m.z()}},
-                              {"to_yaw_deg", leg.to_yaw_rad * 180 / kPi}});
+                              {"to_yaw_deg", options.yaw_mode == FlightYawMode::continuous ? nlohmann::json()  // yaw follows the clock
+                                                                                            : nlohmann::json(leg.to_yaw_rad * 180 / kPi)}});
     }
     synth_detail::write_text(folder / "flight.json", json.dump(2) + "\n");
   });

@@ -144,6 +144,15 @@ TEST_F(SynthCli, FlightFolderReadsBack) {
   EXPECT_EQ(entries(), 1);
 }
 
+TEST_F(SynthCli, FlightIntoAnUnwritableFolderGivesOneLineAndExit1) {
+  std::ofstream(path("file")) << "not a folder";
+  const Result result = run("synth --flight --frames 2 --width 16 --height 16 -o " + path("file") + "/flight");
+  EXPECT_EQ(result.exit_code, 1) << result.err;
+  EXPECT_EQ(lines(result.err), 1) << result.err;
+  EXPECT_NE(result.err.find(path("file")), std::string::npos) << result.err;
+  EXPECT_EQ(entries(), 1);  // no temporary folder left
+}
+
 TEST_F(SynthCli, FlightBadOptionsGiveOneLineAndExit2) {
   const std::pair<std::string, std::string> cases[] = {
       {"--flight --yaw spin", "--yaw"},
