@@ -113,9 +113,8 @@ Eigen::Isometry3d left_camera_pose(const Eigen::Vector3d& rig_m, double yaw_rad,
 }  // namespace
 
 void validate_flight_options(const StereoFlightOptions& o) {
-  require(o.width >= 16 && o.width <= 16384, "width", "16..16384 px", o.width);
-  require(o.height >= 16 && o.height <= 16384, "height", "16..16384 px", o.height);
-  require(o.hfov_deg > 1 && o.hfov_deg < 170, "hfov-deg", "a field of view in (1, 170) degrees", o.hfov_deg);
+  synth_detail::validate_camera_and_sensor(o.width, o.height, o.hfov_deg, o.samples_per_axis, o.noise_sigma, o.right_gain, o.right_offset,
+                                          o.threads);
   require(o.baseline_m > 0 && o.baseline_m <= 1, "baseline-m", "(0, 1] metres", o.baseline_m);
   require(o.altitude_m > 0 && o.altitude_m <= 20, "altitude-m", "(0, 20] metres", o.altitude_m);
   require(o.start_height_m >= 0.2 && o.start_height_m < o.altitude_m, "start-height-m",
@@ -128,11 +127,6 @@ void validate_flight_options(const StereoFlightOptions& o) {
   require(std::abs(o.continuous_yaw_deg_s) <= 90, "yaw", "a continuous rate within +-90 degrees/s", o.continuous_yaw_deg_s);
   require(o.frames == 0 || (o.frames >= 2 && o.frames <= 1000000), "frames", "2..1000000 (or 0: from --fps)", o.frames);
   require(o.fps > 0 && o.fps <= 1000, "fps", "(0, 1000] frames per second", o.fps);
-  require(o.samples_per_axis >= 1 && o.samples_per_axis <= 4, "samples", "1..4 per axis", o.samples_per_axis);
-  require(o.noise_sigma >= 0 && o.noise_sigma <= 100, "noise-sigma", "0..100 grey levels", o.noise_sigma);
-  require(o.right_gain > 0 && o.right_gain <= 4, "gain", "(0, 4]", o.right_gain);
-  require(std::abs(o.right_offset) <= 255, "offset", "-255..255 grey levels", o.right_offset);
-  require(o.threads >= 1 && o.threads <= 256, "threads", "1..256", o.threads);
 }
 
 FlightPlan plan_flight(const StereoFlightOptions& options) {

@@ -417,9 +417,8 @@ SynthObject synth_object(SynthClass object_class, double x_m, double z_m) {
 }
 
 void validate_synth_options(const StereoSynthOptions& o) {
-  require(o.width >= 16 && o.width <= 16384, "width", "16..16384 px", o.width);
-  require(o.height >= 16 && o.height <= 16384, "height", "16..16384 px", o.height);
-  require(o.hfov_deg > 1 && o.hfov_deg < 170, "hfov-deg", "a field of view in (1, 170) degrees", o.hfov_deg);
+  synth_detail::validate_camera_and_sensor(o.width, o.height, o.hfov_deg, o.samples_per_axis, o.noise_sigma, o.right_gain, o.right_offset,
+                                          o.threads);
   require(o.baseline_m > 0 && o.baseline_m <= 10, "baseline-m", "(0, 10] metres", o.baseline_m);
   require(o.camera_height_m > 0 && o.camera_height_m <= 100, "camera-height-m", "(0, 100] metres", o.camera_height_m);
   require(std::abs(o.pitch_rad) < 0.5, "pitch", "|pitch| < 0.5 rad (28.6 degrees)", o.pitch_rad);
@@ -427,11 +426,6 @@ void validate_synth_options(const StereoSynthOptions& o) {
   require(o.slope_start_m >= 0, "slope-start-m", ">= 0 metres", o.slope_start_m);
   require(o.background_distance_m > 10 && o.background_distance_m <= 100000, "background-distance-m", "(10, 100000] metres",
           o.background_distance_m);
-  require(o.samples_per_axis >= 1 && o.samples_per_axis <= 4, "samples", "1..4 per axis", o.samples_per_axis);
-  require(o.noise_sigma >= 0 && o.noise_sigma <= 100, "noise-sigma", "0..100 grey levels", o.noise_sigma);
-  require(o.right_gain > 0 && o.right_gain <= 4, "gain", "(0, 4]", o.right_gain);
-  require(std::abs(o.right_offset) <= 255, "offset", "-255..255 grey levels", o.right_offset);
-  require(o.threads >= 1 && o.threads <= 256, "threads", "1..256", o.threads);
   for (const SynthObject& object : o.objects) {
     require(object.width_m > 0 && object.height_m > 0 && object.length_m > 0, std::string("object ") + synth_class_name(object.object_class) + " size",
             "positive metres", std::min({object.width_m, object.height_m, object.length_m}));

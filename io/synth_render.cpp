@@ -22,6 +22,18 @@ void require(bool ok, const std::string& option, const std::string& expected, do
   throw std::invalid_argument(text.str());
 }
 
+void validate_camera_and_sensor(int width, int height, double hfov_deg, int samples_per_axis, double noise_sigma, double right_gain,
+                                double right_offset, int threads) {
+  require(width >= 16 && width <= 16384, "width", "16..16384 px", width);
+  require(height >= 16 && height <= 16384, "height", "16..16384 px", height);
+  require(hfov_deg > 1 && hfov_deg < 170, "hfov-deg", "a field of view in (1, 170) degrees", hfov_deg);
+  require(samples_per_axis >= 1 && samples_per_axis <= 4, "samples", "1..4 per axis", samples_per_axis);
+  require(noise_sigma >= 0 && noise_sigma <= 100, "noise-sigma", "0..100 grey levels", noise_sigma);
+  require(right_gain > 0 && right_gain <= 4, "gain", "(0, 4]", right_gain);
+  require(std::abs(right_offset) <= 255, "offset", "-255..255 grey levels", right_offset);
+  require(threads >= 1 && threads <= 256, "threads", "1..256", threads);
+}
+
 void expose_row(const Rgb* colours, int width, const SensorModel& sensor, uint64_t seed, int view, int row, uint8_t* grey,
                 cv::Vec3b* bgr) {
   SplitMix noise{mix64((seed << 32) ^ (static_cast<uint64_t>(view) << 31) ^ static_cast<uint64_t>(row))};
@@ -86,7 +98,8 @@ StereoCalibration pinhole_pair_calibration(int width, int height, double focal_p
 }
 
 std::string kitti_projection_line(const std::string& name, double focal_px, double cx_px, double cy_px, double baseline_m) {
-  return name + ": " + number(focal_px) + " 0 " + number(cx_px) + " " + number(-focal_px * baseline_m) + " 0 " + number(focal_px) +
+  const double tx = baseline_m == 0 ? 0.0 : -focal_px * baseline_m;  // the reference camera: 0, not -0
+  return name + ": " + number(focal_px) + " 0 " + number(cx_px) + " " + number(tx) + " 0 " + number(focal_px) +
          " " + number(cy_px) + " 0 0 0 1 0\n";
 }
 

@@ -91,6 +91,11 @@ inline uint8_t to_u8(double x) { return static_cast<uint8_t>(std::clamp(std::lro
 // Throws std::invalid_argument "<option>: expected <expected>, got <actual>" unless ok.
 void require(bool ok, const std::string& option, const std::string& expected, double actual);
 
+// The checks both generators make on the camera and sensor they share (the option names of the
+// command line): width, height, hfov-deg, samples, noise-sigma, gain, offset, threads.
+void validate_camera_and_sensor(int width, int height, double hfov_deg, int samples_per_axis, double noise_sigma, double right_gain,
+                                double right_offset, int threads);
+
 // The sensor of one rendered row of one view: BT.601 luma of the colours, the camera's gain and
 // offset, Gaussian noise of noise_sigma grey levels from a generator seeded by (seed, view, row) (so
 // the result does not depend on which thread rendered the row), rounded and clamped to 0..255.
