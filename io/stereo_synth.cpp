@@ -1,5 +1,7 @@
 #include "io/stereo_synth.h"
 
+#include "io/synth_render.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -22,76 +24,24 @@ namespace lpstereo::io {
 namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
-constexpr double kPi = 3.14159265358979323846;
-
-// ---- deterministic hashing and value noise (no std distributions: their output differs between
-// standard libraries, and a scene must be the same everywhere for a seed) ----
-
-uint64_t mix64(uint64_t h) {
-  h ^= h >> 30;
-  h *= 0xBF58476D1CE4E5B9ull;
-  h ^= h >> 27;
-  h *= 0x94D049BB133111EBull;
-  h ^= h >> 31;
-  return h;
-}
-
-struct SplitMix {
-  uint64_t state;
-  uint64_t next() { return mix64(state += 0x9E3779B97F4A7C15ull); }
-  double uniform() { return static_cast<double>(next() >> 11) * (1.0 / 9007199254740992.0); }  // [0, 1)
-  double uniform(double low, double high) { return low + (high - low) * uniform(); }
-  double gaussian() {  // Box-Muller; one value per call is enough here
-    const double u1 = std::max(uniform(), 1e-300), u2 = uniform();
-    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2 * kPi * u2);
-  }
-};
-
-double lattice(int64_t x, int64_t y, uint64_t seed) {
-  const uint64_t h = mix64(static_cast<uint64_t>(x) * 0x9E3779B97F4A7C15ull ^ mix64(static_cast<uint64_t>(y) ^ seed));
-  return static_cast<double>(h >> 40) * (2.0 / 16777216.0) - 1.0;  // [-1, 1)
-}
-
-double value_noise(double x, double y, uint64_t seed) {
-  const double fx = std::floor(x), fy = std::floor(y);
-  const auto ix = static_cast<int64_t>(fx), iy = static_cast<int64_t>(fy);
-  double sx = x - fx, sy = y - fy;
-  sx = sx * sx * (3 - 2 * sx);
-  sy = sy * sy * (3 - 2 * sy);
-  const double top = lattice(ix, iy, seed) + sx * (lattice(ix + 1, iy, seed) - lattice(ix, iy, seed));
-  const double bottom = lattice(ix, iy + 1, seed) + sx * (lattice(ix + 1, iy + 1, seed) - lattice(ix, iy + 1, seed));
-  return top + sy * (bottom - top);
-}
-
-// Octaves of value noise with cells `cells_m` (metres, or radians x 1000 for the sky). An octave
-// fades out as its cell shrinks to the pixel footprint at the hit (full weight from 3 footprints,
-// none below 1): the texture a camera would see blurred, instead of aliasing that differs between
-// the two views.
-struct Texture {
-  double cells[4];
-  double amplitudes[4];
-  int octaves;
-};
-
-double texture(const Texture& t, double s, double r, uint64_t seed, double footprint) {
-  double sum = 0;
-  for (int k = 0; k < t.octaves; ++k) {
-    const double weight = std::clamp((t.cells[k] / footprint - 1.0) * 0.5, 0.0, 1.0);
-    if (weight > 0) sum += weight * t.amplitudes[k] * value_noise(s / t.cells[k], r / t.cells[k], seed + 7919u * static_cast<uint64_t>(k));
-  }
-  return sum;
-}
+// Hashing, value noise, textures and the sensor are shared with the flight (io/synth_render.h).
+using synth_detail::kPi;
+using synth_detail::mix64;
+using synth_detail::Rgb;
+using synth_detail::SplitMix;
+using synth_detail::Texture;
+using synth_detail::texture;
+using synth_detail::value_noise;
+using synth_detail::require;
+using synth_detail::write_png;
+using synth_detail::write_text;
+using synth_detail::number;
 
 constexpr Texture kAsphalt{{0.03, 0.09, 0.27, 0.8}, {0.3, 0.25, 0.2, 0.15}, 4};
 constexpr Texture kVerge{{0.05, 0.15, 0.45, 1.5}, {0.3, 0.25, 0.25, 0.2}, 4};
 constexpr Texture kObject{{0.012, 0.035, 0.1, 0.3}, {0.25, 0.2, 0.15, 0.1}, 4};
 constexpr Texture kWall{{0.4, 1.2, 3.6, 11}, {0.3, 0.3, 0.25, 0.2}, 4};
 constexpr Texture kSky{{4, 12, 36, 100}, {0.06, 0.08, 0.1, 0.1}, 4};  // milliradians
-
-struct Rgb {
-  double r = 0, g = 0, b = 0;
-};
-Rgb operator*(Rgb c, double k) { return {c.r * k, c.g * k, c.b * k}; }
 
 struct Vec {
   double x = 0, y = 0, z = 0;
@@ -434,15 +384,6 @@ class Renderer {
   std::vector<Placed> placed_;
 };
 
-uint8_t to_u8(double x) { return static_cast<uint8_t>(std::clamp(std::lround(x), 0L, 255L)); }
-
-void require(bool ok, const std::string& option, const std::string& expected, double actual) {
-  if (ok) return;
-  std::ostringstream text;
-  text << option << ": expected " << expected << ", got " << actual;
-  throw std::invalid_argument(text.str());
-}
-
 }  // namespace
 
 const char* synth_class_name(SynthClass object_class) {
@@ -476,9 +417,8 @@ SynthObject synth_object(SynthClass object_class, double x_m, double z_m) {
 }
 
 void validate_synth_options(const StereoSynthOptions& o) {
-  require(o.width >= 16 && o.width <= 16384, "width", "16..16384 px", o.width);
-  require(o.height >= 16 && o.height <= 16384, "height", "16..16384 px", o.height);
-  require(o.hfov_deg > 1 && o.hfov_deg < 170, "hfov-deg", "a field of view in (1, 170) degrees", o.hfov_deg);
+  synth_detail::validate_camera_and_sensor(o.width, o.height, o.hfov_deg, o.samples_per_axis, o.noise_sigma, o.right_gain, o.right_offset,
+                                          o.threads);
   require(o.baseline_m > 0 && o.baseline_m <= 10, "baseline-m", "(0, 10] metres", o.baseline_m);
   require(o.camera_height_m > 0 && o.camera_height_m <= 100, "camera-height-m", "(0, 100] metres", o.camera_height_m);
   require(std::abs(o.pitch_rad) < 0.5, "pitch", "|pitch| < 0.5 rad (28.6 degrees)", o.pitch_rad);
@@ -486,11 +426,6 @@ void validate_synth_options(const StereoSynthOptions& o) {
   require(o.slope_start_m >= 0, "slope-start-m", ">= 0 metres", o.slope_start_m);
   require(o.background_distance_m > 10 && o.background_distance_m <= 100000, "background-distance-m", "(10, 100000] metres",
           o.background_distance_m);
-  require(o.samples_per_axis >= 1 && o.samples_per_axis <= 4, "samples", "1..4 per axis", o.samples_per_axis);
-  require(o.noise_sigma >= 0 && o.noise_sigma <= 100, "noise-sigma", "0..100 grey levels", o.noise_sigma);
-  require(o.right_gain > 0 && o.right_gain <= 4, "gain", "(0, 4]", o.right_gain);
-  require(std::abs(o.right_offset) <= 255, "offset", "-255..255 grey levels", o.right_offset);
-  require(o.threads >= 1 && o.threads <= 256, "threads", "1..256", o.threads);
   for (const SynthObject& object : o.objects) {
     require(object.width_m > 0 && object.height_m > 0 && object.length_m > 0, std::string("object ") + synth_class_name(object.object_class) + " size",
             "positive metres", std::min({object.width_m, object.height_m, object.length_m}));
@@ -546,61 +481,31 @@ StereoSynthScene render_stereo_synth(const StereoSynthOptions& options, const st
   scene.object_ids.create(height, width, CV_16UC1);
   const double fb = scene.focal_px * options.baseline_m;
 
-  std::atomic<int> next_row{0}, rows_done{0};
-  std::mutex progress_mutex;
-  int reported_percent = -1;
-  auto work = [&] {
+  const synth_detail::SensorModel sensors[2] = {{options.noise_sigma, 1.0, 0.0},
+                                                {options.noise_sigma, options.right_gain, options.right_offset}};
+  auto render_row = [&](int v) {
     std::vector<Rgb> row(static_cast<size_t>(width));
-    for (;;) {
-      const int v = next_row.fetch_add(1);
-      if (v >= height) return;
-      for (int view = 0; view < 2; ++view) {
-        for (int u = 0; u < width; ++u) {
-          Rgb sum;
-          for (int j = 0; j < samples; ++j) {
-            for (int i = 0; i < samples; ++i) {
-              const Sample s = renderer.trace(view, u + (i + 0.5) / samples - 0.5, v + (j + 0.5) / samples - 0.5, u, v);
-              sum.r += s.colour.r, sum.g += s.colour.g, sum.b += s.colour.b;
-            }
-          }
-          row[static_cast<size_t>(u)] = sum * (1.0 / (samples * samples));
-          if (view == 0) {  // ground truth from the ray through the pixel centre
-            const Sample centre = renderer.trace(0, u, v, u, v);
-            scene.disparity_px.at<float>(v, u) = std::isfinite(centre.depth) ? static_cast<float>(fb / centre.depth)
-                                                                              : std::numeric_limits<float>::infinity();
-            scene.object_ids.at<uint16_t>(v, u) = static_cast<uint16_t>(centre.id);
+    for (int view = 0; view < 2; ++view) {
+      for (int u = 0; u < width; ++u) {
+        Rgb sum;
+        for (int j = 0; j < samples; ++j) {
+          for (int i = 0; i < samples; ++i) {
+            sum = sum + renderer.trace(view, u + (i + 0.5) / samples - 0.5, v + (j + 0.5) / samples - 0.5, u, v).colour;
           }
         }
-        // Sensor: the right camera's gain and offset, then noise, per view and row from its own
-        // seed so the result does not depend on which thread rendered the row.
-        SplitMix noise{mix64((uint64_t{options.seed} << 32) ^ (static_cast<uint64_t>(view) << 31) ^ static_cast<uint64_t>(v))};
-        const double gain = view == 1 ? options.right_gain : 1.0, offset = view == 1 ? options.right_offset : 0.0;
-        uint8_t* grey = views[view].ptr<uint8_t>(v);
-        for (int u = 0; u < width; ++u) {
-          const Rgb& c = row[static_cast<size_t>(u)];
-          const double n = options.noise_sigma > 0 ? options.noise_sigma * noise.gaussian() : 0.0;
-          grey[u] = to_u8(gain * (0.299 * c.r + 0.587 * c.g + 0.114 * c.b) + offset + n);
-          if (options.colour) {
-            cv::Vec3b& bgr = colours[view].at<cv::Vec3b>(v, u);
-            bgr = {to_u8(gain * c.b + offset + n), to_u8(gain * c.g + offset + n), to_u8(gain * c.r + offset + n)};
-          }
+        row[static_cast<size_t>(u)] = sum * (1.0 / (samples * samples));
+        if (view == 0) {  // ground truth from the ray through the pixel centre
+          const Sample centre = renderer.trace(0, u, v, u, v);
+          scene.disparity_px.at<float>(v, u) = std::isfinite(centre.depth) ? static_cast<float>(fb / centre.depth)
+                                                                            : std::numeric_limits<float>::infinity();
+          scene.object_ids.at<uint16_t>(v, u) = static_cast<uint16_t>(centre.id);
         }
       }
-      const int done = rows_done.fetch_add(1) + 1;
-      if (progress) {
-        const int percent = static_cast<int>(100LL * done / height);
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        if (percent != reported_percent) {
-          reported_percent = percent;
-          progress(static_cast<double>(done) / height);
-        }
-      }
+      synth_detail::expose_row(row.data(), width, sensors[view], options.seed, view, v, views[view].ptr<uint8_t>(v),
+                               options.colour ? colours[view].ptr<cv::Vec3b>(v) : nullptr);
     }
   };
-  std::vector<std::thread> threads;
-  for (int i = 1; i < options.threads; ++i) threads.emplace_back(work);
-  work();
-  for (std::thread& thread : threads) thread.join();
+  synth_detail::render_rows(height, options.threads, render_row, progress);
 
   scene.left = views[0];
   scene.right = views[1];
@@ -633,92 +538,20 @@ StereoSynthScene render_stereo_synth(const StereoSynthOptions& options, const st
     }
   }
 
-  StereoCalibration& calibration = scene.calibration;
-  for (CameraModel* camera : {&calibration.left, &calibration.right}) {
-    camera->width_px = width;
-    camera->height_px = height;
-    camera->fx_px = camera->fy_px = scene.focal_px;
-    camera->cx_px = renderer.camera().cx_px;
-    camera->cy_px = renderer.camera().cy_px;
-  }
-  calibration.translation_m = {-options.baseline_m, 0, 0};
-  calibration.already_rectified = true;
-  StereoRectification rectification;
-  const double f = scene.focal_px, cx = renderer.camera().cx_px, cy = renderer.camera().cy_px;
-  rectification.p1 = {f, 0, cx, 0, 0, f, cy, 0, 0, 0, 1, 0};
-  rectification.p2 = {f, 0, cx, -f * options.baseline_m, 0, f, cy, 0, 0, 0, 1, 0};
-  rectification.q = {1, 0, 0, -cx, 0, 1, 0, -cy, 0, 0, 0, f, 0, 0, 1 / options.baseline_m, 0};
-  calibration.rectification = rectification;
-  calibration.format = "opencv";
-  calibration.source = "lpstereo synth";
+  scene.calibration = synth_detail::pinhole_pair_calibration(width, height, scene.focal_px, renderer.camera().cx_px,
+                                                                 renderer.camera().cy_px, options.baseline_m);
   return scene;
 }
 
-namespace {
-
-void write_png(const std::filesystem::path& path, const cv::Mat& image) {
-  bool ok = false;
-  try {
-    ok = cv::imwrite(path.string(), image);
-  } catch (const cv::Exception&) {
-    ok = false;
-  }
-  if (!ok) throw std::runtime_error(path.string() + ": could not write the PNG");
-}
-
-void write_text(const std::filesystem::path& path, const std::string& text) {
-  std::ofstream file(path, std::ios::binary);
-  file << text;
-  file.close();
-  if (!file) throw std::runtime_error(path.string() + ": could not write the file");
-}
-
-std::string number(double x) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.12e", x);
-  return buffer;
-}
-
-}  // namespace
-
 void write_stereo_synth(const std::string& directory, const StereoSynthScene& scene, const StereoSynthOptions& options) {
-  namespace fs = std::filesystem;
-  const fs::path target = fs::absolute(fs::path(directory)).lexically_normal();
-  const fs::path name = target.filename().empty() ? target.parent_path().filename() : target.filename();
-  const fs::path parent = target.filename().empty() ? target.parent_path().parent_path() : target.parent_path();
-  std::error_code error;
-  if (!fs::is_directory(parent, error)) {
-    throw std::runtime_error(directory + ": the parent folder " + parent.string() + " does not exist or is not a folder");
-  }
-  if (fs::exists(target, error) && !fs::is_directory(target, error)) {
-    throw std::runtime_error(directory + ": exists and is not a folder");
-  }
-  const std::string suffix = "." + std::to_string(::getpid());
-  const fs::path temporary = parent / ("." + name.string() + ".tmp" + suffix);
-  const fs::path old = parent / ("." + name.string() + ".old" + suffix);
-  fs::remove_all(temporary, error);
-  if (!fs::create_directory(temporary, error)) {
-    throw std::runtime_error(directory + ": could not create the temporary folder " + temporary.string() + ": " + error.message());
-  }
-  try {
+  synth_detail::write_folder_atomically(directory, [&](const std::filesystem::path& temporary) {
     write_png(temporary / "left.png", scene.left);
     write_png(temporary / "right.png", scene.right);
     if (!scene.left_colour.empty()) {
       write_png(temporary / "left_colour.png", scene.left_colour);
       write_png(temporary / "right_colour.png", scene.right_colour);
     }
-    // KITTI: disparity x 256 in 16 bits, 0 = no ground truth; a disparity too large for the format
-    // (>= 256 px) has none either rather than a wrong one. Not io::write_kitti_disparity_png: that
-    // one takes s16 Q4 (1/16 px) and the truth keeps the format's full 1/256 px.
-    cv::Mat kitti(scene.disparity_px.size(), CV_16UC1);
-    for (int v = 0; v < kitti.rows; ++v) {
-      for (int u = 0; u < kitti.cols; ++u) {
-        const float d = scene.disparity_px.at<float>(v, u);
-        const double scaled = std::round(static_cast<double>(d) * 256.0);
-        kitti.at<uint16_t>(v, u) = std::isfinite(d) && d > 0 && scaled <= 65535 ? static_cast<uint16_t>(std::max(1.0, scaled)) : 0;
-      }
-    }
-    write_png(temporary / "disparity.png", kitti);
+    write_png(temporary / "disparity.png", synth_detail::kitti_disparity_truth(scene.disparity_px));
     write_png(temporary / "object_ids.png", scene.object_ids);
 
     nlohmann::json json;
@@ -732,11 +565,8 @@ void write_stereo_synth(const std::string& directory, const StereoSynthScene& sc
     json["slope_deg"] = options.slope_deg;
     json["slope_start_m"] = options.slope_start_m;
     json["background_distance_m"] = options.background_distance_m;
-    json["samples_per_pixel"] = options.samples_per_axis * options.samples_per_axis;
-    json["noise_sigma"] = options.noise_sigma;
-    json["right_gain"] = options.right_gain;
-    json["right_offset"] = options.right_offset;
-    json["seed"] = options.seed;
+    synth_detail::add_sensor_settings(json, options.samples_per_axis, options.noise_sigma, options.right_gain, options.right_offset,
+                                      options.seed);
     json["frame"] = "left camera: x right, y down, z forward, metres";
     json["objects"] = nlohmann::json::array();
     for (const SynthObjectTruth& t : scene.objects) {
@@ -757,30 +587,11 @@ void write_stereo_synth(const std::string& directory, const StereoSynthScene& sc
     write_opencv_yaml((temporary / "calib.yaml").string(), scene.calibration,
                       "lpstereo synth: rectified pinhole pair, baseline " + number(options.baseline_m) + " m");
     const double f = scene.focal_px, cx = scene.calibration.left.cx_px, cy = scene.calibration.left.cy_px;
-    std::string kitti_text = "S_rect_02: " + number(options.width) + " " + number(options.height) + "\n";
-    kitti_text += "P_rect_02: " + number(f) + " 0 " + number(cx) + " 0 0 " + number(f) + " " + number(cy) + " 0 0 0 1 0\n";
-    kitti_text += "S_rect_03: " + number(options.width) + " " + number(options.height) + "\n";
-    kitti_text += "P_rect_03: " + number(f) + " 0 " + number(cx) + " " + number(-f * options.baseline_m) + " 0 " + number(f) + " " +
-                  number(cy) + " 0 0 0 1 0\n";
+    const std::string size = number(options.width) + " " + number(options.height) + "\n";
+    const std::string kitti_text = "S_rect_02: " + size + synth_detail::kitti_projection_line("P_rect_02", f, cx, cy, 0) +
+                                   "S_rect_03: " + size + synth_detail::kitti_projection_line("P_rect_03", f, cx, cy, options.baseline_m);
     write_text(temporary / "calib_cam_to_cam.txt", kitti_text);
-
-    // Swap the finished folder in: the old one (if any) aside, the new one in place, the old one away.
-    const bool replacing = fs::exists(target, error);
-    if (replacing) fs::rename(target, old);
-    try {
-      fs::rename(temporary, target);
-    } catch (...) {
-      if (replacing) fs::rename(old, target, error);  // put the previous folder back
-      throw;
-    }
-    if (replacing) fs::remove_all(old, error);
-  } catch (const fs::filesystem_error& e) {
-    fs::remove_all(temporary, error);
-    throw std::runtime_error(directory + ": " + e.what());
-  } catch (...) {
-    fs::remove_all(temporary, error);
-    throw;
-  }
+  });
 }
 
 }  // namespace lpstereo::io

@@ -5,12 +5,20 @@
 // docs/synth.md): left.png, right.png, disparity.png (KITTI), object_ids.png, objects.json,
 // calib.yaml, calib_cam_to_cam.txt. The scene: random objects on the road (by --seed), the range-test
 // row of objects at a distance (--lineup), or no objects (--empty).
+//
+// lpstereo synth --flight -o DIR [--frames N | --fps F] [--yaw none|corners:DEG[,DEG,DEG,DEG]|continuous:DEG_S]
+//     [--side-m L --altitude-m A --start-height-m H --speed-mps V --focal-px F --disparity] (+ the shared
+//     --width --height --hfov-deg --baseline-m --noise-sigma --gain --offset --seed --samples --threads)
+// A downward-looking drone flight (io/stereo_flight.h): left/ and right/ frames, poses.txt (KITTI),
+// times.txt, heights.txt, calib.txt (KITTI odometry P0 P1), calib.yaml, flight.json.
 #pragma once
 
 #include <CLI/CLI.hpp>
 
 #include <string>
+#include <vector>
 
+#include "io/stereo_flight.h"
 #include "io/stereo_synth.h"
 
 namespace lpstereo::tools {
@@ -22,6 +30,8 @@ class SynthCommand {
   int run();  // throws CommandError (one line) on bad input
 
  private:
+  int run_flight();
+
   CLI::App* command_ = nullptr;
   CLI::Option* lineup_option_ = nullptr;
   std::string output_;
@@ -29,6 +39,13 @@ class SynthCommand {
   double pitch_deg_ = 0;
   double lineup_m_ = 0;
   bool empty_ = false;
+  // --flight
+  bool flight_ = false;
+  io::StereoFlightOptions flight_options_;
+  std::string yaw_spec_ = "none";
+  double focal_px_ = 0;  // 0: from --hfov-deg
+  bool flight_disparity_ = false;
+  std::vector<CLI::Option*> road_only_, flight_only_;
 };
 
 }  // namespace lpstereo::tools

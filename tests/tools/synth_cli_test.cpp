@@ -6,12 +6,15 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "io/calibration.h"
 #include "io/disparity_io.h"
+#include "io/kitti_poses.h"
 #include "tests/support/cli_runner.h"
 #include "tests/support/scratch_directory.h"
 
@@ -95,6 +98,84 @@ TEST_F(SynthCli, UnwritableFolderGivesOneLineAndExit1) {
   EXPECT_EQ(lines(result.err), 1) << result.err;
   EXPECT_NE(result.err.find(path("file")), std::string::npos) << result.err;
   EXPECT_EQ(entries(), 1);  // only the file itself: no temporary folder left
+}
+
+TEST_F(SynthCli, FlightFolderReadsBack) {
+  // 6 frames over the flight with a quarter turn at each corner: frame 0 on the pad, frame 5 back on it.
+  const Result result = run("synth --flight -o " + path("flight") +
+                            " --width 64 --height 48 --frames 6 --yaw corners:90 --noise 1 --samples 1 --disparity --seed 3");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("ms per frame"), std::string::npos) << result.out;
+  const std::string folder = path("flight") + "/";
+  for (const char* name : {"left/000000.png", "left/000005.png", "right/000005.png", "disparity/000005.png", "poses.txt", "times.txt",
+                           "heights.txt", "calib.txt", "calib.yaml", "flight.json"}) {
+    EXPECT_TRUE(fs::is_regular_file(folder + name)) << name;
+  }
+  EXPECT_FALSE(fs::exists(folder + "left/000006.png"));
+  const std::vector<Eigen::Isometry3d> poses = lpstereo::io::read_kitti_poses(folder + "poses.txt");
+  ASSERT_EQ(poses.size(), 6u);
+  EXPECT_TRUE(poses.front().matrix().isIdentity(1e-12));
+  EXPECT_TRUE(poses.back().matrix().isIdentity(1e-9));  // landed where it took off, turned 4 x 90 degrees
+  std::ifstream heights_file(folder + "heights.txt");
+  std::vector<double> heights;
+  for (double h = 0; heights_file >> h;) heights.push_back(h);
+  ASSERT_EQ(heights.size(), 6u);
+  EXPECT_NEAR(heights.front(), 0.4, 1e-12);
+  EXPECT_NEAR(heights.back(), 0.4, 1e-12);
+  for (size_t i = 0; i < 6; ++i) EXPECT_NEAR(poses[i].translation().z(), 0.4 - heights[i], 1e-9) << i;  // z = down
+
+  const lpstereo::io::StereoCalibration odometry = lpstereo::io::load_stereo_calibration(folder + "calib.txt");
+  EXPECT_EQ(odometry.format, "kitti_odometry");
+  EXPECT_NEAR(odometry.baseline_m(), 0.10, 1e-9);
+  EXPECT_NEAR(odometry.focal_px(), 32.0, 1e-9);  // 64 px at the default 90 degrees: 32 / tan 45
+  EXPECT_NEAR(lpstereo::io::load_stereo_calibration(folder + "calib.yaml").baseline_m(), 0.10, 1e-9);
+
+  std::ifstream json_file(folder + "flight.json");
+  const nlohmann::json json = nlohmann::json::parse(json_file);
+  ASSERT_EQ(json["waypoints_m"].size(), 4u);
+  EXPECT_NEAR(json["waypoints_m"][0][0].get<double>(), 3.0, 1e-12);
+  EXPECT_NEAR(json["waypoints_m"][0][2].get<double>(), 2.0, 1e-12);
+  EXPECT_NEAR(json["pad"]["size_m"].get<double>(), 1.0, 1e-12);
+  EXPECT_EQ(json["frames"], 6);
+
+  // Exact disparity at the last frame (on the pad, 0.4 m): f B / h = 32 * 0.1 / 0.4 = 8 px.
+  const cv::Mat disparity = lpstereo::io::read_kitti_disparity_png_px(folder + "disparity/000005.png");
+  EXPECT_NEAR(disparity.at<float>(20, 30), 8.0, 1.0 / 256);
+  EXPECT_EQ(entries(), 1);
+}
+
+TEST_F(SynthCli, FlightIntoAnUnwritableFolderGivesOneLineAndExit1) {
+  std::ofstream(path("file")) << "not a folder";
+  const Result result = run("synth --flight --frames 2 --width 16 --height 16 -o " + path("file") + "/flight");
+  EXPECT_EQ(result.exit_code, 1) << result.err;
+  EXPECT_EQ(lines(result.err), 1) << result.err;
+  EXPECT_NE(result.err.find(path("file")), std::string::npos) << result.err;
+  EXPECT_EQ(entries(), 1);  // no temporary folder left
+}
+
+TEST_F(SynthCli, FlightBadOptionsGiveOneLineAndExit2) {
+  const std::pair<std::string, std::string> cases[] = {
+      {"--flight --yaw spin", "--yaw"},
+      {"--flight --yaw corners:90,90", "--yaw"},
+      {"--flight --yaw continuous:abc", "--yaw"},
+      {"--flight --yaw corners:500", "--yaw"},
+      {"--flight --side-m 0.5", "--side-m"},
+      {"--flight --frames 1", "--frames"},
+      {"--flight --start-height-m 3", "--start-height-m"},
+      {"--flight --lineup 10", "--lineup"},
+      {"--flight --pitch-deg 5", "--pitch-deg"},
+      {"--flight --focal-px 100 --hfov-deg 60", "--focal-px"},
+      {"--fps 10", "--fps"},
+      {"--flight --frames 5 --fps 3", "--"},
+  };
+  for (const auto& [arguments, named] : cases) {
+    SCOPED_TRACE(arguments);
+    const Result result = run("synth -o " + path("bad") + " " + arguments);
+    EXPECT_EQ(result.exit_code, 2) << result.err;
+    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_NE(result.err.find(named), std::string::npos) << result.err;
+    EXPECT_FALSE(fs::exists(path("bad")));
+  }
 }
 
 }  // namespace
