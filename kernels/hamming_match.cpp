@@ -18,7 +18,9 @@
 // Parameters:
 //   ratio_q8     (0 .. 256, default 205 = 0.80 x 256): the ratio test in Q8, accepted when
 //                best x 256 < ratio_q8 x second (strictly; 256: the best must only be strictly nearer).
-//                Lowe's 0.8; exact in u32 (best <= 1280 after the penalty below: 1280 x 256 < 2^19).
+//                Lowe's 0.8; exact in u32: best and second are at most 1280 (256 + the penalty below;
+//                second is a real lane value because every back end has at least 4 lanes), so
+//                best x 256 and ratio_q8 x second stay below 2^19.
 //   max_distance (0 .. 256, default 256 = no limit): accepted also requires best <= max_distance.
 // Output record, per query q:
 //   train index = the lowest-numbered valid train row at the smallest distance (ties: lowest row);
@@ -28,9 +30,10 @@
 //   best <= max_distance. With fewer than two valid trains nothing is accepted (the ratio test has
 //   nothing to compare with). An invalid query row gives {-1, 257, 257, 0}.
 //
-// Popcount: the simd contract has a per-lane popcount for u32 lanes (kernels/simd/emulated.h;
-//   vpopcntd on AVX-512 VPOPCNTDQ, the nibble-table pshufb method on SSE4.2 / AVX2, vcnt on NEON
-//   inside the back ends), so a distance is 8 xor + 8 popcount + 8 add per pair of descriptors.
+// Popcount: the simd contract has a per-lane popcount for u32 lanes (kernels/simd/emulated.h; the
+//   x86 back ends build it from a nibble table with (v)pshufb and byte sums, VPOPCNTDQ not assumed;
+//   NEON from vcnt and pairwise widening adds; one popcount op in the cost model), so a distance is
+//   8 xor + 8 popcount + 8 add per pair of descriptors.
 //
 // Vector schedule (L = B::kLanesU32; lanes are train descriptors; tiles are runs of query rows):
 //   per tile: the train set transposed into scratch, word-major: word w of trains [c L, c L + L)
