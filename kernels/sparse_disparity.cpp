@@ -28,16 +28,18 @@
 //   |d - best| > 1 (0xFFFF when there is none), the keypoint is invalid when C(best) x 100 >
 //   S2 x (100 - U); u32, C <= 800 and S2 <= 0xFFFF: no overflow (0xFFFF x 50 > 800 x 100, so a
 //   keypoint without such a d is never invalidated).
-// Sub-pixel (the SGM kernels' parabola, kernels/sgm_core.h): a = C(best - 1) - C(best) > 0,
+// Sub-pixel (the SGM kernels' parabola, kernels/parabola_subpixel.h): a = C(best - 1) - C(best) > 0,
 //   c = C(best + 1) - C(best) >= 0, q = (16 |a - c| + a + c) / (2 (a + c)) by a 4-step restoring
 //   division (0 <= q <= 8), offset = -q when c > a, else +q; no step when best is the first or last
 //   disparity of the range.
-// Output format: s16 Q4 (value / 16 = px): (min_disparity + best) x 16 + offset, |offset| <= 8,
-//   so |value| <= 2047 x 16 + 8 < 2^15 without saturation (the narrow to s16 never clamps).
-//   Invalid = (min_disparity - 1) x 16 (DESIGN.md §4, never a valid value: valid ones are >=
-//   min_disparity x 16 - 8 only when best = 0, which takes no sub-pixel step): an invalid keypoint
-//   row (kKeypointValid == 0), a keypoint outside the image (x, y read as full s32 words), or an
-//   ambiguous one.
+// Output format: s16 Q4 (value / 16 = px): (min_disparity + best) x 16 + offset, |offset| <= 8.
+//   Range: d <= 2046 gives at most 2046 x 16 = 32736 (the last disparity takes no step) and
+//   2045 x 16 + 8 = 32728 below it; d >= -2047 gives at least -32752 (the first takes no step), so
+//   the narrow to s16 never clamps (tested at both ends).
+//   Invalid = (min_disparity - 1) x 16 (DESIGN.md §4; -32768 at the bottom of the range): never a
+//   valid value, the smallest of which is min_disparity x 16 (best = 0, no step; best >= 1 gives at
+//   least min_disparity x 16 + 8). Invalid for an unused keypoint row (kKeypointValid == 0), a
+//   keypoint outside the image (x, y read as full s32 words), or an ambiguous one (uniqueness).
 //
 // Vector schedule (a chunk = 2 halves of L = B::kLanesU32 keypoints, narrowed to one s16 vector):
 //   per half: the records by gather_u16 (6: valid, x, y low and high halves; rows past the list
