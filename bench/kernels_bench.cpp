@@ -11,6 +11,11 @@
 //   disparity_to_points            vs cv::reprojectImageTo3D on the same CV_16S Q4 map (Q scaled by
 //                                  1/16): b = 0.12 m, f = 1000 px, disparities 20 .. 72 px with 1 in
 //                                  16 invalid; ours writes three s32 mm planes, OpenCV one CV_32FC3
+//   hamming_match                  vs cv::BFMatcher(NORM_HAMMING).knnMatch(k = 2) plus the ratio test
+//                                  (0.8) over the 2 neighbours: N random BRIEF-256 queries, each a
+//                                  copy of a train with up to 40 bits flipped (or random), against N
+//                                  trains, N = 512 and 2048; the best distances are checked equal
+//                                  before timing; rate = query x train pairs per second
 //
 // Sizes 1920x1080 and 3840x1728; throughput in megapixels of output per second of CPU time: the
 // rate counter "Mpx" (the console prints it with an SI prefix, "Mpx=2.5k/s" = 2500 megapixels/s).
@@ -22,11 +27,13 @@
 #include <benchmark/benchmark.h>
 
 #include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <cstring>
+#include <random>
 #include <map>
 #include <string>
 #include <tuple>
@@ -35,7 +42,9 @@
 #include "dag/plane.h"
 #include "dag/remap_table.h"
 #include "dag/tile_executor.h"
+#include "arm/tasks/keypoint_record.h"
 #include "kernels/kernel.h"
+#include "kernels/match_record.h"
 
 #include <nlohmann/json.hpp>
 #include "kernels/simd/isa.h"
@@ -200,6 +209,103 @@ void BM_opencv_reprojectImageTo3D(benchmark::State& state) {
   run_opencv(state, [&](const Frame&, cv::Mat& output) { cv::reprojectImageTo3D(map, output, q, true); });
 }
 
+// N BRIEF-256 descriptors (8 u32 words, the bytes OpenCV reads as 32 CV_8U columns) of a train set
+// and of a query set made of near copies, with all-valid keypoint lists.
+struct DescriptorSets {
+  Plane query, train, query_keypoints, train_keypoints;
+  cv::Mat cv_query, cv_train;
+};
+
+const DescriptorSets& descriptor_sets(int count) {
+  static std::map<int, DescriptorSets> sets;
+  auto found = sets.find(count);
+  if (found != sets.end()) return found->second;
+  DescriptorSets& built = sets[count];
+  std::mt19937 generator(7);
+  built.query = Plane(8, count, {ElementType::u32, 0});
+  built.train = Plane(8, count, {ElementType::u32, 0});
+  built.query_keypoints = Plane(arm::kKeypointWords, count, {ElementType::s32, 0});
+  built.train_keypoints = Plane(arm::kKeypointWords, count, {ElementType::s32, 0});
+  for (int k = 0; k < count; ++k) {
+    for (int w = 0; w < 8; ++w) built.train.at<uint32_t>(w, k) = static_cast<uint32_t>(generator());
+  }
+  for (int k = 0; k < count; ++k) {
+    const int source = static_cast<int>(generator() % static_cast<uint32_t>(count));
+    for (int w = 0; w < 8; ++w) {
+      built.query.at<uint32_t>(w, k) = k % 4 == 3 ? static_cast<uint32_t>(generator()) : built.train.at<uint32_t>(w, source);
+    }
+    const int flips = static_cast<int>(generator() % 41);
+    for (int f = 0; f < flips; ++f) {
+      const uint32_t bit = generator() % 256;
+      built.query.at<uint32_t>(static_cast<int>(bit / 32), k) ^= uint32_t{1} << (bit % 32);
+    }
+    for (Plane* list : {&built.query_keypoints, &built.train_keypoints}) {
+      list->at<int32_t>(arm::kKeypointValid, k) = 1;
+      list->at<int32_t>(arm::kKeypointXPx, k) = k;
+      list->at<int32_t>(arm::kKeypointYPx, k) = 0;
+      list->at<int32_t>(arm::kKeypointResponse, k) = 0;
+    }
+  }
+  built.cv_query = cv::Mat(count, 32, CV_8UC1, built.query.row<uint8_t>(0), static_cast<size_t>(built.query.stride_bytes()));
+  built.cv_train = cv::Mat(count, 32, CV_8UC1, built.train.row<uint8_t>(0), static_cast<size_t>(built.train.stride_bytes()));
+  return built;
+}
+
+void set_pairs_per_second(benchmark::State& state, int count) {
+  state.counters["pairs"] = benchmark::Counter(static_cast<double>(state.iterations()) * count * count, benchmark::Counter::kIsRate);
+}
+
+void BM_hamming_match(benchmark::State& state) {
+  const int count = static_cast<int>(state.range(0));
+  const DescriptorSets& sets = descriptor_sets(count);
+  const KernelDescriptor& kernel = kernel_named("hamming_match");
+  const PreparedKernel prepared = kernel.prepare({{"ratio_q8", 205}}, {{8, count}, {4, count}, {8, count}, {4, count}});
+  Plane matches(kernels::kMatchWords, count, {ElementType::s32, 0});
+  const VectorNodeBinding binding{&kernel, prepared.params.get(), BorderMode::replicate, 0,
+                                  {sets.query.view(), sets.query_keypoints.view(), sets.train.view(), sets.train_keypoints.view()},
+                                  {matches.view()}};
+  const simd::Isa isa = simd::active_isa();
+  run_vector_node(binding, kernels::kMatchWords, kTileHeight, KernelBackend::native, isa);
+  std::vector<std::vector<cv::DMatch>> cv_matches;
+  cv::BFMatcher(cv::NORM_HAMMING).knnMatch(sets.cv_query, sets.cv_train, cv_matches, 2);
+  for (int q = 0; q < count; ++q) {
+    if (cv_matches[static_cast<size_t>(q)][0].distance != static_cast<float>(matches.at<int32_t>(kernels::kMatchBestDistance, q))) {
+      state.SkipWithError("hamming_match and cv::BFMatcher disagree on a best distance");
+      return;
+    }
+  }
+  for (auto _ : state) {
+    run_vector_node(binding, kernels::kMatchWords, kTileHeight, KernelBackend::native, isa);
+    benchmark::DoNotOptimize(matches.row<uint8_t>(0));
+    benchmark::ClobberMemory();
+  }
+  set_pairs_per_second(state, count);
+}
+
+void BM_opencv_BFMatcher_knn2_ratio(benchmark::State& state) {
+  const int count = static_cast<int>(state.range(0));
+  const DescriptorSets& sets = descriptor_sets(count);
+  const cv::BFMatcher matcher(cv::NORM_HAMMING);
+  std::vector<std::vector<cv::DMatch>> cv_matches;
+  for (auto _ : state) {
+    matcher.knnMatch(sets.cv_query, sets.cv_train, cv_matches, 2);
+    int accepted = 0;
+    for (const auto& pair : cv_matches) accepted += pair.size() == 2 && pair[0].distance < 0.8f * pair[1].distance;
+    benchmark::DoNotOptimize(accepted);
+  }
+  set_pairs_per_second(state, count);
+}
+
+void descriptor_counts(benchmark::internal::Benchmark* benchmark) {
+  benchmark->ArgNames({"descriptors"})
+      ->Arg(512)
+      ->Arg(2048)
+      ->Unit(benchmark::kMillisecond)
+      ->MinWarmUpTime(kWarmUpSeconds)
+      ->Repetitions(kRepetitions)
+      ->ReportAggregatesOnly(true);
+}
+
 void sizes(benchmark::internal::Benchmark* benchmark) {
   benchmark->ArgNames({"width", "height"})
       ->Args({1920, 1080})
@@ -219,6 +325,8 @@ BENCHMARK(BM_opencv_remap_linear_float_map)->Apply(sizes);
 BENCHMARK(BM_opencv_remap_linear_fixed_map)->Apply(sizes);
 BENCHMARK(BM_disparity_to_points)->Apply(sizes);
 BENCHMARK(BM_opencv_reprojectImageTo3D)->Apply(sizes);
+BENCHMARK(BM_hamming_match)->Apply(descriptor_counts);
+BENCHMARK(BM_opencv_BFMatcher_knn2_ratio)->Apply(descriptor_counts);
 
 }  // namespace
 }  // namespace lpstereo

@@ -52,6 +52,7 @@
 
 #include "kernels/census_cost.h"
 #include "kernels/kernel.h"
+#include "kernels/parabola_subpixel.h"
 #include "kernels/row_access.h"
 #include "kernels/simd/emulated.h"
 
@@ -538,27 +539,7 @@ void sgm_tile_for(const TileArgs& args) {
           if (params.subpixel) {
             const VU32 a = B::sub(load_clipped<B>(minus_row, first, width), best_cost);
             const VU32 c = B::sub(load_clipped<B>(plus_row, first, width), best_cost);
-            const VU32 difference = B::sub(B::max(a, c), B::min(a, c));
-            const VU32 negative = B::cmpgt(c, a);
-            const VU32 denominator = B::add(a, c);
-            VU32 numerator = B::add(B::template shl<4>(difference), denominator);
-            const VU32 divisor = B::add(denominator, denominator);
-            // Restoring division, 4 quotient bits: q = numerator / divisor, 0 <= q <= 8.
-            const VU32 t3 = B::template shl<3>(divisor);
-            const VU32 below3 = B::cmplt(numerator, t3);
-            numerator = B::select(below3, numerator, B::sub(numerator, t3));
-            VU32 quotient = B::bit_andnot(below3, bit_values[3]);
-            const VU32 t2 = B::template shl<2>(divisor);
-            const VU32 below2 = B::cmplt(numerator, t2);
-            numerator = B::select(below2, numerator, B::sub(numerator, t2));
-            quotient = B::add(quotient, B::bit_andnot(below2, bit_values[2]));
-            const VU32 t1 = B::template shl<1>(divisor);
-            const VU32 below1 = B::cmplt(numerator, t1);
-            numerator = B::select(below1, numerator, B::sub(numerator, t1));
-            quotient = B::add(quotient, B::bit_andnot(below1, bit_values[1]));
-            const VU32 below0 = B::cmplt(numerator, divisor);
-            quotient = B::add(quotient, B::bit_andnot(below0, bit_values[0]));
-            const VU32 offset = B::select(negative, B::sub(zero32, quotient), quotient);
+            const VU32 offset = parabola_offset_q4<B>(a, c, bit_values, zero32);
             const VU32 interior = B::bit_and(B::cmpgt(best, zero32), B::cmplt(best, last_index32));
             disparity = B::add(disparity, B::bit_and(offset, interior));
           }

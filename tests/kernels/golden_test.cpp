@@ -162,6 +162,12 @@ const std::vector<GoldenCase>& golden_cases() {
       {"gaussian5x5", nlohmann::json::object(), BorderMode::constant, {{97, 61}}, 0x1cac97398381bbb3ull},
       // 40 keypoints on a 97 x 61 image (see golden_input), sector 3.
       {"brief256", {{"yaw_sector", 3}}, BorderMode::replicate, {{97, 61}, {4, 40}}, 0x82fa07fab96d7ccbull},
+      // 40 random query descriptors against 37 random train descriptors (distances about 128 +- 8),
+      // random valid words; ratio 0.9 and max_distance 124 (train indices and both distances are held too).
+      {"hamming_match", {{"ratio_q8", 230}, {"max_distance", 124}}, BorderMode::replicate, {{8, 40}, {4, 40}, {8, 37}, {4, 37}}, 0xb727f39e80b99c21ull},
+      // 40 keypoints (see golden_input) on 97 x 61 census planes, [-3, 21), 3 x 3 window, U = 10.
+      {"sparse_disparity", {{"min_disparity", -3}, {"num_disparities", 24}, {"window_radius", 1}, {"uniqueness_percent", 10}},
+       BorderMode::replicate, {{97, 61}, {97, 61}, {4, 40}}, 0x661230c272794cedull},
       // Camera formats to luma. u16 inputs are word & 0x0FFF: the low byte (yuyv's luma) random, the
       // high byte (uyvy's) 0 .. 15. The RGB input is 3 x 97 bytes per row of the u8 ramp plus noise.
       {"copy_u8", nlohmann::json::object(), BorderMode::replicate, {{97, 61}}, 0x06e23c25cd43a814ull},
