@@ -1,7 +1,5 @@
 #include "tools/odometry_command.h"
 
-#include <unistd.h>
-
 #include <chrono>
 #include <cstdio>
 #include <memory>
@@ -11,10 +9,10 @@
 
 #include "dag/atomic_file.h"
 #include "io/camera/file_source.h"
-#include "io/frame_pattern.h"
 #include "io/kitti_poses.h"
 #include "io/rectification.h"
 #include "tools/command_error.h"
+#include "tools/frame_sequence.h"
 #include "tools/rectified_pair.h"
 
 namespace lpstereo::tools {
@@ -59,13 +57,7 @@ OdometryCommand::OdometryCommand(CLI::App& app) {
 }
 
 int OdometryCommand::run() const {
-  for (const auto& [flag, pattern] : {std::pair{"--left", &left_pattern_}, std::pair{"--right", &right_pattern_}}) {
-    try {
-      io::FramePattern{*pattern};
-    } catch (const std::invalid_argument& error) {
-      throw CommandError(kExitUsage, std::string(flag) + " " + error.what());
-    }
-  }
+  check_frame_patterns(left_pattern_, right_pattern_);
   // A SourceError (no first frame, a size change, an unreadable file) ends the command with its line, exit 1.
   const auto source = std::make_unique<io::ImageSequenceSource>(left_pattern_, right_pattern_, io::SourceOptions{}, first_frame_,
                                                                 frame_limit_);
@@ -93,15 +85,8 @@ int OdometryCommand::run() const {
   }
   arm::StereoOdometry odometry(width, height, parameters, threads_);
 
-  // A progress bar on a terminal only (as lpstereo obstacles draws it; logs and pipes get the summary alone).
-  const bool terminal = ::isatty(STDERR_FILENO) != 0;
-  const auto progress = [terminal, frame_count](int frames_done) {
-    if (!terminal) return;
-    const int filled = frames_done * 40 / frame_count;
-    std::fprintf(stderr, "\rframes [%-40s] %d / %d", std::string(static_cast<size_t>(filled), '#').c_str(), frames_done, frame_count);
-    if (frames_done == frame_count) std::fprintf(stderr, "\n");
-  };
-  progress(0);
+  const ProgressBar progress(frame_count);  // on a terminal only
+  progress.show(0);
 
   std::vector<Eigen::Isometry3d> poses;
   std::string stats;
@@ -130,7 +115,7 @@ int OdometryCommand::run() const {
                                    {"predicted", s.predicted}};
       stats += line.dump() + "\n";
     }
-    progress(i + 1);
+    progress.show(i + 1);
   }
   io::write_kitti_poses(output_, poses);
   if (!stats_path_.empty()) write_file_atomically(stats_path_, stats);

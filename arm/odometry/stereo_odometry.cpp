@@ -28,14 +28,6 @@ void check(bool ok, const char* name, const std::string& expected, double actual
   }
 }
 
-NodeSpec node(const std::string& name, const std::string& kernel, const std::string& task) {
-  NodeSpec spec;
-  spec.name = name;
-  spec.kernel = kernel;
-  spec.task = task;
-  return spec;
-}
-
 // One observation of the motion: the point triangulated at t-1 (camera t-1, metres) and where it is
 // seen at t in the left and the right view (px).
 struct CircleMatch {
@@ -240,33 +232,33 @@ GraphSpec StereoOdometry::graph_spec(const StereoOdometryParameters& p) {
   spec.description = "Harris corners + BRIEF-256 of both views (graphs/features.json's nodes per view) for the stereo odometry";
   spec.inputs = {{"left", {ElementType::u8, 0}}, {"right", {ElementType::u8, 0}}};
   for (const std::string view : {"left", "right"}) {
-    NodeSpec response = node(view + "_harris_response", "harris_response", "");
-    response.inputs["image"] = {view, false};
-    response.outputs["response"] = view + "_harris";
-    response.params = {{"window_size", 3}, {"k_numerator", 3}, {"k_shift", 6}};
-    spec.nodes.push_back(response);
-    NodeSpec suppression = node(view + "_harris_nms", "harris_nms", "");
-    suppression.inputs["response"] = {view + "_harris", false};
-    suppression.outputs["corners"] = view + "_corners";
-    suppression.params = {{"radius", 1}, {"threshold", p.harris_threshold}};
-    spec.nodes.push_back(suppression);
-    NodeSpec selection = node(view + "_select_keypoints", "", "select_keypoints");
-    selection.inputs["corners"] = {view + "_corners", false};
-    selection.inputs["response"] = {view + "_harris", false};
-    selection.outputs["keypoints"] = view + "_keypoints";
-    selection.params = {{"cell_size_px", p.cell_size_px}, {"per_cell_k", p.per_cell_k}, {"max_keypoints", p.max_keypoints},
-                        {"border_px", p.border_px}};
-    spec.nodes.push_back(selection);
-    NodeSpec smooth = node(view + "_smooth", "gaussian5x5", "");
-    smooth.inputs["input"] = {view, false};
-    smooth.outputs["output"] = view + "_smoothed";
-    spec.nodes.push_back(smooth);
-    NodeSpec brief = node(view + "_brief256", "brief256", "");
-    brief.inputs["image"] = {view + "_smoothed", false};
-    brief.inputs["keypoints"] = {view + "_keypoints", false};
-    brief.outputs["descriptors"] = view + "_descriptors";
-    brief.params = {{"yaw_sector", 0}};
-    spec.nodes.push_back(brief);
+    spec.nodes.push_back({.name = view + "_harris_response",
+                          .kernel = "harris_response",
+                          .inputs = {{"image", {view, false}}},
+                          .outputs = {{"response", view + "_harris"}},
+                          .params = {{"window_size", 3}, {"k_numerator", 3}, {"k_shift", 6}}});
+    spec.nodes.push_back({.name = view + "_harris_nms",
+                          .kernel = "harris_nms",
+                          .inputs = {{"response", {view + "_harris", false}}},
+                          .outputs = {{"corners", view + "_corners"}},
+                          .params = {{"radius", 1}, {"threshold", p.harris_threshold}}});
+    spec.nodes.push_back({.name = view + "_select_keypoints",
+                          .task = "select_keypoints",
+                          .inputs = {{"corners", {view + "_corners", false}}, {"response", {view + "_harris", false}}},
+                          .outputs = {{"keypoints", view + "_keypoints"}},
+                          .params = {{"cell_size_px", p.cell_size_px},
+                                     {"per_cell_k", p.per_cell_k},
+                                     {"max_keypoints", p.max_keypoints},
+                                     {"border_px", p.border_px}}});
+    spec.nodes.push_back({.name = view + "_smooth",
+                          .kernel = "gaussian5x5",
+                          .inputs = {{"input", {view, false}}},
+                          .outputs = {{"output", view + "_smoothed"}}});
+    spec.nodes.push_back({.name = view + "_brief256",
+                          .kernel = "brief256",
+                          .inputs = {{"image", {view + "_smoothed", false}}, {"keypoints", {view + "_keypoints", false}}},
+                          .outputs = {{"descriptors", view + "_descriptors"}},
+                          .params = {{"yaw_sector", 0}}});
     spec.outputs.push_back(view + "_keypoints");
     spec.outputs.push_back(view + "_descriptors");
     spec.outputs.push_back(view + "_harris");
