@@ -121,7 +121,7 @@ void print_accuracy(const std::string& plot_path) {
   arm::StereoOdometry odometry(s.left[0].width(), s.left[0].height(), s.parameters, kThreads);
   std::vector<Eigen::Isometry3d> estimate;
   int invalid = 0;
-  double inliers = 0, circles = 0, rms = 0;
+  double inliers = 0, circles = 0, rms = 0, hamming = 0, arm_ops = 0, arm_bytes = 0;
   for (size_t i = 0; i < s.left.size(); ++i) {
     const arm::StereoOdometryFrame frame = odometry.process(s.left[i], s.right[i]);
     estimate.push_back(frame.pose);
@@ -130,6 +130,9 @@ void print_accuracy(const std::string& plot_path) {
       inliers += frame.statistics.inliers;
       circles += frame.statistics.circle_matches;
       rms += frame.statistics.reprojection_rms_px;
+      hamming += static_cast<double>(frame.statistics.hamming_distances);
+      arm_ops += static_cast<double>(frame.statistics.work.scalar_ops);
+      arm_bytes += static_cast<double>(frame.statistics.work.memory_bytes);
     }
   }
   const double steps = static_cast<double>(s.left.size() - 1);
@@ -158,6 +161,8 @@ void print_accuracy(const std::string& plot_path) {
   std::printf("parameters: %s\n", s.parameters.summary().c_str());
   std::printf("per frame (mean over %.0f steps): %.0f circle matches, %.0f inliers, reprojection RMS %.3f px; %d invalid frames\n",
               steps, circles / steps, inliers / steps, rms / steps, invalid);
+  std::printf("counted ARM work after the feature graph (mean per frame): %.0f Hamming distances, %.2f M scalar ops, %.2f MB\n",
+              hamming / steps, arm_ops / steps * 1e-6, arm_bytes / steps * 1e-6);
   std::printf("end point: %.3f m off after %.2f m of path = %.2f %% drift; final estimate (%.2f, %.2f, %.2f), truth (%.2f, %.2f, %.2f)\n",
               end_error_m, distance_m.back(), 100.0 * end_error_m / distance_m.back(), estimate.back().translation().x(),
               estimate.back().translation().y(), estimate.back().translation().z(), s.truth.back().translation().x(),

@@ -112,7 +112,9 @@ int OdometryCommand::run() const {
                                    {"circle_matches", s.circle_matches},
                                    {"inliers", s.inliers},
                                    {"reprojection_rms_px", s.reprojection_rms_px},
-                                   {"predicted", s.predicted}};
+                                   {"predicted", s.predicted},
+                                   {"hamming_distances", s.hamming_distances},
+                                   {"arm_scalar_ops", s.work.scalar_ops}};
       stats += line.dump() + "\n";
     }
     progress.show(i + 1);

@@ -8,7 +8,8 @@
 // Output: the trajectory in the KITTI odometry pose format (io/kitti_poses.h: one line per frame, the
 // 3x4 camera-to-first-frame matrix row-major), written atomically once every frame is done; with
 // --stats one JSON line per frame {"frame", "valid", "confidence", "left_features", "right_features",
-// "stereo_matches", "circle_matches", "inliers", "reprojection_rms_px", "predicted"}. A progress bar on
+// "stereo_matches", "circle_matches", "inliers", "reprojection_rms_px", "predicted", "hamming_distances",
+// "arm_scalar_ops"} (the counted ARM-side work, arm/odometry/stereo_odometry.h). A progress bar on
 // stderr when it is a terminal; a summary line (frames, invalid frames, path length, mean inliers,
 // mean ms per frame).
 // Tuning flags (defaults from arm::StereoOdometryParameters, the single source): --harris-threshold,

@@ -71,8 +71,10 @@ double reprojection_error(const StereoOdometryParameters& p, const Eigen::Isomet
 // dP/dv = I, pinhole derivatives du/dP = f (1/Z, 0, -X/Z^2), dv/dP = f (0, 1/Z, -Y/Z^2), the right
 // view with X - B). Returns false when the system is singular or a point falls behind the camera.
 bool gauss_newton(const StereoOdometryParameters& p, const std::vector<CircleMatch>& matches, const std::vector<int>& used,
-                  int iterations, Eigen::Isometry3d& motion) {
+                  int iterations, Eigen::Isometry3d& motion, StereoOdometryStatistics& counts) {
   for (int iteration = 0; iteration < iterations; ++iteration) {
+    counts.gauss_newton_point_steps += static_cast<int64_t>(used.size());
+    ++counts.gauss_newton_solves;
     Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
     Eigen::Matrix<double, 6, 1> gradient = Eigen::Matrix<double, 6, 1>::Zero();
     for (int index : used) {
@@ -110,7 +112,8 @@ bool gauss_newton(const StereoOdometryParameters& p, const std::vector<CircleMat
 }
 
 std::vector<int> inliers_of(const StereoOdometryParameters& p, const std::vector<CircleMatch>& matches,
-                            const Eigen::Isometry3d& motion) {
+                            const Eigen::Isometry3d& motion, StereoOdometryStatistics& counts) {
+  counts.reprojection_tests += static_cast<int64_t>(matches.size());
   std::vector<int> inliers;
   for (size_t i = 0; i < matches.size(); ++i) {
     if (reprojection_error(p, motion, matches[i], nullptr, nullptr) <= p.inlier_threshold_px) inliers.push_back(static_cast<int>(i));
@@ -157,8 +160,9 @@ std::string StereoOdometryParameters::summary() const {
 
 std::vector<int> match_features(const std::vector<OdometryFeature>& queries, const std::vector<Eigen::Vector2d>& centres,
                                 const std::vector<OdometryFeature>& candidates, const MatchWindow& window,
-                                int max_hamming_distance, double ratio_test) {
+                                int max_hamming_distance, double ratio_test, int64_t* hamming_distances) {
   std::vector<int> result(queries.size(), -1);
+  int64_t comparisons = 0;
   if (candidates.empty()) return result;
   // Candidates bucketed in 16 x 16 px cells, so a query visits only the cells its window covers.
   constexpr double kCellPx = 16.0;
@@ -208,6 +212,7 @@ std::vector<int> match_features(const std::vector<OdometryFeature>& queries, con
             continue;
           }
           const int distance = kernels::brief_hamming_distance(query.descriptor, c.descriptor);
+          ++comparisons;
           if (distance < best) {
             second = best;
             best = distance;
@@ -222,6 +227,7 @@ std::vector<int> match_features(const std::vector<OdometryFeature>& queries, con
     if (second != std::numeric_limits<int>::max() && !(best < ratio_test * second)) continue;
     result[q] = best_index;
   }
+  if (hamming_distances) *hamming_distances += comparisons;
   return result;
 }
 
@@ -323,7 +329,8 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
   stereo_window.epipolar_tolerance_px = p.epipolar_tolerance_px;
   stereo_window.min_disparity_px = p.min_disparity_px;
   stereo_window.max_disparity_px = p.max_disparity_px;
-  const std::vector<int> stereo = match_features(left_features, {}, right_features, stereo_window, p.max_hamming_distance, p.ratio_test);
+  const std::vector<int> stereo = match_features(left_features, {}, right_features, stereo_window, p.max_hamming_distance, p.ratio_test,
+                                                &s.hamming_distances);
   for (int r : stereo) s.stereo_matches += r >= 0 ? 1 : 0;
 
   std::vector<CircleMatch> circle;
@@ -352,7 +359,8 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
       right_query_left.push_back(static_cast<int>(i));
     }
     const std::vector<int> right_temporal =
-        match_features(right_queries, right_centres, previous_right_, temporal_window, p.max_hamming_distance, p.ratio_test);
+        match_features(right_queries, right_centres, previous_right_, temporal_window, p.max_hamming_distance, p.ratio_test,
+                       &s.hamming_distances);
 
     // Leg 3, right t-1 -> left t-1: frame t-1's stereo matches, inverted.
     std::vector<int> previous_left_of_right(previous_right_.size(), -1);
@@ -378,7 +386,8 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
       left_centres.push_back(centre);
     }
     const std::vector<int> left_temporal =
-        match_features(left_queries, left_centres, left_features, temporal_window, p.max_hamming_distance, p.ratio_test);
+        match_features(left_queries, left_centres, left_features, temporal_window, p.max_hamming_distance, p.ratio_test,
+                       &s.hamming_distances);
 
     // The circle closes when leg 4 returns to the feature leg 1 started from.
     for (size_t q = 0; q < right_queries.size(); ++q) {
@@ -414,8 +423,8 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
         if (std::find(sample.begin(), sample.end(), index) == sample.end()) sample.push_back(index);
       }
       Eigen::Isometry3d candidate = Eigen::Isometry3d::Identity();
-      if (!gauss_newton(p, circle, sample, p.gauss_newton_iterations, candidate)) continue;
-      std::vector<int> candidate_inliers = inliers_of(p, circle, candidate);
+      if (!gauss_newton(p, circle, sample, p.gauss_newton_iterations, candidate, s)) continue;
+      std::vector<int> candidate_inliers = inliers_of(p, circle, candidate, s);
       if (candidate_inliers.size() > inliers.size()) {
         inliers = std::move(candidate_inliers);
         motion = candidate;
@@ -423,8 +432,8 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
     }
     for (int refinement = 0; refinement < 2 && static_cast<int>(inliers.size()) >= 3; ++refinement) {
       Eigen::Isometry3d refined = motion;
-      if (!gauss_newton(p, circle, inliers, p.gauss_newton_iterations, refined)) break;
-      std::vector<int> refined_inliers = inliers_of(p, circle, refined);
+      if (!gauss_newton(p, circle, inliers, p.gauss_newton_iterations, refined, s)) break;
+      std::vector<int> refined_inliers = inliers_of(p, circle, refined, s);
       if (refined_inliers.size() < 3) break;
       motion = refined;
       inliers = std::move(refined_inliers);
@@ -435,6 +444,7 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
   s.valid = has_previous_ && s.inliers >= p.min_inliers;
   if (s.valid) {
     double squared = 0;
+    s.reprojection_tests += static_cast<int64_t>(inliers.size());
     for (int index : inliers) {
       double el = 0, er = 0;
       reprojection_error(p, motion, circle[static_cast<size_t>(index)], &el, &er);
@@ -453,6 +463,12 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
   }
   pose_ = pose_ * frame.increment;
   frame.pose = pose_;
+  const auto count = [](int64_t items) { return static_cast<uint64_t>(items); };
+  s.work.scalar_ops = count(s.hamming_distances) * kOdometryWorkHammingOps +
+                      count(s.gauss_newton_point_steps) * kOdometryWorkPointStepOps +
+                      count(s.gauss_newton_solves) * kOdometryWorkSolveOps + count(s.reprojection_tests) * kOdometryWorkReprojectionOps;
+  s.work.memory_bytes = count(s.hamming_distances) * kOdometryWorkHammingBytes +
+                        count(s.gauss_newton_point_steps + s.reprojection_tests) * kOdometryWorkPointBytes;
 
   previous_left_ = std::move(left_features);
   previous_right_ = std::move(right_features);

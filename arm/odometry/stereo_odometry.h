@@ -36,6 +36,7 @@
 
 #include <Eigen/Geometry>
 
+#include "dag/arm_task.h"
 #include "dag/graph.h"
 #include "dag/plane.h"
 
@@ -95,7 +96,26 @@ struct StereoOdometryStatistics {
   bool predicted = false;         // the temporal legs used the constant-velocity prediction
   bool valid = false;             // the motion was estimated; false: the pose was held
   double confidence = 0;          // inliers / circle matches when valid, else 0
+  // The ARM-side work after the feature graph, counted (deterministic, for the chip model):
+  int64_t hamming_distances = 0;        // descriptor comparisons of the four legs
+  int64_t gauss_newton_point_steps = 0; // one point's residuals and Jacobian rows in one iteration
+  int64_t gauss_newton_solves = 0;      // 6x6 normal-equation solves
+  int64_t reprojection_tests = 0;       // inlier tests (RANSAC scoring, refinement, RMS)
+  // ... in ArmWork units (dag/arm_task.h) with the per-item costs of kOdometryWork* below.
+  ArmWork work;
 };
+
+// The cost model of the counted work (scalar operations, bytes from DRAM-resident buffers), an
+// estimate by counting the arithmetic of each step in stereo_odometry.cpp:
+//   Hamming distance: 8 XOR + 8 popcount + 8 add = 24 ops; the candidate's 32-byte descriptor read.
+//   Gauss-Newton point step: transform 18, two projections 12, Jacobian rows 2 x (2x3 * 3x6 = 72),
+//     normal equations and gradient 2 x (2 x 21 + 12) x 2 = 216: about 400 ops; the point's 56 bytes.
+//   6x6 LDLT solve and the update's exponential map: about 300 ops.
+//   Reprojection (inlier) test: transform 18, two projections 12, two errors 10 = 40 ops; 56 bytes.
+inline constexpr uint64_t kOdometryWorkHammingOps = 24, kOdometryWorkHammingBytes = 32;
+inline constexpr uint64_t kOdometryWorkPointStepOps = 400, kOdometryWorkPointBytes = 56;
+inline constexpr uint64_t kOdometryWorkSolveOps = 300;
+inline constexpr uint64_t kOdometryWorkReprojectionOps = 40;
 
 struct StereoOdometryFrame {
   Eigen::Isometry3d increment = Eigen::Isometry3d::Identity();  // camera t -> camera t-1
@@ -120,11 +140,11 @@ struct MatchWindow {
 // The matcher behind every leg: for each query, the index of its best candidate inside its window
 // (centre = query position for epipolar windows, centres[i] for radius windows), or -1 when there is
 // none, the distance exceeds max_hamming_distance or the ratio test fails. Candidates are bucketed by
-// row (grid of 16 px) so each query only looks at its window. A vector Hamming matcher replaces this
-// one function.
+// in 16 px cells so each query only looks at its window. A vector Hamming matcher replaces this one
+// function. hamming_distances (optional) gets the number of descriptor comparisons added.
 std::vector<int> match_features(const std::vector<OdometryFeature>& queries, const std::vector<Eigen::Vector2d>& centres,
                                 const std::vector<OdometryFeature>& candidates, const MatchWindow& window,
-                                int max_hamming_distance, double ratio_test);
+                                int max_hamming_distance, double ratio_test, int64_t* hamming_distances = nullptr);
 
 class StereoOdometry {
  public:

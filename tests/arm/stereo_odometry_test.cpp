@@ -62,6 +62,15 @@ TEST(StereoOdometry, RecoversTheIncrementsOfAKnownTrajectory) {
     EXPECT_LT(s.reprojection_rms_px, 1.0);
     EXPECT_GT(s.confidence, 0.5);
     EXPECT_EQ(s.predicted, frame >= 2) << "the prediction needs one estimated increment";
+    // The counted work: RANSAC tests every circle match per minimal set at least; ArmWork is the
+    // counts times the documented per-item costs.
+    EXPECT_GE(s.hamming_distances, s.stereo_matches);
+    EXPECT_GE(s.reprojection_tests, static_cast<int64_t>(s.circle_matches));
+    EXPECT_GE(s.gauss_newton_point_steps, 3);
+    EXPECT_EQ(s.work.scalar_ops, static_cast<uint64_t>(s.hamming_distances) * arm::kOdometryWorkHammingOps +
+                                     static_cast<uint64_t>(s.gauss_newton_point_steps) * arm::kOdometryWorkPointStepOps +
+                                     static_cast<uint64_t>(s.gauss_newton_solves) * arm::kOdometryWorkSolveOps +
+                                     static_cast<uint64_t>(s.reprojection_tests) * arm::kOdometryWorkReprojectionOps);
     // The accumulated pose is the trajectory within 1.2 cm per step so far.
     EXPECT_LT((result.pose.translation() - pose.translation()).norm(), 0.012 * frame) << "frame " << frame;
   }
@@ -75,6 +84,8 @@ TEST(StereoOdometry, TexturelessViewsGiveLowConfidenceAndHoldThePose) {
     const arm::StereoOdometryFrame result = odometry.process(grey, grey);
     EXPECT_EQ(result.statistics.left_features, 0);
     EXPECT_EQ(result.statistics.circle_matches, 0);
+    EXPECT_EQ(result.statistics.hamming_distances, 0);
+    EXPECT_EQ(result.statistics.work.scalar_ops, 0u);
     EXPECT_TRUE(result.pose.isApprox(Eigen::Isometry3d::Identity()));
     if (frame > 0) {
       EXPECT_FALSE(result.statistics.valid);
@@ -128,11 +139,14 @@ TEST(StereoOdometry, MatcherKeepsToItsWindowAndRatioTest) {
   // one 8 bits off (1 bit per word) inside the window: that one.
   const std::vector<arm::OdometryFeature> candidates = {feature(105, 50, 0x0000FFFF), feature(90, 52, 0x0000FFFF),
                                                         feature(50, 50, 0x0000FFFF), feature(80, 50.5, 0x0001FFFF)};
-  EXPECT_EQ(arm::match_features(queries, {}, candidates, stereo, 64, 0.9), std::vector<int>{3});
+  int64_t comparisons = 0;
+  EXPECT_EQ(arm::match_features(queries, {}, candidates, stereo, 64, 0.9, &comparisons), std::vector<int>{3});
+  EXPECT_EQ(comparisons, 1) << "only the candidate inside the window is compared";
   // A second candidate as close in Hamming distance fails the ratio test.
   std::vector<arm::OdometryFeature> ambiguous = candidates;
   ambiguous.push_back(feature(70, 49.5, 0x0002FFFF));  // also 8 bits off
-  EXPECT_EQ(arm::match_features(queries, {}, ambiguous, stereo, 64, 0.9), std::vector<int>{-1});
+  EXPECT_EQ(arm::match_features(queries, {}, ambiguous, stereo, 64, 0.9, &comparisons), std::vector<int>{-1});
+  EXPECT_EQ(comparisons, 1 + 2);
   // Beyond max_hamming_distance: none.
   EXPECT_EQ(arm::match_features(queries, {}, candidates, stereo, 7, 0.9), std::vector<int>{-1});
   // Radius window around a centre that is not the query's position.
