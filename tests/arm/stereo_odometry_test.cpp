@@ -119,6 +119,26 @@ TEST(StereoOdometry, ABlankFrameMidSequenceIsInvalidAndTheNextTexturedPairRecove
   }
 }
 
+TEST(StereoOdometry, ADroppedFrameGivesTheDoubleStep) {
+  // Frames 0, 1, 2, 4, 5: the pair after the gap moved two steps (0.8 m, 2 degrees), twice what the
+  // constant-velocity prediction expects, and the pair after it one step where two are predicted:
+  // both inside predicted_radius_px here, so both are estimated.
+  arm::StereoOdometry odometry(kWidth, kHeight, parameters(), 2);
+  int previous = -1;
+  for (int frame : {0, 1, 2, 4, 5}) {
+    const Eigen::Isometry3d pose = true_pose(frame);
+    const arm::StereoOdometryFrame result = odometry.process(render(pose, false), render(pose, true));
+    if (previous >= 0) {
+      EXPECT_TRUE(result.statistics.valid) << "frame " << frame;
+      EXPECT_EQ(result.statistics.predicted, frame >= 2) << "frame " << frame;
+      const Eigen::Isometry3d error = (true_pose(previous).inverse() * pose).inverse() * result.increment;
+      EXPECT_LT(error.translation().norm(), 0.012 * (frame - previous)) << "frame " << frame;
+      EXPECT_LT(angle_deg(error.rotation()), 0.1 * (frame - previous)) << "frame " << frame;
+    }
+    previous = frame;
+  }
+}
+
 arm::OdometryFeature feature(double x, double y, uint32_t pattern) {
   arm::OdometryFeature f;
   f.x_px = x;
