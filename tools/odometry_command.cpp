@@ -84,6 +84,7 @@ int OdometryCommand::run() const {
     throw CommandError(kExitUsage, error.what());
   }
   arm::StereoOdometry odometry(width, height, parameters, threads_);
+  std::printf("odometry: %dx%d, %s\n", width, height, parameters.summary().c_str());
 
   const ProgressBar progress(frame_count);  // on a terminal only
   progress.show(0);

@@ -161,6 +161,10 @@ std::string StereoOdometryParameters::summary() const {
 std::vector<int> match_features(const std::vector<OdometryFeature>& queries, const std::vector<Eigen::Vector2d>& centres,
                                 const std::vector<OdometryFeature>& candidates, const MatchWindow& window,
                                 int max_hamming_distance, double ratio_test, int64_t* hamming_distances) {
+  if (window.kind == MatchWindow::Kind::radius && centres.size() != queries.size()) {
+    throw std::invalid_argument("match_features: expected one radius-window centre per query (" + std::to_string(queries.size()) +
+                                "), got " + std::to_string(centres.size()));
+  }
   std::vector<int> result(queries.size(), -1);
   int64_t comparisons = 0;
   if (candidates.empty()) return result;

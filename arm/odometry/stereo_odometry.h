@@ -17,7 +17,7 @@
 //   3. the circle's stereo match at t-1 triangulated (Z = f B / d) and its observations at t (left
 //      and right) give the motion: RANSAC over minimal sets of 3 points, each solved by Gauss-Newton
 //      on the 6-DoF reprojection error in both images at t, inliers within inlier_threshold_px; then
-//      Gauss-Newton on all inliers (and the inliers re-selected once).
+//      twice Gauss-Newton on all inliers followed by a new selection of the inliers.
 //   4. accepted when at least min_inliers inliers remain; otherwise the frame is reported invalid
 //      (confidence 0) and the pose is HELD (identity increment, see process()).
 //
@@ -138,7 +138,8 @@ struct MatchWindow {
 };
 
 // The matcher behind every leg: for each query, the index of its best candidate inside its window
-// (centre = query position for epipolar windows, centres[i] for radius windows), or -1 when there is
+// (centre = query position for epipolar windows, centres[i] for radius windows: centres must then
+// hold one entry per query, else std::invalid_argument; a non-finite centre finds nothing), or -1 when there is
 // none, the distance exceeds max_hamming_distance or the ratio test fails. Candidates are bucketed by
 // in 16 px cells so each query only looks at its window. A vector Hamming matcher replaces this one
 // function. hamming_distances (optional) gets the number of descriptor comparisons added.

@@ -176,6 +176,7 @@ TEST(StereoOdometry, MatcherKeepsToItsWindowAndRatioTest) {
   const std::vector<arm::OdometryFeature> moved = {feature(100, 50, 0x0000FFFF), feature(203, 154, 0x0000FFFF)};
   EXPECT_EQ(arm::match_features(queries, {Eigen::Vector2d(200, 150)}, moved, radius, 64, 0.9), std::vector<int>{1});
   EXPECT_EQ(arm::match_features(queries, {Eigen::Vector2d(300, 150)}, moved, radius, 64, 0.9), std::vector<int>{-1});
+  EXPECT_THROW(arm::match_features(queries, {}, moved, radius, 64, 0.9), std::invalid_argument) << "no centre for the query";
 }
 
 TEST(StereoOdometry, ParametersAreValidatedByName) {
