@@ -39,7 +39,7 @@ TEST(StereoOdometry, RecoversTheIncrementsOfAKnownTrajectory) {
   arm::StereoOdometry odometry(kWidth, kHeight, parameters(), 2);
   for (int frame = 0; frame < kFrames; ++frame) {
     const Eigen::Isometry3d pose = true_pose(frame);
-    const arm::StereoOdometryFrame result = odometry.process(render(pose, false), render(pose, true));
+    const arm::StereoOdometryFrame result = odometry.process(view_at_frame(frame, false), view_at_frame(frame, true));
     const arm::StereoOdometryStatistics& s = result.statistics;
     EXPECT_TRUE(s.valid) << "frame " << frame;
     if (frame == 0) {
@@ -103,7 +103,7 @@ TEST(StereoOdometry, ABlankFrameMidSequenceIsInvalidAndTheNextTexturedPairRecove
     const Eigen::Isometry3d pose = true_pose(frame);
     const bool blank = frame == 2;
     const arm::StereoOdometryFrame result =
-        blank ? odometry.process(black, black) : odometry.process(render(pose, false), render(pose, true));
+        blank ? odometry.process(black, black) : odometry.process(view_at_frame(frame, false), view_at_frame(frame, true));
     if (frame == 1) held = result.pose;
     if (blank || frame == 3) {
       // The blank frame has no features; the next one has no reference features: both hold the pose.
@@ -127,7 +127,7 @@ TEST(StereoOdometry, ADroppedFrameGivesTheDoubleStep) {
   int previous = -1;
   for (int frame : {0, 1, 2, 4, 5}) {
     const Eigen::Isometry3d pose = true_pose(frame);
-    const arm::StereoOdometryFrame result = odometry.process(render(pose, false), render(pose, true));
+    const arm::StereoOdometryFrame result = odometry.process(view_at_frame(frame, false), view_at_frame(frame, true));
     if (previous >= 0) {
       EXPECT_TRUE(result.statistics.valid) << "frame " << frame;
       EXPECT_EQ(result.statistics.predicted, frame >= 2) << "frame " << frame;

@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -75,6 +77,16 @@ inline Eigen::Isometry3d true_pose(int frame) {
                    Eigen::AngleAxisd(0.3 * frame * M_PI / 180.0, Eigen::Vector3d::UnitX()))
                       .toRotationMatrix();
   return pose;
+}
+
+// The view of frame `frame` of true_pose()'s trajectory, rendered once per test program (the tests
+// revisit the same frames; single-threaded use).
+inline const Plane& view_at_frame(int frame, bool right) {
+  static std::map<std::pair<int, bool>, Plane> rendered;
+  const auto key = std::make_pair(frame, right);
+  auto found = rendered.find(key);
+  if (found == rendered.end()) found = rendered.emplace(key, render(true_pose(frame), right)).first;
+  return found->second;
 }
 
 }  // namespace lpstereo::testing::moving_room
