@@ -47,7 +47,7 @@ int pixels_near(const cv::Mat& image, const cv::Vec3b& colour) {
   return count;
 }
 
-class OdometryCli : public ::testing::Test {
+class EvalOdometryCli : public ::testing::Test {
  protected:
   std::string path(const std::string& name) const { return scratch_.path(name); }
   std::string write(const std::string& name, const std::vector<Eigen::Isometry3d>& poses) const {
@@ -61,7 +61,7 @@ class OdometryCli : public ::testing::Test {
   lpstereo::testing::ScratchDirectory scratch_{"lpstereo_odometry_cli"};
 };
 
-TEST_F(OdometryCli, GroundTruthAgainstItselfScoresZeroWithJsonAndPlot) {
+TEST_F(EvalOdometryCli, GroundTruthAgainstItselfScoresZeroWithJsonAndPlot) {
   // A drive that turns (0.05 rad and 2 m per frame: 62 m), so the plot has a curve.
   std::vector<Eigen::Isometry3d> truth = {Eigen::Isometry3d::Identity()};
   Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
@@ -90,7 +90,7 @@ TEST_F(OdometryCli, GroundTruthAgainstItselfScoresZeroWithJsonAndPlot) {
   EXPECT_GT(pixels_near(plot, {0, 94, 213}), 500);
 }
 
-TEST_F(OdometryCli, ScaledEstimateGivesOnePercentPerLength) {
+TEST_F(EvalOdometryCli, ScaledEstimateGivesOnePercentPerLength) {
   const std::string truth = write("truth.txt", straight_drive(61));
   const std::string estimate = write("estimate.txt", straight_drive(61, 1.01));
   const Result result = run("eval odometry " + estimate + " " + truth + " --lengths 10,20 --step 10 --json " + path("r.json"));
@@ -107,7 +107,7 @@ TEST_F(OdometryCli, ScaledEstimateGivesOnePercentPerLength) {
   EXPECT_NEAR(report["end_point_error_m"].get<double>(), 0.6, 1e-9);
 }
 
-TEST_F(OdometryCli, BadInputIsOneLineAndNoOutput) {
+TEST_F(EvalOdometryCli, BadInputIsOneLineAndNoOutput) {
   const std::string truth = write("truth.txt", straight_drive(51));
   const std::string short_estimate = write("short.txt", straight_drive(50));
   const std::string tiny = write("tiny.txt", straight_drive(3));
