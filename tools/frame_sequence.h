@@ -1,6 +1,6 @@
-// What the commands that read a frame sequence by --left/--right patterns share (`lpstereo odometry`;
-// `lpstereo obstacles` sequence mode has the same steps inline and can move onto these): the patterns'
-// check with the flag's name, and the progress bar on stderr when it is a terminal.
+// What the commands that read a frame sequence by --left/--right patterns share (`lpstereo odometry`,
+// `lpstereo obstacles` sequence mode): the patterns' check with the flag's name, and the progress
+// bar on stderr when it is a terminal.
 #pragma once
 
 #include <unistd.h>

@@ -22,6 +22,7 @@
 #include "io/rectification.h"
 #include "kernels/obstacle_mask.h"
 #include "tools/command_error.h"
+#include "tools/frame_sequence.h"
 #include "tools/rectified_pair.h"
 
 namespace lpstereo::tools {
@@ -344,13 +345,7 @@ int ObstaclesCommand::run_sequence() const {
   for (const char* flag : {"--overlay", "--grid", "--mask", "--vdisp"}) {
     if (command_->count(flag) > 0) throw CommandError(kExitUsage, std::string(flag) + " is a single-frame option (with LEFT RIGHT)");
   }
-  for (const auto& [flag, pattern] : {std::pair{"--left", &left_pattern_}, std::pair{"--right", &right_pattern_}}) {
-    try {
-      io::FramePattern{*pattern};
-    } catch (const std::invalid_argument& error) {
-      throw CommandError(kExitUsage, std::string(flag) + " " + error.what());
-    }
-  }
+  check_frame_patterns(left_pattern_, right_pattern_);
   // The frames through the image-sequence source (io/camera/file_source.h), as `lpstereo run
   // --source files:` reads them: from --first to the first number with a view missing, at most --frames.
   // A SourceError (no first frame, a size change, an unreadable file) ends the command with its line, exit 1.
@@ -368,15 +363,8 @@ int ObstaclesCommand::run_sequence() const {
   arm::DisparityEngine engine(width, height, disparity_parameters, {}, threads_);
   arm::ObstacleDetector detector(width, height, parameters, {}, threads_);
 
-  // A progress bar on a terminal only (as lpstereo synth draws it; logs and pipes get the summary alone).
-  const bool terminal = ::isatty(STDERR_FILENO) != 0;
-  const auto progress = [terminal, frame_count](int frames_done) {
-    if (!terminal) return;
-    const int filled = frames_done * 40 / frame_count;
-    std::fprintf(stderr, "\rframes [%-40s] %d / %d", std::string(static_cast<size_t>(filled), '#').c_str(), frames_done, frame_count);
-    if (frames_done == frame_count) std::fprintf(stderr, "\n");
-  };
-  progress(0);
+  const ProgressBar progress(frame_count);  // on a terminal only
+  progress.show(0);
 
   std::string lines;  // every frame's line, written at the end in one atomic step: no half-written file
   std::set<int> track_ids;
@@ -395,7 +383,7 @@ int ObstaclesCommand::run_sequence() const {
     for (const arm::Obstacle& obstacle : frame.obstacles) {
       if (obstacle.track_id > 0) track_ids.insert(obstacle.track_id);
     }
-    progress(i + 1);
+    progress.show(i + 1);
   }
   write_file_atomically(output_, lines);
   std::printf("%d frames (%d .. %d) at %.3g fps, %zu tracks, mean %.1f ms per frame (disparity + obstacles, %d threads) -> %s\n",
