@@ -4,9 +4,11 @@
 // in padded buffers for several sectors, zero descriptors for invalid and border keypoints, equal
 // descriptors for the same patch at two places, the closed-form op count, refused inputs; and with
 // OpenCV (cv::warpAffine) the steered pattern of sector s on an image rotated by s x 22.5 degrees
-// matching the original better than the unsteered one.
+// matching the original better than the unsteered one, and (issue 8's acceptance) a rotated pair
+// matched by hamming_match with steered descriptors giving within 10 % of an unrotated pair's inliers.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +20,7 @@
 #include "dag/tile_executor.h"
 #include "kernels/brief_hamming.h"
 #include "kernels/brief_pattern.h"
+#include "kernels/match_record.h"
 #include "kernels/simd/emulated.h"
 #include "tests/kernels/kernel_check.h"
 
@@ -242,48 +245,70 @@ TEST(Brief256MustFail, RefusesBadInputsAndParameters) {
 }
 
 #if defined(LPSTEREO_TEST_WITH_OPENCV)
-// A smooth random texture (blobs of a few px), rotated about its centre by s x 22.5 degrees with
-// cv::warpAffine (bilinear). Keypoints on a grid around the centre, mapped by the same rotation and
-// rounded. Per sector s: the mean Hamming distance between the original's descriptors (sector 0)
-// and the rotated image's with the steered pattern (sector s) must be clearly below the one with
-// the unsteered pattern (sector 0), and small in absolute terms.
-TEST(Brief256, SteeredPatternMatchesARotatedImageBetterThanTheUnsteeredOne) {
-  constexpr int kSize = 241;
-  cv::Mat noise(kSize, kSize, CV_8U);
-  cv::RNG rng(71);
+// A smooth random texture (blobs of a few px) of size x size, seeded.
+cv::Mat smooth_texture(int size, uint64_t seed) {
+  cv::Mat noise(size, size, CV_8U);
+  cv::RNG rng(seed);
   rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
   cv::Mat texture;
   cv::GaussianBlur(noise, texture, cv::Size(0, 0), 2.0);
   cv::normalize(texture, texture, 0, 255, cv::NORM_MINMAX);
-  auto to_plane = [](const cv::Mat& mat) {
-    Plane plane(mat.cols, mat.rows, {ElementType::u8, 0}, mat.cols + 7);
-    for (int y = 0; y < mat.rows; ++y) {
-      for (int x = 0; x < mat.cols; ++x) plane.at<uint8_t>(x, y) = mat.at<uint8_t>(y, x);
-    }
-    return plane;
-  };
-  const Plane original = to_plane(texture);
-  const double centre = (kSize - 1) / 2.0;
+  return texture;
+}
+
+Plane plane_of(const cv::Mat& mat) {
+  Plane plane(mat.cols, mat.rows, {ElementType::u8, 0}, mat.cols + 7);
+  for (int y = 0; y < mat.rows; ++y) {
+    for (int x = 0; x < mat.cols; ++x) plane.at<uint8_t>(x, y) = mat.at<uint8_t>(y, x);
+  }
+  return plane;
+}
+
+// The texture rotated about its centre by sector x 22.5 degrees with cv::warpAffine (bilinear).
+cv::Mat rotated_by_sector(const cv::Mat& texture, int sector) {
+  const float centre = static_cast<float>((texture.cols - 1) / 2.0);
+  // Our rotation is positive from +x towards +y (y down); OpenCV's angle is the opposite sense.
+  const cv::Mat rotation = cv::getRotationMatrix2D(cv::Point2f(centre, centre), -sector * 22.5, 1.0);
+  cv::Mat rotated;
+  cv::warpAffine(texture, rotated, rotation, texture.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  return rotated;
+}
+
+// Keypoints {valid, x, y} on a grid of 11 x 11 points 12 px apart around the centre.
+std::vector<std::array<int32_t, 3>> grid_around(double centre) {
   std::vector<std::array<int32_t, 3>> points;
   for (int y = -60; y <= 60; y += 12) {
     for (int x = -60; x <= 60; x += 12) points.push_back({1, static_cast<int32_t>(centre + x), static_cast<int32_t>(centre + y)});
   }
+  return points;
+}
+
+// The points rotated about (centre, centre) by sector x 22.5 degrees, as rotated_by_sector does, rounded.
+std::vector<std::array<int32_t, 3>> rotated_points(const std::vector<std::array<int32_t, 3>>& points, double centre,
+                                                   int sector) {
+  const double theta = sector * 22.5 * std::numbers::pi / 180.0;
+  std::vector<std::array<int32_t, 3>> moved;
+  for (const auto& point : points) {
+    const double x = point[1] - centre, y = point[2] - centre;
+    moved.push_back({point[0], static_cast<int32_t>(std::lround(centre + std::cos(theta) * x - std::sin(theta) * y)),
+                     static_cast<int32_t>(std::lround(centre + std::sin(theta) * x + std::cos(theta) * y))});
+  }
+  return moved;
+}
+
+// Per sector s: the mean Hamming distance between the original's descriptors (sector 0) at the grid
+// and the rotated image's at the rotated grid with the steered pattern (sector s) must be clearly
+// below the one with the unsteered pattern (sector 0), and small in absolute terms.
+TEST(Brief256, SteeredPatternMatchesARotatedImageBetterThanTheUnsteeredOne) {
+  constexpr int kSize = 241;
+  const cv::Mat texture = smooth_texture(kSize, 71);
+  const Plane original = plane_of(texture);
+  const double centre = (kSize - 1) / 2.0;
+  const std::vector<std::array<int32_t, 3>> points = grid_around(centre);
   const Plane original_descriptors = run_brief(original, list_of(points), 0, KernelBackend::counting, simd::Isa::scalar);
   for (int sector = 1; sector < kernels::kBriefSectors; ++sector) {
-    const double theta = sector * 22.5 * std::numbers::pi / 180.0;
-    // Our rotation is positive from +x towards +y (y down); OpenCV's angle is the opposite sense.
-    const cv::Mat rotation = cv::getRotationMatrix2D(cv::Point2f(static_cast<float>(centre), static_cast<float>(centre)),
-                                                     -sector * 22.5, 1.0);
-    cv::Mat rotated_mat;
-    cv::warpAffine(texture, rotated_mat, rotation, texture.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
-    const Plane rotated = to_plane(rotated_mat);
-    std::vector<std::array<int32_t, 3>> moved;
-    for (const auto& point : points) {
-      const double x = point[1] - centre, y = point[2] - centre;
-      moved.push_back({1, static_cast<int32_t>(std::lround(centre + std::cos(theta) * x - std::sin(theta) * y)),
-                       static_cast<int32_t>(std::lround(centre + std::sin(theta) * x + std::cos(theta) * y))});
-    }
-    const Plane list = list_of(moved);
+    const Plane rotated = plane_of(rotated_by_sector(texture, sector));
+    const Plane list = list_of(rotated_points(points, centre, sector));
     const Plane steered = run_brief(rotated, list, sector, KernelBackend::counting, simd::Isa::scalar);
     const Plane unsteered = run_brief(rotated, list, 0, KernelBackend::counting, simd::Isa::scalar);
     double steered_sum = 0.0, unsteered_sum = 0.0;
@@ -296,6 +321,74 @@ TEST(Brief256, SteeredPatternMatchesARotatedImageBetterThanTheUnsteeredOne) {
     EXPECT_LT(steered_sum / count, 50.0) << "sector " << sector;
     std::printf("sector %2d: mean Hamming distance steered %.1f, unsteered %.1f (of 256)\n", sector, steered_sum / count,
                 unsteered_sum / count);
+  }
+}
+
+// Inliers of matching the first image's descriptors (query, row k = first_points[k]) against the
+// second's (train) with the hamming_match kernel at its default ratio test: the second image's
+// keypoints are second_points (first_points[k] mapped by the images' transform) in a shuffled order,
+// so the true counterpart must be found, not assumed. An inlier = an accepted match whose train row
+// is the query's counterpart.
+int matching_inliers(const Plane& first_image, const std::vector<std::array<int32_t, 3>>& first_points,
+                     const Plane& second_image, const std::vector<std::array<int32_t, 3>>& second_points,
+                     int second_sector, uint32_t shuffle_seed) {
+  std::vector<int> counterpart_of_train_row(second_points.size());
+  for (size_t j = 0; j < counterpart_of_train_row.size(); ++j) counterpart_of_train_row[j] = static_cast<int>(j);
+  std::shuffle(counterpart_of_train_row.begin(), counterpart_of_train_row.end(), std::mt19937(shuffle_seed));
+  std::vector<std::array<int32_t, 3>> shuffled;
+  for (int k : counterpart_of_train_row) shuffled.push_back(second_points[static_cast<size_t>(k)]);
+  const Plane query_keypoints = list_of(first_points), train_keypoints = list_of(shuffled);
+  const std::vector<Plane> inputs{run_brief(first_image, query_keypoints, 0, KernelBackend::counting, simd::Isa::scalar),
+                                  query_keypoints,
+                                  run_brief(second_image, train_keypoints, second_sector, KernelBackend::counting, simd::Isa::scalar),
+                                  train_keypoints};
+  const KernelDescriptor& kernel = testing::kernel_named("hamming_match");
+  std::vector<PlaneShape> shapes;
+  for (const Plane& input : inputs) shapes.push_back({input.width(), input.height()});
+  const PreparedKernel prepared = kernel.prepare(nlohmann::json::object(), shapes);  // ratio_q8 at its default
+  Plane matches(kernels::kMatchWords, inputs[0].height(), {ElementType::s32, 0});
+  VectorNodeBinding binding{&kernel, prepared.params.get(), BorderMode::replicate, 0, testing::plane_views(inputs), {matches.view()}};
+  run_vector_node(binding, kernels::kMatchWords, 16, KernelBackend::counting, simd::Isa::scalar);
+  int inliers = 0;
+  for (int q = 0; q < matches.height(); ++q) {
+    const int32_t train = matches.at<int32_t>(kernels::kMatchTrainIndex, q);
+    inliers += matches.at<int32_t>(kernels::kMatchAccepted, q) == 1 && train >= 0 &&
+               counterpart_of_train_row[static_cast<size_t>(train)] == q;
+  }
+  return inliers;
+}
+
+// Issue 8's acceptance: steering makes a rotated image match its original as well as an unrotated
+// pair (within 10 % of inliers). Reference pair: the texture and a copy with Gaussian noise (sigma 2
+// grey levels, seeded), sector-0 descriptors on both. Rotated pair: the texture and the texture
+// rotated by s x 22.5 degrees, the rotated image's descriptors with the steered pattern of sector s.
+// To show the test can fail, the unsteered pattern (sector 0) on the rotated image must give fewer
+// than half the reference's inliers from 45 to 315 degrees (sectors 2 .. 14).
+TEST(Brief256, SteeredRotatedPairMatchesAsWellAsAnUnrotatedPair) {
+  constexpr int kSize = 241;
+  const cv::Mat texture = smooth_texture(kSize, 71);
+  const Plane original = plane_of(texture);
+  const double centre = (kSize - 1) / 2.0;
+  const std::vector<std::array<int32_t, 3>> points = grid_around(centre);
+  cv::Mat noise(kSize, kSize, CV_16S);
+  cv::RNG rng(72);
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, 2.0);
+  cv::Mat noisy;
+  cv::add(texture, noise, noisy, cv::noArray(), CV_8U);  // saturating to 0 .. 255
+  const int reference_inliers = matching_inliers(original, points, plane_of(noisy), points, 0, 73);
+  std::printf("reference (noise sigma 2, sector 0): %d inliers of %zu\n", reference_inliers, points.size());
+  EXPECT_GE(reference_inliers, static_cast<int>(points.size()) * 9 / 10);
+  for (int sector = 1; sector < kernels::kBriefSectors; ++sector) {
+    const Plane rotated = plane_of(rotated_by_sector(texture, sector));
+    const std::vector<std::array<int32_t, 3>> moved = rotated_points(points, centre, sector);
+    const int steered_inliers = matching_inliers(original, points, rotated, moved, sector, 74 + static_cast<uint32_t>(sector));
+    const int unsteered_inliers = matching_inliers(original, points, rotated, moved, 0, 74 + static_cast<uint32_t>(sector));
+    std::printf("sector %2d: inliers steered %3d, unsteered %3d, reference %3d\n", sector, steered_inliers,
+                unsteered_inliers, reference_inliers);
+    EXPECT_GE(10 * steered_inliers, 9 * reference_inliers) << "sector " << sector;
+    if (sector >= 2 && sector <= 14) {
+      EXPECT_LT(2 * unsteered_inliers, reference_inliers) << "sector " << sector;
+    }
   }
 }
 #endif
