@@ -10,16 +10,8 @@ namespace {
 using testing::expect_all_back_ends_match_reference;
 using testing::KernelCase;
 using testing::random_plane;
+using testing::sparse_census;
 
-// Random census words with few set bits, so that costs spread around max_cost_bits and both the
-// valid and the invalid branch are exercised.
-Plane sparse_census(int width, int height, ptrdiff_t stride, uint32_t seed) {
-  Plane plane = random_plane(width, height, {ElementType::census32, 0}, stride, seed);
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) plane.at<uint32_t>(x, y) &= 0x00F0F0F0u & (plane.at<uint32_t>(x, y) >> 3);
-  }
-  return plane;
-}
 
 TEST(CensusWtaDisparity, MatchesReferenceAtOddSizeInPaddedBuffer) {
   for (auto [min_disparity, num_disparities] : std::vector<std::pair<int, int>>{{0, 1}, {0, 17}, {0, 64}, {-9, 20}, {-30, 10}, {5, 12}}) {

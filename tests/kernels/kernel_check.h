@@ -37,6 +37,16 @@ inline Plane random_plane(int width, int height, BufferFormat format, ptrdiff_t 
   return plane;
 }
 
+// Random census32 words with few set bits, so that Hamming costs spread and ties happen (the
+// matchers' tests: both the valid and the invalid branches, uniqueness and sub-pixel cases).
+inline Plane sparse_census(int width, int height, ptrdiff_t stride_bytes, uint32_t seed) {
+  Plane plane = random_plane(width, height, {ElementType::census32, 0}, stride_bytes, seed);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) plane.at<uint32_t>(x, y) &= 0x00F0F0F0u & (plane.at<uint32_t>(x, y) >> 3);
+  }
+  return plane;
+}
+
 // Index of the first differing element in the image area, or -1; reports the position.
 inline ::testing::AssertionResult planes_equal(const Plane& expected, const Plane& actual) {
   const size_t row_bytes = static_cast<size_t>(expected.width()) * expected.element_size();

@@ -23,16 +23,8 @@ namespace {
 
 using testing::expect_all_back_ends_match_reference;
 using testing::KernelCase;
-using testing::random_plane;
+using testing::sparse_census;
 
-// Random census words with few set bits (costs spread, ties happen).
-Plane sparse_census(int width, int height, ptrdiff_t stride, uint32_t seed) {
-  Plane plane = random_plane(width, height, {ElementType::census32, 0}, stride, seed);
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) plane.at<uint32_t>(x, y) &= 0x00F0F0F0u & (plane.at<uint32_t>(x, y) >> 3);
-  }
-  return plane;
-}
 
 // `count` keypoint rows over a width x height image: random places, every seventh at or past a
 // border (or far outside), some invalid rows, the last 3 rows zero; padded stride.
