@@ -1,0 +1,152 @@
+// Terrain estimation for any ground (issue 9; thesis 004, the B-spline terrain model): the public
+// contract shared by the fit (arm/terrain/*.cpp), the `lpstereo terrain` command, the terrain graph's
+// ARM task, the synthetic evaluations and the 3D obstacle representations of issue 10.
+//
+// Frame: the vehicle frame of arm/point_cloud.h (x forward, y left, z up, metres; ISO 8855). The
+// terrain is a height field z = S(x, y) over a rectangular area of that frame. A camera mounted with
+// roll and pitch is handled by converting its points with arm::CameraToVehicle first: the fit never
+// assumes a flat or level road.
+//
+// Pipeline (issue 9 deliverables 1-4):
+//   points (vehicle frame) -> HeightGridAccumulator (2.5D sampling: per cell count, min, mean, sigma
+//   of z) -> HeightGrid (cell height Z = max(min z, mean z - sigma), empty cells filled from the mean
+//   of valid 8-neighbours, else invalid) -> fit_terrain (iterative re-weighted B-spline fit with
+//   equalisation) -> TerrainEstimate (surface, per-cell weights) -> compute_traversability (slope
+//   from the surface's derivatives, cost Tc = w_occ occupancy + w_slope |grad S|) and
+//   classify_points (height above the surface > obstacle threshold: obstacle candidates).
+//
+// Unknown terrain: a fit that cannot be trusted (too few valid cells, all cells on one line, the
+// system singular, non-finite input) returns known = false with one line in `reason` and never a
+// made-up surface; every consumer must check `known`.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "dag/arm_task.h"
+
+namespace lpstereo::arm::terrain {
+
+// The area and its cells. Cell (i, j): i along x (forward), j along y (lateral); cell (i, j) covers
+// x in [forward_min_m + i cell_m, forward_min_m + (i + 1) cell_m), y likewise from lateral_min_m.
+struct TerrainGridSpec {
+  double forward_min_m = 0.0;    // x range of the area
+  double forward_max_m = 34.0;
+  double lateral_min_m = -11.0;  // y range (y left)
+  double lateral_max_m = 11.0;
+  double cell_m = 0.5;           // > 0
+
+  int forward_cells() const;  // ceil((forward_max_m - forward_min_m) / cell_m)
+  int lateral_cells() const;
+  // The cell holding (x, y), or false outside the area (or non-finite).
+  bool cell_of(double x_m, double y_m, int* forward_cell, int* lateral_cell) const;
+  double cell_centre_x_m(int forward_cell) const;
+  double cell_centre_y_m(int lateral_cell) const;
+  // Throws std::invalid_argument "<name>: expected ..., got ..." for a bad area or cell size.
+  void validate() const;
+};
+
+// The 2.5D grid (deliverable 1). Matrices are forward_cells x lateral_cells (row i, column j).
+struct HeightGrid {
+  TerrainGridSpec spec;
+  Eigen::MatrixXd height_m;     // cell height Z; NaN where invalid
+  Eigen::MatrixXi point_count;  // points binned into the cell (0 for filled or invalid cells)
+  Eigen::MatrixXi state;        // kCellMeasured, kCellFilled or kCellInvalid
+  int valid_cells() const;      // measured + filled
+};
+inline constexpr int kCellInvalid = 0, kCellMeasured = 1, kCellFilled = 2;
+
+// Accumulates points one at a time (the ARM side of the binning: the vector kernel gives each point
+// its cell, this sums them), then finish() applies the cell rule and the neighbour fill.
+class HeightGridAccumulator {
+ public:
+  explicit HeightGridAccumulator(const TerrainGridSpec& spec);  // validates spec
+  // Bins a vehicle-frame point; false (and counted in rejected()) when outside the area or not finite.
+  bool add_point(const Eigen::Vector3d& point_vehicle_m);
+  // A point whose cell is already known (from the binning kernel); cells outside the grid are rejected.
+  bool add_to_cell(int forward_cell, int lateral_cell, double z_m);
+  int64_t accepted() const { return accepted_; }
+  int64_t rejected() const { return rejected_; }
+  HeightGrid finish() const;
+  // Work counted for the chip model (ArmWork units, documented in the implementation's header comment).
+  ArmWork work() const;
+
+ private:
+  TerrainGridSpec spec_;
+  Eigen::MatrixXi count_;
+  Eigen::MatrixXd sum_z_, sum_z2_, min_z_;
+  int64_t accepted_ = 0, rejected_ = 0;
+};
+
+// A tensor-product B-spline surface z = S(x, y) (deliverable 2): degrees, clamped uniform knot
+// vectors over the area, control points (forward_control x lateral_control), optional weights for the
+// rational form (empty = polynomial).
+struct BsplineSurface {
+  int degree_forward = 3, degree_lateral = 3;
+  std::vector<double> knots_forward_m, knots_lateral_m;  // clamped uniform, n + degree + 1 knots each
+  Eigen::MatrixXd control_z_m;                           // n0 x n1 control heights
+  Eigen::MatrixXd control_weights;                       // n0 x n1 or empty
+  double forward_min_m = 0, forward_max_m = 0, lateral_min_m = 0, lateral_max_m = 0;  // the domain
+
+  bool contains(double x_m, double y_m) const;
+  double height_m(double x_m, double y_m) const;  // NaN outside the domain
+  // dS/dx and dS/dy (dimensionless slopes); NaN outside the domain.
+  Eigen::Vector2d gradient(double x_m, double y_m) const;
+};
+
+struct TerrainFitParameters {
+  int degree_forward = 3, degree_lateral = 3;
+  int control_forward = 25, control_lateral = 25;   // n_max: the final fit's control points
+  int initial_control_forward = 5, initial_control_lateral = 5;  // the first iteration's
+  int max_iterations = 8;          // re-weighting iterations before the final fit
+  double threshold_factor = 1.0;   // th(e) = threshold_factor * e, e the mean absolute error
+  double alpha_initial = 1.0;      // alpha of the first iteration, growing by alpha_step per iteration
+  double alpha_step = 1.0;
+  double regularisation = 1e-6;    // Tikhonov term on the control points (keeps empty spans solvable)
+  int min_valid_cells = 16;        // fewer: unknown terrain
+};
+
+struct TerrainEstimate {
+  bool known = false;
+  std::string reason;              // one line when !known
+  BsplineSurface surface;
+  HeightGrid grid;                 // the input grid after equalisation
+  Eigen::MatrixXd weights;         // final per-cell weights (0 for invalid cells)
+  int iterations = 0;
+  int equalised_cells_last = 0;    // cells pulled down in the last iteration
+  double mean_abs_error_m = 0;     // over valid cells, final fit
+  ArmWork work;                    // counted, for the chip model
+};
+
+// The iterative re-weighted fit with equalisation (deliverable 3). Never throws on data; throws
+// std::invalid_argument for parameters out of range (naming the parameter, range and value).
+TerrainEstimate fit_terrain(const HeightGrid& grid, const TerrainFitParameters& parameters);
+
+struct TraversabilityParameters {
+  double occupancy_weight = 1.0;  // w_occ
+  double slope_weight = 1.0;      // w_slope (per unit of |grad S|)
+  double obstacle_height_m = 0.2; // a cell is occupied when its measured height is this far above S
+};
+
+struct TraversabilityMap {
+  Eigen::MatrixXd slope;      // |grad S| at cell centres, NaN where unknown
+  Eigen::MatrixXd occupancy;  // 0 or 1 (cell height - S > obstacle_height_m), NaN where unknown
+  Eigen::MatrixXd cost;       // w_occ occupancy + w_slope slope, NaN where unknown
+  ArmWork work;
+};
+
+// Deliverable 4. `measured` is the grid before equalisation (what fit_terrain took).
+TraversabilityMap compute_traversability(const TerrainEstimate& terrain, const HeightGrid& measured,
+                                         const TraversabilityParameters& parameters);
+
+enum class PointClass : uint8_t { outside = 0, terrain = 1, obstacle = 2 };
+// Each point by its height above the surface: obstacle when > obstacle_height_m, terrain otherwise,
+// outside when the surface does not cover it (or terrain unknown, or the point is not finite).
+std::vector<PointClass> classify_points(const std::vector<Eigen::Vector3d>& points_vehicle_m, const TerrainEstimate& terrain,
+                                        double obstacle_height_m);
+
+}  // namespace lpstereo::arm::terrain
