@@ -10,16 +10,6 @@
 namespace lpstereo::arm::obstacles3d {
 namespace {
 
-std::string number_text(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
-
-[[noreturn]] void bad_parameter(const std::string& name, const std::string& expected, double actual) {
-  throw std::invalid_argument(name + ": expected " + expected + ", got " + number_text(actual));
-}
-
 OccupancyGridParameters validated_grid(const AugmentedStixelParameters& parameters) {
   parameters.validate();
   return parameters.grid;
@@ -41,11 +31,11 @@ void AugmentedStixelParameters::validate() const {
   } catch (const std::invalid_argument& error) {
     throw std::invalid_argument(std::string("grid.") + error.what());
   }
-  if (min_points < 1) bad_parameter("min_points", ">= 1", min_points);
+  if (min_points < 1) throw_invalid_parameter("min_points", ">= 1", min_points);
   if (!(height_trim_fraction >= 0 && height_trim_fraction < 0.25))
-    bad_parameter("height_trim_fraction", "in [0, 0.25)", height_trim_fraction);
-  if (!(max_height_gap_m >= 0)) bad_parameter("max_height_gap_m", ">= 0", max_height_gap_m);
-  if (min_cluster_stixels < 1) bad_parameter("min_cluster_stixels", ">= 1", min_cluster_stixels);
+    throw_invalid_parameter("height_trim_fraction", "in [0, 0.25)", height_trim_fraction);
+  if (!(max_height_gap_m >= 0)) throw_invalid_parameter("max_height_gap_m", ">= 0", max_height_gap_m);
+  if (min_cluster_stixels < 1) throw_invalid_parameter("min_cluster_stixels", ">= 1", min_cluster_stixels);
 }
 
 AugmentedStixels::AugmentedStixels(const AugmentedStixelParameters& parameters)

@@ -42,9 +42,6 @@ std::string number_text(double value) {
   return text.str();
 }
 
-[[noreturn]] void bad_parameter(const std::string& name, const std::string& expected, double actual) {
-  throw std::invalid_argument(name + ": expected " + expected + ", got " + number_text(actual));
-}
 
 // Cells [first, last] of an axis whose intervals meet [low, high], clamped to the grid; false when none.
 bool axis_window(double low, double high, double axis_min, double cell, int cells, int* first, int* last) {
@@ -57,10 +54,15 @@ bool axis_window(double low, double high, double axis_min, double cell, int cell
 }
 
 constexpr uint64_t kOpsPerPoint = 40, kOpsPerWindowRow = 30, kOpsPerWindowCell = 16;
+constexpr uint64_t kOpsPerSeparableColumn = 14, kOpsPerSeparableRow = 12, kOpsPerSeparableCell = 4;
 constexpr uint64_t kOpsPerCellWarp = 20, kOpsPerCellUpdate = 24, kOpsPerCellCluster = 12;
 constexpr uint64_t kOpsPerMemberCell = 10, kOpsPerHullStep = 6, kOpsPerPointDescribe = 10;
 
 }  // namespace
+
+void throw_invalid_parameter(const std::string& name, const std::string& expected, double actual) {
+  throw std::invalid_argument(name + ": expected " + expected + ", got " + number_text(actual));
+}
 
 const char* grid_kind_name(GridKind kind) {
   switch (kind) {
@@ -102,35 +104,35 @@ OccupancyGridParameters OccupancyGridParameters::defaults(GridKind kind, int ima
 }
 
 void OccupancyGridParameters::validate() const {
-  if (!(column_cell > 0) || !std::isfinite(column_cell)) bad_parameter("column_cell", "> 0 (cell width)", column_cell);
-  if (!(row_cell > 0) || !std::isfinite(row_cell)) bad_parameter("row_cell", "> 0 (cell depth)", row_cell);
+  if (!(column_cell > 0) || !std::isfinite(column_cell)) throw_invalid_parameter("column_cell", "> 0 (cell width)", column_cell);
+  if (!(row_cell > 0) || !std::isfinite(row_cell)) throw_invalid_parameter("row_cell", "> 0 (cell depth)", row_cell);
   if (!(column_max > column_min) || !std::isfinite(column_max) || !std::isfinite(column_min))
-    bad_parameter("column_max", "> column_min = " + number_text(column_min), column_max);
+    throw_invalid_parameter("column_max", "> column_min = " + number_text(column_min), column_max);
   if (!(row_max > row_min) || !std::isfinite(row_max) || !std::isfinite(row_min))
-    bad_parameter("row_max", "> row_min = " + number_text(row_min), row_max);
+    throw_invalid_parameter("row_max", "> row_min = " + number_text(row_min), row_max);
   if ((column_max - column_min) / column_cell > 100000)
-    bad_parameter("column_cell", ">= (column_max - column_min) / 100000", column_cell);
-  if ((row_max - row_min) / row_cell > 100000) bad_parameter("row_cell", ">= (row_max - row_min) / 100000", row_cell);
+    throw_invalid_parameter("column_cell", ">= (column_max - column_min) / 100000", column_cell);
+  if ((row_max - row_min) / row_cell > 100000) throw_invalid_parameter("row_cell", ">= (row_max - row_min) / 100000", row_cell);
   if (kind == GridKind::polar && (column_min < -M_PI_2 || column_max > M_PI_2))
-    bad_parameter(column_min < -M_PI_2 ? "column_min" : "column_max", "an angle within [-pi/2, pi/2] rad",
+    throw_invalid_parameter(column_min < -M_PI_2 ? "column_min" : "column_max", "an angle within [-pi/2, pi/2] rad",
                   column_min < -M_PI_2 ? column_min : column_max);
-  if (kind == GridKind::polar && row_min < 0) bad_parameter("row_min", ">= 0 (a range)", row_min);
-  if (!(error_model.focal_px > 0)) bad_parameter("error_model.focal_px", "> 0", error_model.focal_px);
-  if (!(error_model.baseline_m > 0)) bad_parameter("error_model.baseline_m", "> 0", error_model.baseline_m);
+  if (kind == GridKind::polar && row_min < 0) throw_invalid_parameter("row_min", ">= 0 (a range)", row_min);
+  if (!(error_model.focal_px > 0)) throw_invalid_parameter("error_model.focal_px", "> 0", error_model.focal_px);
+  if (!(error_model.baseline_m > 0)) throw_invalid_parameter("error_model.baseline_m", "> 0", error_model.baseline_m);
   if (!(error_model.disparity_sigma_px > 0))
-    bad_parameter("error_model.disparity_sigma_px", "> 0", error_model.disparity_sigma_px);
-  if (!(error_model.pixel_sigma_px > 0)) bad_parameter("error_model.pixel_sigma_px", "> 0", error_model.pixel_sigma_px);
-  if (!(window_sigmas >= 1 && window_sigmas <= 6)) bad_parameter("window_sigmas", "in [1, 6]", window_sigmas);
+    throw_invalid_parameter("error_model.disparity_sigma_px", "> 0", error_model.disparity_sigma_px);
+  if (!(error_model.pixel_sigma_px > 0)) throw_invalid_parameter("error_model.pixel_sigma_px", "> 0", error_model.pixel_sigma_px);
+  if (!(window_sigmas >= 1 && window_sigmas <= 6)) throw_invalid_parameter("window_sigmas", "in [1, 6]", window_sigmas);
   if (!(hit_probability_max > 0.5 && hit_probability_max < 1))
-    bad_parameter("hit_probability_max", "in (0.5, 1)", hit_probability_max);
-  if (!(miss_probability > 0 && miss_probability <= 0.5)) bad_parameter("miss_probability", "in (0, 0.5]", miss_probability);
-  if (!(points_for_full_evidence > 0)) bad_parameter("points_for_full_evidence", "> 0", points_for_full_evidence);
-  if (!(log_odds_min < 0)) bad_parameter("log_odds_min", "< 0", log_odds_min);
-  if (!(log_odds_max > 0)) bad_parameter("log_odds_max", "> 0", log_odds_max);
+    throw_invalid_parameter("hit_probability_max", "in (0.5, 1)", hit_probability_max);
+  if (!(miss_probability > 0 && miss_probability <= 0.5)) throw_invalid_parameter("miss_probability", "in (0, 0.5]", miss_probability);
+  if (!(points_for_full_evidence > 0)) throw_invalid_parameter("points_for_full_evidence", "> 0", points_for_full_evidence);
+  if (!(log_odds_min < 0)) throw_invalid_parameter("log_odds_min", "< 0", log_odds_min);
+  if (!(log_odds_max > 0)) throw_invalid_parameter("log_odds_max", "> 0", log_odds_max);
   if (!(occupied_probability > 0.5 && occupied_probability < 1))
-    bad_parameter("occupied_probability", "in (0.5, 1)", occupied_probability);
-  if (min_cluster_cells < 1) bad_parameter("min_cluster_cells", ">= 1", min_cluster_cells);
-  if (threads < 1 || threads > 16) bad_parameter("threads", "in [1, 16]", threads);
+    throw_invalid_parameter("occupied_probability", "in (0.5, 1)", occupied_probability);
+  if (min_cluster_cells < 1) throw_invalid_parameter("min_cluster_cells", ">= 1", min_cluster_cells);
+  if (threads < 1 || threads > 16) throw_invalid_parameter("threads", "in [1, 16]", threads);
 }
 
 int OccupancyGridParameters::columns() const {
@@ -215,10 +217,11 @@ GridGaussian OccupancyGrid::measurement_gaussian(const ObstaclePoint& point) con
           model.disparity_sigma_px * model.disparity_sigma_px;
       break;
     case GridKind::polar: {
-      const double theta = std::atan2(x, z), cos_theta = std::cos(theta);
+      const double range = std::sqrt(x * x + z * z);
+      const double theta = std::atan2(x, z), cos_theta = z / range;
       const double sigma_theta = model.pixel_sigma_px * cos_theta * cos_theta / model.focal_px;
       const double sigma_range = model.depth_sigma_m(z) / cos_theta;
-      gaussian.mean = {theta, std::hypot(x, z)};
+      gaussian.mean = {theta, range};
       gaussian.covariance << sigma_theta * sigma_theta, 0, 0, sigma_range * sigma_range;
       break;
     }
@@ -239,7 +242,24 @@ double OccupancyGrid::add_likelihood(const GridGaussian& gaussian, GridMatrix& e
   uint64_t window_rows = 0, window_cells = 0;
   double mass = 0;
   int row_first = 0, row_last = -1;
-  if (axis_window(b_low, b_high, b_min, b_cell, rows_, &row_first, &row_last)) {
+  // Uncorrelated grids (column_disparity, polar): the column masses are the same on every row, so
+  // they are computed once and the row loop is an outer product.
+  const bool separable = cov_ab == 0;
+  thread_local std::vector<double> column_masses;  // per thread: update() splits points over threads
+  column_masses.clear();
+  int separable_first = 0, separable_last = -1;
+  if (separable && axis_window(mean_a - k * sigma_a_given_b, mean_a + k * sigma_a_given_b, a_min, a_cell, columns_,
+                               &separable_first, &separable_last)) {
+    const double a_low = mean_a - k * sigma_a_given_b, a_high = mean_a + k * sigma_a_given_b;
+    double left_cdf = normal_cdf((std::max(a_low, a_min + separable_first * a_cell) - mean_a) / sigma_a_given_b);
+    for (int column = separable_first; column <= separable_last; ++column) {
+      const double right_cdf = normal_cdf((std::min(a_high, a_min + (column + 1) * a_cell) - mean_a) / sigma_a_given_b);
+      column_masses.push_back(right_cdf - left_cdf);
+      left_cdf = right_cdf;
+    }
+  }
+  const bool any_column = !separable || !column_masses.empty();
+  if (any_column && axis_window(b_low, b_high, b_min, b_cell, rows_, &row_first, &row_last)) {
     double lower_t = (std::max(b_low, b_min + row_first * b_cell) - mean_b) / sigma_b;
     double lower_cdf = normal_cdf(lower_t);
     for (int row = row_first; row <= row_last; ++row) {
@@ -247,7 +267,15 @@ double OccupancyGrid::add_likelihood(const GridGaussian& gaussian, GridMatrix& e
       const double upper_cdf = normal_cdf(upper_t);
       const double row_mass = upper_cdf - lower_cdf;
       ++window_rows;
-      if (row_mass > 0) {
+      if (separable) {
+        float* row_evidence = &evidence(row, separable_first);
+        for (size_t i = 0; i < column_masses.size(); ++i) {
+          const double cell_mass = row_mass * column_masses[i];
+          row_evidence[i] += static_cast<float>(cell_mass);
+          mass += cell_mass;
+        }
+        window_cells += column_masses.size();
+      } else if (row_mass > 0) {
         // The row's conditional mean of b (truncated normal), then a | b on the columns.
         const double b_mean_in_row = mean_b + sigma_b * (normal_pdf(lower_t) - normal_pdf(upper_t)) / row_mass;
         const double a_mean = mean_a + regression * (b_mean_in_row - mean_b);
@@ -270,7 +298,11 @@ double OccupancyGrid::add_likelihood(const GridGaussian& gaussian, GridMatrix& e
       lower_cdf = upper_cdf;
     }
   }
-  if (work != nullptr) {
+  if (work != nullptr && separable) {
+    work->scalar_ops += kOpsPerPoint + kOpsPerSeparableColumn * column_masses.size() +
+                        kOpsPerSeparableRow * window_rows + kOpsPerSeparableCell * window_cells;
+    work->memory_bytes += sizeof(ObstaclePoint) + 8 * window_cells;
+  } else if (work != nullptr) {
     work->scalar_ops += kOpsPerPoint + kOpsPerWindowRow * window_rows + kOpsPerWindowCell * window_cells;
     work->memory_bytes += sizeof(ObstaclePoint) + 8 * window_cells;
   }

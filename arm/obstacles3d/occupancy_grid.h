@@ -64,7 +64,9 @@
 //     CDF from a 4097-entry table with linear interpolation, 8 ops; the truncated-normal mean with two
 //     exp; the conditional column window) + 16 per window cell (a CDF lookup, the mass, the
 //     accumulation), memory sizeof(ObstaclePoint) read + 8 bytes per window cell (evidence read and
-//     written; the 32 KiB CDF table is taken as cache-resident);
+//     written; the 32 KiB CDF table is taken as cache-resident). The uncorrelated grids
+//     (column_disparity, polar) compute the column masses once per point (14 ops per window column)
+//     and then 12 ops per window row and 4 per window cell (an outer product);
 //   per cell: ego-motion resampling 20 ops (transform, rounding, bounds) + 8 bytes, when the motion
 //     is available; update 24 ops (exp, log, clamp) + 12 bytes (evidence read, log-odds read and
 //     written); clustering 12 ops + 4 bytes, plus 10 ops per occupied cell (stack, 8 neighbours);
@@ -88,6 +90,10 @@ enum class GridKind { cartesian, column_disparity, polar };
 // Cells in memory as the cell index row * columns + column.
 using GridMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 const char* grid_kind_name(GridKind kind);  // "cartesian", "coldisp", "polar" (the --method names)
+
+// Throws std::invalid_argument "<name>: expected <expected>, got <actual>" (the parameter checks here
+// and in augmented_stixels.h).
+[[noreturn]] void throw_invalid_parameter(const std::string& name, const std::string& expected, double actual);
 
 struct OccupancyGridParameters {
   GridKind kind = GridKind::polar;
