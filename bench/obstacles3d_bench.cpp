@@ -158,7 +158,8 @@ void write_figures(const std::string& folder) {
     OccupancyGrid grid(grid_parameters(kind));
     for (int frame = 0; frame < 3; ++frame) grid.update(points, EgoMotion{});
     const std::string path = folder + "/obstacles3d-grid-" + arm::obstacles3d::grid_kind_name(kind) + ".png";
-    cv::imwrite(path, io::occupancy_grid_picture(grid, kind == GridKind::column_disparity ? 3.0 : 16.0));
+    // Colours: blue at 40.5 m for all three (the column/disparity grid reaches 300 m).
+    cv::imwrite(path, io::occupancy_grid_picture(grid, kind == GridKind::column_disparity ? 3.0 : 16.0, 40.5));
     std::printf("figure %s: %s\n", path.c_str(), grid.status().c_str());
   }
   AugmentedStixels stixels(stixel_parameters());

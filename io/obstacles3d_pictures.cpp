@@ -105,9 +105,9 @@ cv::Scalar distance_colour(double distance_m, double far_m) {
   return {static_cast<double>(colour[0]), static_cast<double>(colour[1]), static_cast<double>(colour[2])};
 }
 
-cv::Mat occupancy_grid_picture(const OccupancyGrid& grid, double scale) {
+cv::Mat occupancy_grid_picture(const OccupancyGrid& grid, double scale, double colour_far_m) {
   const OccupancyGridParameters& parameters = grid.parameters();
-  const double far_m = far_distance_m(parameters);
+  const double far_m = colour_far_m > 0 ? colour_far_m : far_distance_m(parameters);
   cv::Mat picture;
   std::function<cv::Point2d(const Eigen::Vector2d&)> to_pixel;
   TopView view;

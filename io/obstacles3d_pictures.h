@@ -25,8 +25,10 @@ namespace lpstereo::io {
 // BGR colour for a distance: red at 0, blue at far_m and beyond.
 cv::Scalar distance_colour(double distance_m, double far_m);
 
-// pixels_per_metre for the cartesian and polar views (> 0), pixels per cell for column_disparity.
-cv::Mat occupancy_grid_picture(const arm::obstacles3d::OccupancyGrid& grid, double scale = 8.0);
+// pixels_per_metre for the cartesian and polar views (> 0), pixels per cell for column_disparity;
+// colour_far_m: the distance drawn blue (0: the grid's far edge, for column_disparity the depth of
+// its smallest nonzero disparity row, f B / max(row_min, row_cell)).
+cv::Mat occupancy_grid_picture(const arm::obstacles3d::OccupancyGrid& grid, double scale = 8.0, double colour_far_m = 0);
 
 // `image` CV_8UC1 or CV_8UC3 (BGR), the left image of the frame whose points built the stixels.
 cv::Mat stixel_image_overlay(const cv::Mat& image, const arm::obstacles3d::AugmentedStixels& stixels,

@@ -56,7 +56,7 @@ bool axis_window(double low, double high, double axis_min, double cell, int cell
 constexpr uint64_t kOpsPerPoint = 40, kOpsPerWindowRow = 30, kOpsPerWindowCell = 16;
 constexpr uint64_t kOpsPerSeparableColumn = 14, kOpsPerSeparableRow = 12, kOpsPerSeparableCell = 4;
 constexpr uint64_t kOpsPerCellWarp = 20, kOpsPerCellUpdate = 24, kOpsPerCellCluster = 12;
-constexpr uint64_t kOpsPerMemberCell = 10, kOpsPerHullStep = 6, kOpsPerPointDescribe = 10;
+constexpr uint64_t kOpsPerMemberCell = 10, kOpsPerHullStep = 6, kOpsPerPointDescribe = 10, kOpsPerCornerTest = 4;
 
 }  // namespace
 
@@ -455,14 +455,25 @@ void OccupancyGrid::cluster_and_describe(const std::vector<ObstaclePoint>& point
     cluster.cells = std::move(components[index]);
     std::vector<Eigen::Vector2d> corners;
     corners.reserve(cluster.cells.size() * 4);
+    // A corner shared by four cells of the cluster lies inside their union, so it cannot be a hull
+    // vertex: only the other corners go to the gift wrapping (n ~ the perimeter, not 4 x the area).
+    auto member = [&](int row, int column) {
+      return row >= 0 && row < rows_ && column >= 0 && column < columns_ &&
+             labels[static_cast<size_t>(row) * columns_ + column] == static_cast<int>(index);
+    };
     for (int cell : cluster.cells) {
       const int row = cell / columns_, column = cell % columns_;
       for (int corner = 0; corner < 4; ++corner) {
+        const int corner_row = row + (corner >> 1), corner_column = column + (corner & 1);
+        if (member(corner_row - 1, corner_column - 1) && member(corner_row - 1, corner_column) &&
+            member(corner_row, corner_column - 1) && member(corner_row, corner_column))
+          continue;
         const double a = parameters_.column_min + (column + (corner & 1)) * parameters_.column_cell;
         const double b = parameters_.row_min + (row + (corner >> 1)) * parameters_.row_cell;
         corners.push_back(picture_plane_of(a, b));
       }
     }
+    work_.scalar_ops += kOpsPerCornerTest * 4 * cluster.cells.size();
     cluster.hull = gift_wrapping_hull(corners, &work_);
     cluster.point_count = static_cast<int>(members[index].size());
     if (!members[index].empty()) {

@@ -48,7 +48,8 @@
 // stack), fewer than min_cluster_cells cells dropped. Each cluster's outline is the convex hull (gift
 // wrapping: Jarvis, "On the identification of the convex hull of a finite set of points in the
 // plane", Information Processing Letters 2(1), 1973) of its cells' corners in the picture plane: the
-// camera's (x, z) in metres for the cartesian and polar grids, (u, d) for the column/disparity grid.
+// camera's (x, z) in metres for the cartesian and polar grids, (u, d) for the column/disparity grid
+// (corners shared by four cells of the cluster are interior and skipped).
 // An Obstacle3d comes from the points of this frame whose mean lies in a cell of the cluster:
 // position = centre of their camera-frame bounding box, size = its extent, min/max height above the
 // terrain, bbox_px from their pixels. A cluster held only by memory (no point this frame) is kept
@@ -70,7 +71,8 @@
 //   per cell: ego-motion resampling 20 ops (transform, rounding, bounds) + 8 bytes, when the motion
 //     is available; update 24 ops (exp, log, clamp) + 12 bytes (evidence read, log-odds read and
 //     written); clustering 12 ops + 4 bytes, plus 10 ops per occupied cell (stack, 8 neighbours);
-//   per cluster: hull 6 ops per (corner x hull vertex) visited;
+//   per cluster: 4 ops per cell corner (is it shared by four member cells?), hull 6 ops per
+//     (remaining corner x hull vertex) visited;
 //   per point again: 10 ops + sizeof(ObstaclePoint) for the obstacles' statistics.
 #pragma once
 

@@ -271,6 +271,18 @@ TEST(OccupancyGridClusters, TwoSeparatedBlobsGiveTwoObstacles) {
     for (const GridCluster& cluster : grid.clusters()) {
       EXPECT_GE(cluster.hull.size(), 3u);
       EXPECT_GT(cluster.point_count, 0);
+      // Every cell centre of the cluster lies inside its hull (left of every counter-clockwise edge).
+      for (int cell : cluster.cells) {
+        const int row = cell / grid.columns(), column = cell % grid.columns();
+        const OccupancyGridParameters& p = grid.parameters();
+        const Eigen::Vector2d centre = grid.picture_plane_of(p.column_min + (column + 0.5) * p.column_cell,
+                                                             p.row_min + (row + 0.5) * p.row_cell);
+        for (size_t i = 0; i < cluster.hull.size(); ++i) {
+          const Eigen::Vector2d& a = cluster.hull[i];
+          const Eigen::Vector2d& b = cluster.hull[(i + 1) % cluster.hull.size()];
+          EXPECT_GT((b - a).x() * (centre - a).y() - (b - a).y() * (centre - a).x(), 0) << grid_kind_name(kind);
+        }
+      }
     }
   }
 }
