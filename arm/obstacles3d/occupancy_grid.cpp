@@ -423,7 +423,7 @@ void OccupancyGrid::update(const std::vector<ObstaclePoint>& points, const EgoMo
     status << ", " << statistics_.points_rejected << " rejected (non-finite or disparity <= 0)";
   status << "; " << clusters_.size() << " clusters, " << obstacles_.size() << " obstacles";
   if (statistics_.clusters_without_points > 0)
-    status << " (" << statistics_.clusters_without_points << " clusters held by memory only)";
+    status << " (" << statistics_.clusters_without_points << " held by memory only)";
   status << (ego_motion.available ? "; ego-motion compensated" : "; static camera assumed (no ego-motion)");
   status_ = status.str();
 }

@@ -4,7 +4,8 @@
 // board on two poles is one obstacle with its poles' stixels grounded and the board's hanging; a
 // sign beside a low box, in neighbouring cells, stays a separate obstacle (height gap); stixels carry their
 // points and colours; the trimmed height ignores one stray low point; a sign above a box in the same
-// cells is one interval per stixel (the representation's limit); bad parameters throw.
+// cells is one interval per stixel (the representation's limit); bad parameters throw; the counted
+// work adds the header's binning terms to the grid's.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -171,6 +172,20 @@ TEST(AugmentedStixels, EmptyCloudGivesNoStixelsAndSaysSo) {
   EXPECT_TRUE(stixels.obstacles().empty());
   EXPECT_NE(stixels.status().find("empty cloud"), std::string::npos) << stixels.status();
   EXPECT_NE(stixels.status().find("0 stixels"), std::string::npos) << stixels.status();
+}
+
+TEST(AugmentedStixels, WorkIsTheGridsPlusTheHeadersBinningTerms) {
+  AugmentedStixels stixels(stixel_parameters());
+  stixels.update({}, EgoMotion{});
+  const uint64_t cells = static_cast<uint64_t>(stixels.grid().rows()) * static_cast<uint64_t>(stixels.grid().columns());
+  // No points: only the prefix sum over the cells (4 ops + 4 bytes per cell) on top of the grid.
+  EXPECT_EQ(stixels.work().scalar_ops, stixels.grid().work().scalar_ops + 4 * cells);
+  EXPECT_EQ(stixels.work().memory_bytes, stixels.grid().work().memory_bytes + 4 * cells);
+  // One point in a cell (below min_points: no stixel): 8 + 6 ops and 16 bytes more for its binning.
+  stixels.update({point_at(0.0, 0.5, 10.0)}, EgoMotion{});
+  EXPECT_TRUE(stixels.stixels().empty());
+  EXPECT_EQ(stixels.work().scalar_ops, stixels.grid().work().scalar_ops + 4 * cells + 14);
+  EXPECT_EQ(stixels.work().memory_bytes, stixels.grid().work().memory_bytes + 4 * cells + 16);
 }
 
 }  // namespace
