@@ -2,7 +2,8 @@
 // mass (2 Phi(3) - 1)^2 and peaks at its cell in all three grids; the cartesian covariance equals
 // J diag(sigma_u^2, sigma_d^2) J^T with J a numerical Jacobian of the triangulation; log-odds fusion
 // rises monotonically to the clamp and decays without evidence; ego-motion (a translation in the
-// cartesian grid, a yaw in the polar grid) moves an occupied cell where a hand derivation says;
+// cartesian grid, a yaw in the polar grid, driving forward in the column/disparity grid) moves an
+// occupied cell where a hand derivation says;
 // gift wrapping on hand-made sets (interior, collinear and duplicate points, degenerate sets, and a
 // random set checked by brute force); connected components; two separated blobs give two obstacles;
 // clipping and rejection counted and reported; empty cloud and missing ego-motion reported; bad
@@ -174,6 +175,26 @@ TEST(OccupancyGridEgoMotion, AYawTurnsThePolarCellByTheAngle) {
   const Peak after = peak_of(grid.log_odds());
   EXPECT_EQ(after.row, 47);
   EXPECT_EQ(after.column, 70);
+}
+
+TEST(OccupancyGridEgoMotion, DrivingForwardMovesTheColumnDisparityCellToALargerDisparity) {
+  OccupancyGrid grid(grid_parameters(GridKind::column_disparity));
+  // u = 318 (column [316, 320) = 79), d = 5.25 px (row [5.0, 5.5) = 10): z = f B / d = 28.57 m.
+  ObstaclePoint point = point_at(0.0, 0.5, kFocalPx * kBaselineM / 5.25);
+  point.u_px = 318;
+  grid.update({point}, EgoMotion{});
+  ASSERT_EQ(peak_of(grid.log_odds()).row, 10);
+  ASSERT_EQ(peak_of(grid.log_odds()).column, 79);
+  // 5 m forward. Backward lookup from the current cell centres: row 12 (d = 6.25, z = 24.0 m) was at
+  // z = 29.0 m, d = 5.17 (row 10); its neighbours row 11 (d = 5.75 -> z 26.09 -> 31.09 m, d = 4.83,
+  // row 9) and row 13 (d = 6.75 -> z 22.22 -> 27.22 m, d = 5.51, row 11) miss it. Column 79's
+  // centre u = 318: x = -1.5 z / f keeps its x, u = 319.5 - 1.5 * 24 / 29 = 318.26 (column 79).
+  EgoMotion motion;
+  motion.available = true;
+  motion.previous_from_current.translation() = Eigen::Vector3d(5.0, 0.0, 0.0);
+  grid.update({}, motion);
+  EXPECT_EQ(peak_of(grid.log_odds()).row, 12);
+  EXPECT_EQ(peak_of(grid.log_odds()).column, 79);
 }
 
 std::vector<Eigen::Vector2d> points_2d(std::initializer_list<std::pair<double, double>> coordinates) {
