@@ -4,12 +4,16 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
 
 namespace lpstereo::arm::obstacles3d {
 namespace {
+
+constexpr double kHalfPi = std::numbers::pi / 2;
+constexpr double kInverseSqrt2 = 1 / std::numbers::sqrt2;
 
 // Standard normal CDF. The likelihood only evaluates it within the window, |t| <= window_sigmas <= 6,
 // so a table over [-6, 6] with linear interpolation replaces erf (the per-cell cost of the far points,
@@ -22,7 +26,7 @@ const std::vector<double> kCdfTable = [] {
   std::vector<double> values(kCdfTableSteps + 1);
   for (int i = 0; i <= kCdfTableSteps; ++i) {
     const double knot = -kCdfTableLimit + 2 * kCdfTableLimit * i / kCdfTableSteps;
-    values[static_cast<size_t>(i)] = 0.5 * (1.0 + std::erf(knot * M_SQRT1_2));
+    values[static_cast<size_t>(i)] = 0.5 * (1.0 + std::erf(knot * kInverseSqrt2));
   }
   return values;
 }();
@@ -113,9 +117,9 @@ void OccupancyGridParameters::validate() const {
   if ((column_max - column_min) / column_cell > 100000)
     throw_invalid_parameter("column_cell", ">= (column_max - column_min) / 100000", column_cell);
   if ((row_max - row_min) / row_cell > 100000) throw_invalid_parameter("row_cell", ">= (row_max - row_min) / 100000", row_cell);
-  if (kind == GridKind::polar && (column_min < -M_PI_2 || column_max > M_PI_2))
-    throw_invalid_parameter(column_min < -M_PI_2 ? "column_min" : "column_max", "an angle within [-pi/2, pi/2] rad",
-                  column_min < -M_PI_2 ? column_min : column_max);
+  if (kind == GridKind::polar && (column_min < -kHalfPi || column_max > kHalfPi))
+    throw_invalid_parameter(column_min < -kHalfPi ? "column_min" : "column_max", "an angle within [-pi/2, pi/2] rad",
+                  column_min < -kHalfPi ? column_min : column_max);
   if (kind == GridKind::polar && row_min < 0) throw_invalid_parameter("row_min", ">= 0 (a range)", row_min);
   if (!(error_model.focal_px > 0)) throw_invalid_parameter("error_model.focal_px", "> 0", error_model.focal_px);
   if (!(error_model.baseline_m > 0)) throw_invalid_parameter("error_model.baseline_m", "> 0", error_model.baseline_m);
