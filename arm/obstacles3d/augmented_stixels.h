@@ -1,0 +1,96 @@
+// Augmented stixels on the polar occupancy grid (issue 10 deliverable 2; thesis 004 §3.2.4): the
+// polar grid of occupancy_grid.h with its convex hulls replaced by stixels that keep the 3D points,
+// after Badino, Franke, Pfeiffer, "The stixel world - a compact medium level representation of the
+// 3D world", DAGM 2009, modified as the thesis does:
+//   - fixed size in both directions: one stixel per polar cell (angular width column_cell rad x
+//     depth row_cell m);
+//   - the textured points it holds (indices into the frame's points, their colour averaged);
+//   - the minimum AND the maximum height above the fitted terrain (ObstaclePoint::
+//     height_above_ground_m), so that a hanging or concave obstacle (a board on two poles, a sign, a
+//     branch) keeps the free space under it: free_below_m = max(0, min height). A classic stixel (and
+//     any 2D grid cell) spans ground to top and calls that space occupied.
+//
+// Steps, per frame:
+//   1. the polar grid's update (occupancy_grid.h: likelihoods, log-odds, ego-motion);
+//   2. binning: each point whose mean lies in a cell (the grid's point_cells()) is counted per cell,
+//      then placed by a counting sort (the points split into contiguous chunks over `threads`, chunk
+//      order kept, so the order of a stixel's points never depends on scheduling);
+//   3. a stixel per cell that is occupied in the grid (require_occupied_cell; otherwise any cell) and
+//      holds at least min_points points: heights = the trimmed extremes of its points' heights (the
+//      k-th lowest and k-th highest, k = floor(height_trim_fraction * count): a stray low point of the
+//      terrain fit does not pull a hanging sign to the ground), mean range, mean colour;
+//   4. obstacles: stixels of 8-neighbouring cells joined when their height intervals overlap or lie
+//      within max_height_gap_m of each other (a sign next to a low box are two objects; the board
+//      and its poles are one; a sign above a box in the same cells is one stixel interval: one
+//      interval per cell is the representation's limit), clusters smaller than min_cluster_stixels dropped; each
+//      cluster's points give its Obstacle3d (occupancy_grid.h, obstacle_from_points), with
+//      min_height_m / max_height_m the trimmed extremes over its stixels.
+//
+// Counted work (ArmWork): the grid's own (occupancy_grid.h), plus per point 8 ops + 8 bytes (count)
+// and 6 ops + 8 bytes (placement); per cell 4 ops + 4 bytes (prefix sum); per stixel 12 ops per
+// point (nth_element ~ 2 passes, sums) + 16 bytes per point; clustering 20 ops per stixel pair tested
+// (8 neighbours) and the Obstacle3d's 10 ops + sizeof(ObstaclePoint) per point.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "arm/obstacles3d/obstacle_points.h"
+#include "arm/obstacles3d/occupancy_grid.h"
+#include "dag/arm_task.h"
+
+namespace lpstereo::arm::obstacles3d {
+
+struct AugmentedStixelParameters {
+  OccupancyGridParameters grid = OccupancyGridParameters::defaults(GridKind::polar);  // kind must be polar
+  int min_points = 3;                 // >= 1
+  bool require_occupied_cell = true;  // a stixel only where the polar grid says occupied
+  double height_trim_fraction = 0.02; // in [0, 0.25)
+  double max_height_gap_m = 0.5;      // >= 0: neighbours join when their height intervals are this close
+  int min_cluster_stixels = 1;        // >= 1
+  // Throws std::invalid_argument "<parameter>: expected ..., got ..." (grid parameters prefixed "grid.").
+  void validate() const;
+};
+
+struct AugmentedStixel {
+  int angle_cell = 0, range_cell = 0;      // polar grid column and row
+  double angle_min_rad = 0, angle_max_rad = 0;
+  double range_min_m = 0, range_max_m = 0;
+  int first_point = 0, point_count = 0;    // into AugmentedStixels::point_indices()
+  float min_height_m = 0, max_height_m = 0;  // above the terrain, trimmed extremes
+  float mean_range_m = 0;
+  std::array<uint8_t, 3> mean_rgb{};
+  float occupancy_probability = 0;         // the polar grid cell's
+  int cluster = -1;                        // obstacle index, -1 when its cluster was dropped
+  float free_below_m() const { return min_height_m > 0 ? min_height_m : 0.0f; }
+};
+
+class AugmentedStixels {
+ public:
+  explicit AugmentedStixels(const AugmentedStixelParameters& parameters);  // validates
+
+  void update(const std::vector<ObstaclePoint>& points, const EgoMotion& ego_motion);
+
+  const AugmentedStixelParameters& parameters() const { return parameters_; }
+  const OccupancyGrid& grid() const { return grid_; }
+  const std::vector<AugmentedStixel>& stixels() const { return stixels_; }  // sorted by (range, angle) cell
+  const std::vector<int>& point_indices() const { return point_indices_; }   // grouped by stixel
+  const std::vector<Obstacle3d>& obstacles() const { return obstacles_; }
+  // The grid's status, then stixels and obstacles.
+  const std::string& status() const { return status_; }
+  ArmWork work() const { return work_; }  // of the last update(), grid included
+
+ private:
+  AugmentedStixelParameters parameters_;
+  OccupancyGrid grid_;
+  std::vector<AugmentedStixel> stixels_;
+  std::vector<int> point_indices_;
+  std::vector<Obstacle3d> obstacles_;
+  std::vector<int> cell_counts_, cell_offsets_;
+  std::string status_;
+  ArmWork work_;
+};
+
+}  // namespace lpstereo::arm::obstacles3d

@@ -1,0 +1,609 @@
+// Occupancy grids: the model, steps and counted work are in occupancy_grid.h.
+#include "arm/obstacles3d/occupancy_grid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+namespace lpstereo::arm::obstacles3d {
+namespace {
+
+constexpr double kHalfPi = std::numbers::pi / 2;
+constexpr double kInverseSqrt2 = 1 / std::numbers::sqrt2;
+
+// Standard normal CDF. The likelihood only evaluates it within the window, |t| <= window_sigmas <= 6,
+// so a table over [-6, 6] with linear interpolation replaces erf (the per-cell cost of the far points,
+// spread over tens of rows): step h = 12 / 4096, interpolation error <= h^2 / 8 max|phi'| = 2.6e-7.
+// The table's values are erf's at the knots, so the window's mass (2 Phi(k) - 1)^2 is exact for
+// k on a knot (every k = n / 4096 * 12 - 6, e.g. 3).
+constexpr int kCdfTableSteps = 4096;
+constexpr double kCdfTableLimit = 6.0;
+const std::vector<double> kCdfTable = [] {
+  std::vector<double> values(kCdfTableSteps + 1);
+  for (int i = 0; i <= kCdfTableSteps; ++i) {
+    const double knot = -kCdfTableLimit + 2 * kCdfTableLimit * i / kCdfTableSteps;
+    values[static_cast<size_t>(i)] = 0.5 * (1.0 + std::erf(knot * kInverseSqrt2));
+  }
+  return values;
+}();
+// Beyond +-6 (never inside a window; only rounding can get there) Phi is 0 or 1 within 1e-9.
+inline double normal_cdf(double t) {
+  const double position = std::clamp((t + kCdfTableLimit) * (kCdfTableSteps / (2 * kCdfTableLimit)), 0.0,
+                                     static_cast<double>(kCdfTableSteps));
+  const int index = std::min(static_cast<int>(position), kCdfTableSteps - 1);
+  const double fraction = position - index;
+  const double* table = kCdfTable.data();
+  return table[index] + fraction * (table[index + 1] - table[index]);
+}
+double normal_pdf(double t) { return 0.3989422804014327 * std::exp(-0.5 * t * t); }
+
+std::string number_text(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
+
+// Cells [first, last] of an axis whose intervals meet [low, high], clamped to the grid; false when none.
+bool axis_window(double low, double high, double axis_min, double cell, int cells, int* first, int* last) {
+  const double first_cell = std::floor((low - axis_min) / cell);
+  const double last_cell = std::floor((high - axis_min) / cell);
+  if (!(last_cell >= 0) || !(first_cell < cells)) return false;
+  *first = static_cast<int>(std::max(0.0, first_cell));
+  *last = static_cast<int>(std::min<double>(cells - 1, last_cell));
+  return *first <= *last;
+}
+
+constexpr uint64_t kOpsPerPoint = 40, kOpsPerWindowRow = 30, kOpsPerWindowCell = 16;
+constexpr uint64_t kOpsPerSeparableColumn = 14, kOpsPerSeparableRow = 12, kOpsPerSeparableCell = 4;
+constexpr uint64_t kOpsPerCellWarp = 20, kOpsPerCellUpdate = 24, kOpsPerCellCluster = 12;
+constexpr uint64_t kOpsPerMemberCell = 10, kOpsPerHullStep = 6, kOpsPerPointDescribe = 10, kOpsPerCornerTest = 4;
+
+}  // namespace
+
+void throw_invalid_parameter(const std::string& name, const std::string& expected, double actual) {
+  throw std::invalid_argument(name + ": expected " + expected + ", got " + number_text(actual));
+}
+
+const char* grid_kind_name(GridKind kind) {
+  switch (kind) {
+    case GridKind::cartesian: return "cartesian";
+    case GridKind::column_disparity: return "coldisp";
+    case GridKind::polar: return "polar";
+  }
+  return "?";
+}
+
+Eigen::Isometry3d OccupancyGridParameters::level_camera() {
+  // arm::optical_to_body(): camera z -> vehicle x, camera x -> vehicle -y, camera y -> vehicle -z.
+  Eigen::Matrix3d rotation;
+  rotation << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+  transform.linear() = rotation;
+  return transform;
+}
+
+OccupancyGridParameters OccupancyGridParameters::defaults(GridKind kind, int image_width_px) {
+  OccupancyGridParameters parameters;
+  parameters.kind = kind;
+  switch (kind) {
+    case GridKind::cartesian:
+      parameters.column_min = -10, parameters.column_max = 10, parameters.column_cell = 0.2;
+      parameters.row_min = 0.5, parameters.row_max = 40.5, parameters.row_cell = 0.2;
+      break;
+    case GridKind::column_disparity:
+      parameters.column_min = 0, parameters.column_max = image_width_px, parameters.column_cell = 4;
+      parameters.row_min = 0, parameters.row_max = 128, parameters.row_cell = 0.5;
+      parameters.principal_u_px = (image_width_px - 1) / 2.0;
+      break;
+    case GridKind::polar:
+      parameters.column_min = -0.6, parameters.column_max = 0.6, parameters.column_cell = 0.01;
+      parameters.row_min = 0.5, parameters.row_max = 40.5, parameters.row_cell = 0.2;
+      break;
+  }
+  return parameters;
+}
+
+void OccupancyGridParameters::validate() const {
+  if (!(column_cell > 0) || !std::isfinite(column_cell)) throw_invalid_parameter("column_cell", "> 0 (cell width)", column_cell);
+  if (!(row_cell > 0) || !std::isfinite(row_cell)) throw_invalid_parameter("row_cell", "> 0 (cell depth)", row_cell);
+  if (!(column_max > column_min) || !std::isfinite(column_max) || !std::isfinite(column_min))
+    throw_invalid_parameter("column_max", "> column_min = " + number_text(column_min), column_max);
+  if (!(row_max > row_min) || !std::isfinite(row_max) || !std::isfinite(row_min))
+    throw_invalid_parameter("row_max", "> row_min = " + number_text(row_min), row_max);
+  if ((column_max - column_min) / column_cell > 100000)
+    throw_invalid_parameter("column_cell", ">= (column_max - column_min) / 100000", column_cell);
+  if ((row_max - row_min) / row_cell > 100000) throw_invalid_parameter("row_cell", ">= (row_max - row_min) / 100000", row_cell);
+  if (kind == GridKind::polar && (column_min < -kHalfPi || column_max > kHalfPi))
+    throw_invalid_parameter(column_min < -kHalfPi ? "column_min" : "column_max", "an angle within [-pi/2, pi/2] rad",
+                  column_min < -kHalfPi ? column_min : column_max);
+  if (kind == GridKind::polar && row_min < 0) throw_invalid_parameter("row_min", ">= 0 (a range)", row_min);
+  if (!(error_model.focal_px > 0)) throw_invalid_parameter("error_model.focal_px", "> 0", error_model.focal_px);
+  if (!(error_model.baseline_m > 0)) throw_invalid_parameter("error_model.baseline_m", "> 0", error_model.baseline_m);
+  if (!(error_model.disparity_sigma_px > 0))
+    throw_invalid_parameter("error_model.disparity_sigma_px", "> 0", error_model.disparity_sigma_px);
+  if (!(error_model.pixel_sigma_px > 0)) throw_invalid_parameter("error_model.pixel_sigma_px", "> 0", error_model.pixel_sigma_px);
+  if (!(window_sigmas >= 1 && window_sigmas <= 6)) throw_invalid_parameter("window_sigmas", "in [1, 6]", window_sigmas);
+  if (!(hit_probability_max > 0.5 && hit_probability_max < 1))
+    throw_invalid_parameter("hit_probability_max", "in (0.5, 1)", hit_probability_max);
+  if (!(miss_probability > 0 && miss_probability <= 0.5)) throw_invalid_parameter("miss_probability", "in (0, 0.5]", miss_probability);
+  if (!(points_for_full_evidence > 0)) throw_invalid_parameter("points_for_full_evidence", "> 0", points_for_full_evidence);
+  if (!(log_odds_min < 0)) throw_invalid_parameter("log_odds_min", "< 0", log_odds_min);
+  if (!(log_odds_max > 0)) throw_invalid_parameter("log_odds_max", "> 0", log_odds_max);
+  if (!(occupied_probability > 0.5 && occupied_probability < 1))
+    throw_invalid_parameter("occupied_probability", "in (0.5, 1)", occupied_probability);
+  if (min_cluster_cells < 1) throw_invalid_parameter("min_cluster_cells", ">= 1", min_cluster_cells);
+  if (threads < 1 || threads > 16) throw_invalid_parameter("threads", "in [1, 16]", threads);
+}
+
+int OccupancyGridParameters::columns() const {
+  return static_cast<int>(std::ceil((column_max - column_min) / column_cell - 1e-9));
+}
+int OccupancyGridParameters::rows() const { return static_cast<int>(std::ceil((row_max - row_min) / row_cell - 1e-9)); }
+
+OccupancyGrid::OccupancyGrid(const OccupancyGridParameters& parameters) : parameters_(parameters) {
+  parameters_.validate();
+  rows_ = parameters_.rows();
+  columns_ = parameters_.columns();
+  log_odds_ = GridMatrix::Zero(rows_, columns_);
+  evidence_ = GridMatrix::Zero(rows_, columns_);
+}
+
+void OccupancyGrid::reset() {
+  log_odds_.setZero();
+  evidence_.setZero();
+  clusters_.clear();
+  obstacles_.clear();
+}
+
+float OccupancyGrid::probability(int row, int column) const {
+  return 1.0f / (1.0f + std::exp(-log_odds_(row, column)));
+}
+
+bool OccupancyGrid::cell_of(double column_coordinate, double row_coordinate, int* row, int* column) const {
+  const double c = std::floor((column_coordinate - parameters_.column_min) / parameters_.column_cell);
+  const double r = std::floor((row_coordinate - parameters_.row_min) / parameters_.row_cell);
+  if (!(c >= 0 && c < columns_ && r >= 0 && r < rows_)) return false;  // also rejects NaN
+  *row = static_cast<int>(r);
+  *column = static_cast<int>(c);
+  return true;
+}
+
+Eigen::Vector2d OccupancyGrid::camera_xz_of(double column_coordinate, double row_coordinate) const {
+  const StereoErrorModel& model = parameters_.error_model;
+  switch (parameters_.kind) {
+    case GridKind::cartesian: return {column_coordinate, row_coordinate};
+    case GridKind::column_disparity: {
+      if (!(row_coordinate > 0)) return {0.0, std::numeric_limits<double>::infinity()};
+      const double z = model.focal_px * model.baseline_m / row_coordinate;
+      return {(column_coordinate - parameters_.principal_u_px) * z / model.focal_px, z};
+    }
+    case GridKind::polar: return {row_coordinate * std::sin(column_coordinate), row_coordinate * std::cos(column_coordinate)};
+  }
+  return {0, 0};
+}
+
+Eigen::Vector2d OccupancyGrid::grid_coordinates_of(double x_m, double z_m) const {
+  const StereoErrorModel& model = parameters_.error_model;
+  switch (parameters_.kind) {
+    case GridKind::cartesian: return {x_m, z_m};
+    case GridKind::column_disparity:
+      return {parameters_.principal_u_px + model.focal_px * x_m / z_m, model.focal_px * model.baseline_m / z_m};
+    case GridKind::polar: return {std::atan2(x_m, z_m), std::hypot(x_m, z_m)};
+  }
+  return {0, 0};
+}
+
+Eigen::Vector2d OccupancyGrid::picture_plane_of(double column_coordinate, double row_coordinate) const {
+  if (parameters_.kind == GridKind::column_disparity) return {column_coordinate, row_coordinate};
+  return camera_xz_of(column_coordinate, row_coordinate);
+}
+
+GridGaussian OccupancyGrid::measurement_gaussian(const ObstaclePoint& point) const {
+  const StereoErrorModel& model = parameters_.error_model;
+  const double x = point.camera_m.x(), z = point.camera_m.z();
+  GridGaussian gaussian;
+  switch (parameters_.kind) {
+    case GridKind::cartesian: {
+      const double sigma_z = model.depth_sigma_m(z), sigma_x = model.lateral_sigma_m(z);
+      const double slope = x / z;  // the ray's lateral slope: a disparity error moves x by slope * dz
+      gaussian.mean = {x, z};
+      gaussian.covariance << sigma_x * sigma_x + slope * slope * sigma_z * sigma_z, slope * sigma_z * sigma_z,
+          slope * sigma_z * sigma_z, sigma_z * sigma_z;
+      break;
+    }
+    case GridKind::column_disparity:
+      gaussian.mean = {static_cast<double>(point.u_px), static_cast<double>(point.disparity_px)};
+      gaussian.covariance << model.pixel_sigma_px * model.pixel_sigma_px, 0, 0,
+          model.disparity_sigma_px * model.disparity_sigma_px;
+      break;
+    case GridKind::polar: {
+      const double range = std::sqrt(x * x + z * z);
+      const double theta = std::atan2(x, z), cos_theta = z / range;
+      const double sigma_theta = model.pixel_sigma_px * cos_theta * cos_theta / model.focal_px;
+      const double sigma_range = model.depth_sigma_m(z) / cos_theta;
+      gaussian.mean = {theta, range};
+      gaussian.covariance << sigma_theta * sigma_theta, 0, 0, sigma_range * sigma_range;
+      break;
+    }
+  }
+  return gaussian;
+}
+
+double OccupancyGrid::add_likelihood(const GridGaussian& gaussian, GridMatrix& evidence, ArmWork* work) const {
+  const double k = parameters_.window_sigmas;
+  const double mean_a = gaussian.mean(0), mean_b = gaussian.mean(1);
+  const double var_a = gaussian.covariance(0, 0), cov_ab = gaussian.covariance(0, 1), var_b = gaussian.covariance(1, 1);
+  const double sigma_b = std::sqrt(var_b);
+  const double regression = cov_ab / var_b;  // E[a | b] = mean_a + regression (b - mean_b)
+  const double sigma_a_given_b = std::sqrt(std::max(var_a - cov_ab * regression, 1e-30));
+  const double b_low = mean_b - k * sigma_b, b_high = mean_b + k * sigma_b;
+  const double a_cell = parameters_.column_cell, b_cell = parameters_.row_cell;
+  const double a_min = parameters_.column_min, b_min = parameters_.row_min;
+  uint64_t window_rows = 0, window_cells = 0;
+  double mass = 0;
+  int row_first = 0, row_last = -1;
+  // Uncorrelated grids (column_disparity, polar): the column masses are the same on every row, so
+  // they are computed once and the row loop is an outer product.
+  const bool separable = cov_ab == 0;
+  thread_local std::vector<double> column_masses;  // per thread: update() splits points over threads
+  column_masses.clear();
+  int separable_first = 0, separable_last = -1;
+  if (separable && axis_window(mean_a - k * sigma_a_given_b, mean_a + k * sigma_a_given_b, a_min, a_cell, columns_,
+                               &separable_first, &separable_last)) {
+    const double a_low = mean_a - k * sigma_a_given_b, a_high = mean_a + k * sigma_a_given_b;
+    double left_cdf = normal_cdf((std::max(a_low, a_min + separable_first * a_cell) - mean_a) / sigma_a_given_b);
+    for (int column = separable_first; column <= separable_last; ++column) {
+      const double right_cdf = normal_cdf((std::min(a_high, a_min + (column + 1) * a_cell) - mean_a) / sigma_a_given_b);
+      column_masses.push_back(right_cdf - left_cdf);
+      left_cdf = right_cdf;
+    }
+  }
+  const bool any_column = !separable || !column_masses.empty();
+  if (any_column && axis_window(b_low, b_high, b_min, b_cell, rows_, &row_first, &row_last)) {
+    double lower_t = (std::max(b_low, b_min + row_first * b_cell) - mean_b) / sigma_b;
+    double lower_cdf = normal_cdf(lower_t);
+    for (int row = row_first; row <= row_last; ++row) {
+      const double upper_t = (std::min(b_high, b_min + (row + 1) * b_cell) - mean_b) / sigma_b;
+      const double upper_cdf = normal_cdf(upper_t);
+      const double row_mass = upper_cdf - lower_cdf;
+      ++window_rows;
+      if (separable) {
+        float* row_evidence = &evidence(row, separable_first);
+        for (size_t i = 0; i < column_masses.size(); ++i) {
+          const double cell_mass = row_mass * column_masses[i];
+          row_evidence[i] += static_cast<float>(cell_mass);
+          mass += cell_mass;
+        }
+        window_cells += column_masses.size();
+      } else if (row_mass > 0) {
+        // The row's conditional mean of b (truncated normal), then a | b on the columns.
+        const double b_mean_in_row = mean_b + sigma_b * (normal_pdf(lower_t) - normal_pdf(upper_t)) / row_mass;
+        const double a_mean = mean_a + regression * (b_mean_in_row - mean_b);
+        const double a_low = a_mean - k * sigma_a_given_b, a_high = a_mean + k * sigma_a_given_b;
+        int column_first = 0, column_last = -1;
+        if (axis_window(a_low, a_high, a_min, a_cell, columns_, &column_first, &column_last)) {
+          double left_cdf = normal_cdf((std::max(a_low, a_min + column_first * a_cell) - a_mean) / sigma_a_given_b);
+          for (int column = column_first; column <= column_last; ++column) {
+            const double right_cdf =
+                normal_cdf((std::min(a_high, a_min + (column + 1) * a_cell) - a_mean) / sigma_a_given_b);
+            const double cell_mass = row_mass * (right_cdf - left_cdf);
+            evidence(row, column) += static_cast<float>(cell_mass);
+            mass += cell_mass;
+            left_cdf = right_cdf;
+          }
+          window_cells += static_cast<uint64_t>(column_last - column_first + 1);
+        }
+      }
+      lower_t = upper_t;
+      lower_cdf = upper_cdf;
+    }
+  }
+  if (work != nullptr && separable) {
+    work->scalar_ops += kOpsPerPoint + kOpsPerSeparableColumn * column_masses.size() +
+                        kOpsPerSeparableRow * window_rows + kOpsPerSeparableCell * window_cells;
+    work->memory_bytes += sizeof(ObstaclePoint) + 8 * window_cells;
+  } else if (work != nullptr) {
+    work->scalar_ops += kOpsPerPoint + kOpsPerWindowRow * window_rows + kOpsPerWindowCell * window_cells;
+    work->memory_bytes += sizeof(ObstaclePoint) + 8 * window_cells;
+  }
+  return mass;
+}
+
+void OccupancyGrid::compensate_ego_motion(const EgoMotion& ego_motion) {
+  const Eigen::Isometry3d& vehicle_from_camera = parameters_.vehicle_from_camera;
+  const Eigen::Isometry3d previous_from_current_camera =
+      vehicle_from_camera.inverse() * ego_motion.previous_from_current * vehicle_from_camera;
+  GridMatrix warped = GridMatrix::Zero(rows_, columns_);
+  for (int row = 0; row < rows_; ++row) {
+    const double b = parameters_.row_min + (row + 0.5) * parameters_.row_cell;
+    for (int column = 0; column < columns_; ++column) {
+      const double a = parameters_.column_min + (column + 0.5) * parameters_.column_cell;
+      const Eigen::Vector2d xz = camera_xz_of(a, b);
+      if (!std::isfinite(xz(1))) {  // d = 0: at infinity, the motion does not move it
+        warped(row, column) = log_odds_(row, column);
+        continue;
+      }
+      const Eigen::Vector3d previous = previous_from_current_camera * Eigen::Vector3d(xz(0), 0.0, xz(1));
+      if (parameters_.kind != GridKind::cartesian && !(previous.z() > 0)) continue;  // behind the camera
+      const Eigen::Vector2d source = grid_coordinates_of(previous.x(), previous.z());
+      int source_row = 0, source_column = 0;
+      if (cell_of(source(0), source(1), &source_row, &source_column))
+        warped(row, column) = log_odds_(source_row, source_column);
+    }
+  }
+  log_odds_.swap(warped);
+  const uint64_t cells = static_cast<uint64_t>(rows_) * columns_;
+  work_.scalar_ops += kOpsPerCellWarp * cells;
+  work_.memory_bytes += 8 * cells;
+}
+
+void OccupancyGrid::update(const std::vector<ObstaclePoint>& points, const EgoMotion& ego_motion) {
+  work_ = ArmWork{};
+  statistics_ = OccupancyGridStatistics{};
+  statistics_.points_in = static_cast<int64_t>(points.size());
+  statistics_.ego_motion_used = ego_motion.available;
+  if (ego_motion.available) compensate_ego_motion(ego_motion);
+
+  // This frame's evidence, the points split into contiguous chunks over the threads (each with its
+  // own evidence matrix, summed in chunk order: the result does not depend on scheduling).
+  point_cells_.assign(points.size(), -1);
+  const int thread_count =
+      static_cast<int>(std::min<size_t>(static_cast<size_t>(parameters_.threads), std::max<size_t>(1, points.size() / 4096)));
+  std::vector<GridMatrix> partial(static_cast<size_t>(thread_count));
+  std::vector<ArmWork> partial_work(static_cast<size_t>(thread_count));
+  std::vector<int64_t> used(static_cast<size_t>(thread_count), 0), clipped(used), rejected(used);
+  auto accumulate = [&](int chunk) {
+    GridMatrix& evidence = partial[static_cast<size_t>(chunk)];
+    evidence = GridMatrix::Zero(rows_, columns_);
+    const size_t begin = points.size() * static_cast<size_t>(chunk) / static_cast<size_t>(thread_count);
+    const size_t end = points.size() * static_cast<size_t>(chunk + 1) / static_cast<size_t>(thread_count);
+    for (size_t i = begin; i < end; ++i) {
+      const ObstaclePoint& point = points[i];
+      if (!point.camera_m.allFinite() || !(point.disparity_px > 0) || !(point.camera_m.z() > 0)) {
+        ++rejected[static_cast<size_t>(chunk)];
+        continue;
+      }
+      const GridGaussian gaussian = measurement_gaussian(point);
+      int row = 0, column = 0;
+      if (!cell_of(gaussian.mean(0), gaussian.mean(1), &row, &column)) {
+        ++clipped[static_cast<size_t>(chunk)];
+        continue;
+      }
+      point_cells_[i] = row * columns_ + column;
+      ++used[static_cast<size_t>(chunk)];
+      add_likelihood(gaussian, evidence, &partial_work[static_cast<size_t>(chunk)]);
+    }
+  };
+  if (thread_count == 1) {
+    accumulate(0);
+  } else {
+    std::vector<std::thread> workers;
+    for (int chunk = 1; chunk < thread_count; ++chunk) workers.emplace_back(accumulate, chunk);
+    accumulate(0);
+    for (std::thread& worker : workers) worker.join();
+  }
+  evidence_ = partial[0];
+  for (int chunk = 1; chunk < thread_count; ++chunk) evidence_ += partial[static_cast<size_t>(chunk)];
+  for (int chunk = 0; chunk < thread_count; ++chunk) {
+    work_ += partial_work[static_cast<size_t>(chunk)];
+    statistics_.points_used += used[static_cast<size_t>(chunk)];
+    statistics_.points_clipped += clipped[static_cast<size_t>(chunk)];
+    statistics_.points_rejected += rejected[static_cast<size_t>(chunk)];
+  }
+
+  // Fusion in log-odds with the inverse sensor model p(D).
+  const float miss = static_cast<float>(parameters_.miss_probability);
+  const float hit_span = static_cast<float>(parameters_.hit_probability_max - parameters_.miss_probability);
+  const float inverse_full = static_cast<float>(1.0 / parameters_.points_for_full_evidence);
+  const float low = static_cast<float>(parameters_.log_odds_min), high = static_cast<float>(parameters_.log_odds_max);
+  const float miss_log_odds = std::log(miss / (1 - miss));
+  for (int row = 0; row < rows_; ++row) {
+    for (int column = 0; column < columns_; ++column) {
+      const float d = evidence_(row, column);
+      float step = miss_log_odds;
+      if (d > 0) {
+        const float p = miss + hit_span * (1 - std::exp(-d * inverse_full));
+        step = std::log(p / (1 - p));
+      }
+      log_odds_(row, column) = std::clamp(log_odds_(row, column) + step, low, high);
+    }
+  }
+  const uint64_t cells = static_cast<uint64_t>(rows_) * columns_;
+  work_.scalar_ops += kOpsPerCellUpdate * cells;
+  work_.memory_bytes += 12 * cells;
+
+  cluster_and_describe(points);
+
+  std::ostringstream status;
+  status << grid_kind_name(parameters_.kind) << " grid " << columns_ << "x" << rows_ << ": ";
+  if (points.empty()) status << "empty cloud; ";
+  status << statistics_.points_used << " of " << statistics_.points_in << " points used";
+  if (statistics_.points_clipped > 0) status << ", " << statistics_.points_clipped << " beyond the grid bounds (clipped)";
+  if (statistics_.points_rejected > 0)
+    status << ", " << statistics_.points_rejected << " rejected (non-finite or disparity <= 0)";
+  status << "; " << clusters_.size() << " clusters, " << obstacles_.size() << " obstacles";
+  if (statistics_.clusters_without_points > 0)
+    status << " (" << statistics_.clusters_without_points << " held by memory only)";
+  status << (ego_motion.available ? "; ego-motion compensated" : "; static camera assumed (no ego-motion)");
+  status_ = status.str();
+}
+
+void OccupancyGrid::cluster_and_describe(const std::vector<ObstaclePoint>& points) {
+  clusters_.clear();
+  obstacles_.clear();
+  const float occupied_log_odds =
+      static_cast<float>(std::log(parameters_.occupied_probability / (1 - parameters_.occupied_probability)));
+  std::vector<uint8_t> mask(static_cast<size_t>(rows_) * columns_);
+  for (int row = 0; row < rows_; ++row)
+    for (int column = 0; column < columns_; ++column)
+      mask[static_cast<size_t>(row) * columns_ + column] = log_odds_(row, column) > occupied_log_odds ? 1 : 0;
+  std::vector<int> labels;
+  std::vector<std::vector<int>> components =
+      connected_components_8(mask, rows_, columns_, parameters_.min_cluster_cells, &labels, &work_);
+
+  std::vector<std::vector<int>> members(components.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    const int cell = point_cells_[i];
+    if (cell >= 0 && labels[static_cast<size_t>(cell)] >= 0)
+      members[static_cast<size_t>(labels[static_cast<size_t>(cell)])].push_back(static_cast<int>(i));
+  }
+  work_.scalar_ops += kOpsPerPointDescribe * points.size();
+  work_.memory_bytes += sizeof(ObstaclePoint) * points.size();
+
+  for (size_t index = 0; index < components.size(); ++index) {
+    GridCluster cluster;
+    cluster.cells = std::move(components[index]);
+    std::vector<Eigen::Vector2d> corners;
+    corners.reserve(cluster.cells.size() * 4);
+    // A corner shared by four cells of the cluster lies inside their union, so it cannot be a hull
+    // vertex: only the other corners go to the gift wrapping (n ~ the perimeter, not 4 x the area).
+    auto member = [&](int row, int column) {
+      return row >= 0 && row < rows_ && column >= 0 && column < columns_ &&
+             labels[static_cast<size_t>(row) * columns_ + column] == static_cast<int>(index);
+    };
+    for (int cell : cluster.cells) {
+      const int row = cell / columns_, column = cell % columns_;
+      for (int corner = 0; corner < 4; ++corner) {
+        const int corner_row = row + (corner >> 1), corner_column = column + (corner & 1);
+        if (member(corner_row - 1, corner_column - 1) && member(corner_row - 1, corner_column) &&
+            member(corner_row, corner_column - 1) && member(corner_row, corner_column))
+          continue;
+        const double a = parameters_.column_min + (column + (corner & 1)) * parameters_.column_cell;
+        const double b = parameters_.row_min + (row + (corner >> 1)) * parameters_.row_cell;
+        corners.push_back(picture_plane_of(a, b));
+      }
+    }
+    work_.scalar_ops += kOpsPerCornerTest * 4 * cluster.cells.size();
+    cluster.hull = gift_wrapping_hull(corners, &work_);
+    cluster.point_count = static_cast<int>(members[index].size());
+    if (!members[index].empty()) {
+      cluster.obstacle_index = static_cast<int>(obstacles_.size());
+      obstacles_.push_back(obstacle_from_points(points, members[index], cluster.obstacle_index));
+    } else {
+      ++statistics_.clusters_without_points;
+    }
+    clusters_.push_back(std::move(cluster));
+  }
+}
+
+std::vector<Eigen::Vector2d> gift_wrapping_hull(const std::vector<Eigen::Vector2d>& points, ArmWork* work) {
+  std::vector<Eigen::Vector2d> hull;
+  if (points.empty()) return hull;
+  double scale = 0;
+  for (const Eigen::Vector2d& point : points) scale = std::max(scale, point.cwiseAbs().maxCoeff());
+  // Collinearity tolerance: a cross product is a product of two coordinate differences.
+  const double tolerance = 1e-12 * std::max(1.0, scale * scale);
+  auto same = [&](const Eigen::Vector2d& p, const Eigen::Vector2d& q) { return (p - q).cwiseAbs().maxCoeff() <= 1e-12 * std::max(1.0, scale); };
+  size_t start = 0;
+  for (size_t i = 1; i < points.size(); ++i) {
+    const Eigen::Vector2d& p = points[i];
+    const Eigen::Vector2d& s = points[start];
+    if (p.y() < s.y() || (p.y() == s.y() && p.x() < s.x())) start = i;
+  }
+  size_t current = start;
+  uint64_t examined = 0;
+  for (size_t step = 0; step <= points.size(); ++step) {
+    hull.push_back(points[current]);
+    // The next vertex: the point with every other point on its left (counter-clockwise), the
+    // farthest among collinear candidates so that points inside an edge are skipped.
+    size_t candidate = points.size();
+    for (size_t i = 0; i < points.size(); ++i) {
+      ++examined;
+      if (same(points[i], points[current])) continue;
+      if (candidate == points.size()) {
+        candidate = i;
+        continue;
+      }
+      const Eigen::Vector2d to_candidate = points[candidate] - points[current];
+      const Eigen::Vector2d to_point = points[i] - points[current];
+      const double cross = to_candidate.x() * to_point.y() - to_candidate.y() * to_point.x();
+      if (cross < -tolerance || (std::abs(cross) <= tolerance && to_point.squaredNorm() > to_candidate.squaredNorm()))
+        candidate = i;
+    }
+    if (candidate == points.size()) break;                 // every point equals the first: one vertex
+    if (same(points[candidate], points[start])) break;     // closed
+    current = candidate;
+  }
+  if (work != nullptr) {
+    work->scalar_ops += kOpsPerHullStep * examined;
+    work->memory_bytes += 16 * examined;
+  }
+  return hull;
+}
+
+std::vector<std::vector<int>> connected_components_8(const std::vector<uint8_t>& mask, int rows, int columns,
+                                                     int min_cells, std::vector<int>* labels, ArmWork* work) {
+  const size_t cells = static_cast<size_t>(rows) * static_cast<size_t>(columns);
+  std::vector<int> local_labels;
+  std::vector<int>& label = labels != nullptr ? *labels : local_labels;
+  label.assign(cells, -1);
+  std::vector<int> visited(cells, 0);
+  std::vector<std::vector<int>> components;
+  std::vector<int> stack;
+  uint64_t member_cells = 0;
+  for (size_t seed = 0; seed < cells; ++seed) {
+    if (mask[seed] == 0 || visited[seed] != 0) continue;
+    std::vector<int> component;
+    visited[seed] = 1;
+    stack.push_back(static_cast<int>(seed));
+    while (!stack.empty()) {
+      const int cell = stack.back();
+      stack.pop_back();
+      component.push_back(cell);
+      const int row = cell / columns, column = cell % columns;
+      for (int dr = -1; dr <= 1; ++dr) {
+        for (int dc = -1; dc <= 1; ++dc) {
+          const int r = row + dr, c = column + dc;
+          if ((dr == 0 && dc == 0) || r < 0 || r >= rows || c < 0 || c >= columns) continue;
+          const size_t neighbour = static_cast<size_t>(r) * columns + c;
+          if (mask[neighbour] != 0 && visited[neighbour] == 0) {
+            visited[neighbour] = 1;
+            stack.push_back(static_cast<int>(neighbour));
+          }
+        }
+      }
+    }
+    member_cells += component.size();
+    if (static_cast<int>(component.size()) < min_cells) continue;
+    std::sort(component.begin(), component.end());
+    for (int cell : component) label[static_cast<size_t>(cell)] = static_cast<int>(components.size());
+    components.push_back(std::move(component));
+  }
+  if (work != nullptr) {
+    work->scalar_ops += kOpsPerCellCluster * cells + kOpsPerMemberCell * member_cells;
+    work->memory_bytes += cells;
+  }
+  return components;
+}
+
+Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id) {
+  Obstacle3d obstacle;
+  obstacle.id = id;
+  if (indices.empty()) return obstacle;
+  Eigen::Vector3d low = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d high = -low;
+  double min_height = std::numeric_limits<double>::infinity(), max_height = -min_height;
+  int u0 = std::numeric_limits<int>::max(), v0 = u0, u1 = -1, v1 = -1;
+  for (int index : indices) {
+    const ObstaclePoint& point = points[static_cast<size_t>(index)];
+    const Eigen::Vector3d position = point.camera_m.cast<double>();
+    low = low.cwiseMin(position);
+    high = high.cwiseMax(position);
+    min_height = std::min<double>(min_height, point.height_above_ground_m);
+    max_height = std::max<double>(max_height, point.height_above_ground_m);
+    u0 = std::min<int>(u0, point.u_px), u1 = std::max<int>(u1, point.u_px);
+    v0 = std::min<int>(v0, point.v_px), v1 = std::max<int>(v1, point.v_px);
+  }
+  obstacle.position_m = (low + high) / 2;
+  obstacle.size_m = high - low;
+  obstacle.min_height_m = min_height;
+  obstacle.max_height_m = max_height;
+  obstacle.bbox_px = {u0, v0, u1, v1};
+  return obstacle;
+}
+
+}  // namespace lpstereo::arm::obstacles3d

@@ -1,0 +1,229 @@
+// Probabilistic occupancy grids from the obstacle candidate points (issue 10 deliverable 1; thesis 004
+// §3.2.1.1 and §3.2.2, after Badino, Franke, Mester, "Free space computation using stochastic
+// occupancy grids and dynamic programming", ICCV workshop on dynamical vision 2007).
+//
+// Three tessellations of the top view, one class (OccupancyGrid) with a kind:
+//   cartesian         column axis x (m, camera x, lateral, + right), row axis z (m, camera depth);
+//   column_disparity  column axis u (px, left-image column), row axis d (px, disparity);
+//   polar             column axis theta = atan2(x, z) (rad, + right), row axis r = sqrt(x^2 + z^2)
+//                     (m, range in the camera's horizontal plane). Badino's polar grid is column u x
+//                     depth z; a cell of constant angle is a cell of constant column (u - u0 = f tan
+//                     theta), and range instead of depth keeps the cells' radial size constant.
+// Cell (row, column) covers [row_min + row * row_cell, + row_cell) x [column_min + column *
+// column_cell, + column_cell); log_odds() is rows x columns.
+//
+// Likelihood (Badino eq. 3.13-3.16 in the thesis): each point is a measurement m_k with a Gaussian
+// error; the cell's evidence this frame is D(i, j) = sum_k L_ij(m_k), L_ij the Gaussian's mass over
+// the cell. The covariance comes from StereoErrorModel (sigma_d = disparity_sigma_px, sigma_u =
+// pixel_sigma_px) through the Jacobian of each grid's coordinates w.r.t. (u, d):
+//   cartesian: x = B (u - u0) / d, z = f B / d, J = [[B/d, -x/d], [0, -z/d]], so
+//     var_z = sigma_Z^2 (depth_sigma_m), cov_xz = (x / z) sigma_Z^2,
+//     var_x = sigma_X^2 (lateral_sigma_m) + (x / z)^2 sigma_Z^2     (the ellipse points at the camera);
+//   column_disparity: diag(sigma_u^2, sigma_d^2) (the measurement space itself);
+//   polar: theta = atan((u - u0) / f), r = z / cos theta: sigma_theta = sigma_u cos^2 theta / f,
+//     sigma_r = sigma_Z / cos theta, uncorrelated (a disparity error moves the point along its ray).
+// The mass over a cell is integrated, not sampled at the centre (a near point's sigma is far below
+// a cell): the row axis exactly, Phi((b1 - mu_b) / sigma_b) - Phi((b0 - mu_b) / sigma_b); the column
+// axis with the conditional Gaussian given the row, x | z ~ N(mu_x + (cov_xz / var_z)(z - mu_z),
+// var_x - cov_xz^2 / var_z), at the row's conditional mean of z (the truncated normal's mean). Cells
+// beyond window_sigmas standard deviations on either axis get nothing (each cell's interval is cut at
+// the window), so a point whose window lies inside the grid gives a mass of exactly (2 Phi(k) - 1)^2
+// (k = window_sigmas; 0.9946 at k = 3), peaking at the cell holding its mean; less near the edges.
+//
+// Evidence to probability (inverse sensor model): p(D) = miss + (hit_max - miss)(1 - exp(-D / D_full))
+// with miss = miss_probability (a cell with no evidence this frame: mild free evidence, so memory of
+// a moving object fades), hit_max = hit_probability_max, D_full = points_for_full_evidence.
+// Fusion (Thrun, Burgard, Fox, "Probabilistic Robotics", 2005, §9.2; thesis eq. 3.11) with prior 0.5:
+//   l_t = clamp(l_{t-1} + log(p(D) / (1 - p(D))), log_odds_min, log_odds_max),  P = 1 / (1 + e^-l).
+// The clamp keeps a cell able to change its mind within (log_odds_max - log_odds_min) / |step| frames.
+//
+// Ego-motion (before this frame's evidence): the previous grid is resampled into the current
+// frame, each current cell centre c (on the camera's horizontal plane, y = 0) taking the nearest
+// previous cell of T c, T = camera_previous_from_camera_current = V^-1 E V with E =
+// EgoMotion::previous_from_current (vehicle frames) and V = vehicle_from_camera (parameters). Cells
+// whose source lies outside the grid start at the prior (l = 0). Without ego-motion (available =
+// false) the camera is assumed static (T = identity) and the status says so.
+//
+// Clusters: cells with P > occupied_probability, 8-connected components (raster order, explicit
+// stack), fewer than min_cluster_cells cells dropped. Each cluster's outline is the convex hull (gift
+// wrapping: Jarvis, "On the identification of the convex hull of a finite set of points in the
+// plane", Information Processing Letters 2(1), 1973) of its cells' corners in the picture plane: the
+// camera's (x, z) in metres for the cartesian and polar grids, (u, d) for the column/disparity grid
+// (corners shared by four cells of the cluster are interior and skipped).
+// An Obstacle3d comes from the points of this frame whose mean lies in a cell of the cluster:
+// position = centre of their camera-frame bounding box, size = its extent, min/max height above the
+// terrain, bbox_px from their pixels. A cluster held only by memory (no point this frame) is kept
+// (hull, cells) but gives no Obstacle3d (counted in clusters_without_points).
+//
+// Bad input: points with a non-finite position or disparity <= 0 are rejected; points whose mean
+// lies outside the grid are clipped; both counted and reported in status(). An empty cloud is a
+// frame with no evidence (memory decays). Parameters are validated on construction:
+// std::invalid_argument "<parameter>: expected ..., got ...".
+//
+// Counted work (ArmWork, the chip's ARM model; a model of the operations, counted as they happen):
+//   per point: 40 scalar ops (coordinates, covariance, window bounds) + 30 per window row (a normal
+//     CDF from a 4097-entry table with linear interpolation, 8 ops; the truncated-normal mean with two
+//     exp; the conditional column window) + 16 per window cell (a CDF lookup, the mass, the
+//     accumulation), memory sizeof(ObstaclePoint) read + 8 bytes per window cell (evidence read and
+//     written; the 32 KiB CDF table is taken as cache-resident). The uncorrelated grids
+//     (column_disparity, polar) compute the column masses once per point (14 ops per window column)
+//     and then 12 ops per window row and 4 per window cell (an outer product);
+//   per cell: ego-motion resampling 20 ops (transform, rounding, bounds) + 8 bytes, when the motion
+//     is available; update 24 ops (exp, log, clamp) + 12 bytes (evidence read, log-odds read and
+//     written); clustering 12 ops + 4 bytes, plus 10 ops per occupied cell (stack, 8 neighbours);
+//   per cluster: 4 ops per cell corner (is it shared by four member cells?), hull 6 ops per
+//     (remaining corner x hull vertex) visited;
+//   per point again: 10 ops + sizeof(ObstaclePoint) for the obstacles' statistics.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "arm/obstacles3d/obstacle_points.h"
+#include "dag/arm_task.h"
+
+namespace lpstereo::arm::obstacles3d {
+
+enum class GridKind { cartesian, column_disparity, polar };
+// Cells in memory as the cell index row * columns + column.
+using GridMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+const char* grid_kind_name(GridKind kind);  // "cartesian", "coldisp", "polar" (the --method names)
+
+// Throws std::invalid_argument "<name>: expected <expected>, got <actual>" (the parameter checks here
+// and in augmented_stixels.h).
+[[noreturn]] void throw_invalid_parameter(const std::string& name, const std::string& expected, double actual);
+
+struct OccupancyGridParameters {
+  GridKind kind = GridKind::polar;
+  // Column axis: x_m (cartesian), u_px (column_disparity), theta_rad (polar).
+  double column_min = -0.6, column_max = 0.6, column_cell = 0.01;
+  // Row axis: z_m (cartesian), disparity_px (column_disparity), range_m (polar).
+  double row_min = 0.5, row_max = 40.0, row_cell = 0.2;
+  StereoErrorModel error_model;        // focal_px, baseline_m > 0 (the likelihoods)
+  double principal_u_px = 0;           // u0 of the rectified left view (column_disparity cell -> 3D)
+  double window_sigmas = 3.0;          // k: the likelihood's window, in [1, 6]
+  double hit_probability_max = 0.85;   // p(D -> infinity), in (0.5, 1)
+  double miss_probability = 0.45;      // p(D = 0), in (0, 0.5]
+  double points_for_full_evidence = 2.0;  // D_full (> 0): expected points for 63 % of the way to hit_max
+  double log_odds_min = -4.0, log_odds_max = 4.0;  // clamp, min < 0 < max
+  double occupied_probability = 0.65;  // a cell above it is occupied, in (0.5, 1)
+  int min_cluster_cells = 1;           // >= 1
+  int threads = 1;                     // evidence accumulation split over this many threads, 1..16
+  // V: the camera in the vehicle frame (arm::CameraToVehicle's rotation and translation). Default:
+  // a level camera looking forward at the vehicle origin (arm::optical_to_body()).
+  Eigen::Isometry3d vehicle_from_camera = level_camera();
+
+  static Eigen::Isometry3d level_camera();
+  // Defaults for each kind over a 640x480-class camera (f ~ 500 px, B ~ 0.3 m): cartesian x in
+  // [-10, 10) m, z in [0.5, 40.5) m, 0.2 m cells; column_disparity u in [0, image_width_px) 4 px cells,
+  // d in [0, 128) 0.5 px cells; polar theta in [-0.6, 0.6) rad, 0.01 rad cells, r in [0.5, 40.5) m,
+  // 0.2 m cells. The caller sets error_model (and principal_u_px).
+  static OccupancyGridParameters defaults(GridKind kind, int image_width_px = 640);
+  // Throws std::invalid_argument "<parameter>: expected ..., got ..." (names like "row_cell").
+  void validate() const;
+  int columns() const;  // ceil((column_max - column_min) / column_cell)
+  int rows() const;
+};
+
+// A cluster of occupied cells (see the header comment).
+struct GridCluster {
+  std::vector<int> cells;                 // row * columns + column
+  std::vector<Eigen::Vector2d> hull;      // convex hull, counter-clockwise, picture plane
+  int point_count = 0;                    // this frame's points in its cells
+  int obstacle_index = -1;                // into OccupancyGrid::obstacles(), -1 when no points
+};
+
+struct OccupancyGridStatistics {
+  int64_t points_in = 0;        // points given to update()
+  int64_t points_used = 0;      // added as evidence
+  int64_t points_clipped = 0;   // mean outside the grid's area
+  int64_t points_rejected = 0;  // non-finite or disparity <= 0
+  int clusters_without_points = 0;
+  bool ego_motion_used = false;
+};
+
+// The Gaussian of one measurement in a grid's coordinates: mean (column, row) and covariance.
+struct GridGaussian {
+  Eigen::Vector2d mean;        // (column coordinate, row coordinate)
+  Eigen::Matrix2d covariance;  // same order
+};
+
+class OccupancyGrid {
+ public:
+  explicit OccupancyGrid(const OccupancyGridParameters& parameters);  // validates
+
+  // One frame: ego-motion compensation of the memory, this frame's evidence, fusion, clusters and
+  // obstacles. `points` are the frame's obstacle candidates.
+  void update(const std::vector<ObstaclePoint>& points, const EgoMotion& ego_motion);
+  void reset();  // back to the prior (l = 0 everywhere)
+
+  const OccupancyGridParameters& parameters() const { return parameters_; }
+  int rows() const { return rows_; }
+  int columns() const { return columns_; }
+  const GridMatrix& log_odds() const { return log_odds_; }        // rows x columns
+  const GridMatrix& evidence() const { return evidence_; }        // D of the last frame
+  float probability(int row, int column) const;
+  bool occupied(int row, int column) const { return probability(row, column) > parameters_.occupied_probability; }
+  const std::vector<GridCluster>& clusters() const { return clusters_; }
+  const std::vector<Obstacle3d>& obstacles() const { return obstacles_; }
+  const OccupancyGridStatistics& statistics() const { return statistics_; }
+  // Per point of the last update(): its mean's cell (row * columns + column), -1 clipped or rejected.
+  const std::vector<int>& point_cells() const { return point_cells_; }
+  // One line: points used / clipped / rejected, clusters, obstacles, ego-motion or "static camera
+  // assumed (no ego-motion)", "empty cloud" when there were no points.
+  const std::string& status() const { return status_; }
+  ArmWork work() const { return work_; }  // of the last update()
+
+  // Geometry helpers (also used by the pictures and the stixels).
+  GridGaussian measurement_gaussian(const ObstaclePoint& point) const;
+  // The cell of grid coordinates (column coordinate, row coordinate); false outside.
+  bool cell_of(double column_coordinate, double row_coordinate, int* row, int* column) const;
+  // A grid coordinate pair (column, row) -> camera (x, z) in metres; for the column_disparity grid
+  // through principal_u_px, focal and baseline (d <= 0 gives z = +inf).
+  Eigen::Vector2d camera_xz_of(double column_coordinate, double row_coordinate) const;
+  // Camera (x, z) -> grid coordinates (column, row).
+  Eigen::Vector2d grid_coordinates_of(double x_m, double z_m) const;
+  // The picture plane of the hulls: camera (x, z) for cartesian and polar, (u, d) for column_disparity.
+  Eigen::Vector2d picture_plane_of(double column_coordinate, double row_coordinate) const;
+  // Adds one measurement's Gaussian mass to `evidence` (rows x columns); returns the mass added.
+  // Exposed for the tests (a single point's likelihood).
+  double add_likelihood(const GridGaussian& gaussian, GridMatrix& evidence, ArmWork* work) const;
+
+ private:
+  void compensate_ego_motion(const EgoMotion& ego_motion);
+  void cluster_and_describe(const std::vector<ObstaclePoint>& points);
+
+  OccupancyGridParameters parameters_;
+  int rows_ = 0, columns_ = 0;
+  GridMatrix log_odds_, evidence_;
+  std::vector<GridCluster> clusters_;
+  std::vector<Obstacle3d> obstacles_;
+  std::vector<int> point_cells_;
+  OccupancyGridStatistics statistics_;
+  std::string status_;
+  ArmWork work_;
+};
+
+// Convex hull by gift wrapping (Jarvis march, 1973): the extreme vertices counter-clockwise (y up)
+// from the lowest-leftmost point; points on a hull edge between two vertices and duplicates are not
+// vertices. Degenerate sets: 0 points -> empty, all equal -> 1 point, all collinear -> the 2 ends.
+// O(n h). `work` (optional) gets 6 scalar ops per point examined per hull vertex.
+std::vector<Eigen::Vector2d> gift_wrapping_hull(const std::vector<Eigen::Vector2d>& points, ArmWork* work = nullptr);
+
+// 8-connected components of `mask` (rows x columns, row-major, nonzero = member) in raster order;
+// returns each component's cells (row * columns + column), components smaller than min_cells dropped.
+// `labels` (optional) gets the component index per cell, -1 for none. `work` gets 12 ops and 1 byte
+// per cell plus 10 ops per member cell.
+std::vector<std::vector<int>> connected_components_8(const std::vector<uint8_t>& mask, int rows, int columns,
+                                                     int min_cells, std::vector<int>* labels, ArmWork* work);
+
+// An Obstacle3d from points (camera-frame bounding box centre and extent, height range, pixel box).
+// `indices` selects the points; empty selection -> nothing changed but id. Used by the grids and the
+// stixels.
+Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id);
+
+}  // namespace lpstereo::arm::obstacles3d

@@ -1,0 +1,397 @@
+// Occupancy grids (arm/obstacles3d/occupancy_grid.h): a single point's likelihood has the window's
+// mass (2 Phi(3) - 1)^2 and peaks at its cell in all three grids; the cartesian covariance equals
+// J diag(sigma_u^2, sigma_d^2) J^T with J a numerical Jacobian of the triangulation; log-odds fusion
+// rises monotonically to the clamp and decays without evidence; ego-motion (a translation in the
+// cartesian grid, a yaw in the polar grid, driving forward in the column/disparity grid) moves an
+// occupied cell where a hand derivation says;
+// gift wrapping on hand-made sets (interior, collinear and duplicate points, degenerate sets, and a
+// random set checked by brute force); connected components; two separated blobs give two obstacles;
+// clipping and rejection counted and reported; empty cloud and missing ego-motion reported; bad
+// parameters throw naming the parameter; the counted work's per-cell closed form; 2 threads agree.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "arm/obstacles3d/occupancy_grid.h"
+#include "tests/arm/obstacles3d/synthetic_points.h"
+
+namespace lpstereo::arm::obstacles3d {
+namespace {
+
+using testing::add_patch;
+using testing::grid_parameters;
+using testing::kBaselineM;
+using testing::kFocalPx;
+using testing::point_at;
+
+// (2 Phi(3) - 1)^2: the mass of a 2D Gaussian inside a +-3 sigma box (independent of the code).
+const double kWindowMass = std::pow(std::erf(3.0 / std::sqrt(2.0)), 2);
+
+double logit(double p) { return std::log(p / (1 - p)); }
+
+struct Peak {
+  int row = -1, column = -1;
+  float value = 0;
+};
+Peak peak_of(const GridMatrix& matrix) {
+  Peak peak;
+  Eigen::Index row = 0, column = 0;
+  peak.value = matrix.maxCoeff(&row, &column);
+  peak.row = static_cast<int>(row);
+  peak.column = static_cast<int>(column);
+  return peak;
+}
+
+void expect_single_point_mass_and_peak(GridKind kind, const ObstaclePoint& point, int expected_row,
+                                       int expected_column) {
+  OccupancyGrid grid(grid_parameters(kind));
+  GridMatrix evidence = GridMatrix::Zero(grid.rows(), grid.columns());
+  const double mass = grid.add_likelihood(grid.measurement_gaussian(point), evidence, nullptr);
+  EXPECT_NEAR(mass, kWindowMass, 1e-9) << grid_kind_name(kind);
+  EXPECT_NEAR(evidence.sum(), kWindowMass, 1e-5) << grid_kind_name(kind);
+  const Peak peak = peak_of(evidence);
+  EXPECT_EQ(peak.row, expected_row) << grid_kind_name(kind);
+  EXPECT_EQ(peak.column, expected_column) << grid_kind_name(kind);
+}
+
+TEST(OccupancyGridLikelihood, SinglePointHasTheWindowMassAndPeaksAtItsCell) {
+  // Cartesian: x = 0.1 m, z = 20 m: sigma_z = 20^2 0.25 / 150 = 0.67 m, spread over ~20 rows.
+  // Cell (row, column) = ((20 - 0.5) / 0.2, (0.1 + 10) / 0.2) = (97.5, 50.5) -> (97, 50).
+  expect_single_point_mass_and_peak(GridKind::cartesian, point_at(0.1, 0.5, 20.0), 97, 50);
+  // Polar: theta = 0.055 rad at z = 20: column (0.055 + 0.6) / 0.01 = 65.5 -> 65, range
+  // r = 20 / cos(0.055) = 20.0303: row (20.0303 - 0.5) / 0.2 = 97.65 -> 97.
+  expect_single_point_mass_and_peak(GridKind::polar, point_at(20.0 * std::tan(0.055), 0.5, 20.0), 97, 65);
+  // Column/disparity: u = 302 (cell [300, 304) = 75), d = 7.75 (cell [7.5, 8) = 15).
+  ObstaclePoint point = point_at(0.0, 0.5, kFocalPx * kBaselineM / 7.75);
+  point.u_px = 302;
+  expect_single_point_mass_and_peak(GridKind::column_disparity, point, 15, 75);
+}
+
+TEST(OccupancyGridLikelihood, ANearPointPutsTheWholeWindowInOneCell) {
+  // z = 3 m: sigma_z = 9 0.25 / 150 = 0.015 m, sigma_x = 0.003 m; the +-3 sigma box (0.09 x 0.018 m)
+  // lies inside the cell x in [0.0, 0.2), z in [2.9, 3.1).
+  OccupancyGrid grid(grid_parameters(GridKind::cartesian));
+  GridMatrix evidence = GridMatrix::Zero(grid.rows(), grid.columns());
+  grid.add_likelihood(grid.measurement_gaussian(point_at(0.1, 0.5, 3.0)), evidence, nullptr);
+  EXPECT_NEAR(evidence(12, 50), kWindowMass, 1e-6);  // row (3.0 - 0.5) / 0.2 = 12.5 -> 12
+  EXPECT_EQ((evidence.array() > 0).count(), 1);
+}
+
+TEST(OccupancyGridLikelihood, CartesianCovarianceIsTheTriangulationJacobianOfThePixelErrors) {
+  OccupancyGrid grid(grid_parameters(GridKind::cartesian));
+  const double x = 3.0, z = 12.0;
+  const GridGaussian gaussian = grid.measurement_gaussian(point_at(x, 0.5, z));
+  // x(u, d) = B (u - u0) / d, z(u, d) = f B / d, differentiated numerically at the point's (u, d).
+  const double u = testing::kPrincipalUPx + kFocalPx * x / z, d = kFocalPx * kBaselineM / z;
+  auto triangulate = [](double u_px, double d_px) {
+    return Eigen::Vector2d(kBaselineM * (u_px - testing::kPrincipalUPx) / d_px, kFocalPx * kBaselineM / d_px);
+  };
+  const double h = 1e-4;
+  Eigen::Matrix2d jacobian;
+  jacobian.col(0) = (triangulate(u + h, d) - triangulate(u - h, d)) / (2 * h);
+  jacobian.col(1) = (triangulate(u, d + h) - triangulate(u, d - h)) / (2 * h);
+  const Eigen::Matrix2d pixel_covariance = Eigen::Vector2d(0.5 * 0.5, 0.25 * 0.25).asDiagonal();
+  const Eigen::Matrix2d expected = jacobian * pixel_covariance * jacobian.transpose();
+  EXPECT_NEAR(gaussian.covariance(0, 0), expected(0, 0), 1e-6 * expected(0, 0));
+  EXPECT_NEAR(gaussian.covariance(0, 1), expected(0, 1), 1e-6 * std::abs(expected(0, 1)));
+  EXPECT_NEAR(gaussian.covariance(1, 1), expected(1, 1), 1e-6 * expected(1, 1));
+}
+
+TEST(OccupancyGridFusion, RepeatedObservationsRiseMonotonicallyToTheClamp) {
+  OccupancyGridParameters parameters = grid_parameters(GridKind::cartesian);
+  OccupancyGrid grid(parameters);
+  const std::vector<ObstaclePoint> points = {point_at(0.1, 0.5, 3.0)};
+  const int row = static_cast<int>((3.0 - 0.5) / 0.2), column = 50;
+  // The first frame's log-odds by the header's inverse sensor model: D = the window mass.
+  const double p_first = 0.45 + (0.85 - 0.45) * (1 - std::exp(-kWindowMass / 2.0));
+  float previous = 0.5f;
+  bool reached_clamp = false;
+  for (int frame = 0; frame < 40; ++frame) {
+    grid.update(points, EgoMotion{});
+    const float probability = grid.probability(row, column);
+    if (frame == 0) {
+      EXPECT_NEAR(grid.log_odds()(row, column), logit(p_first), 1e-5);
+    }
+    if (grid.log_odds()(row, column) >= parameters.log_odds_max) {
+      reached_clamp = true;
+      EXPECT_FLOAT_EQ(grid.log_odds()(row, column), static_cast<float>(parameters.log_odds_max));
+      EXPECT_GE(probability, previous);
+    } else {
+      EXPECT_GT(probability, previous) << "frame " << frame;
+    }
+    previous = probability;
+  }
+  EXPECT_TRUE(reached_clamp);
+  EXPECT_NEAR(previous, 1 / (1 + std::exp(-parameters.log_odds_max)), 1e-6);
+  EXPECT_TRUE(grid.occupied(row, column));
+  // Without evidence the cell decays by logit(miss) per frame down to the lower clamp.
+  grid.update({}, EgoMotion{});
+  EXPECT_NEAR(grid.log_odds()(row, column), parameters.log_odds_max + logit(0.45), 1e-5);
+  for (int frame = 0; frame < 100; ++frame) grid.update({}, EgoMotion{});
+  EXPECT_FLOAT_EQ(grid.log_odds()(row, column), static_cast<float>(parameters.log_odds_min));
+  EXPECT_FALSE(grid.occupied(row, column));
+}
+
+TEST(OccupancyGridEgoMotion, ATranslationMovesTheCartesianCellByTheMotion) {
+  OccupancyGrid grid(grid_parameters(GridKind::cartesian));
+  // Frame 1: a point at camera (x, z) = (0.1, 10.0): cell ((10 - 0.5) / 0.2, (0.1 + 10) / 0.2) = (47, 50).
+  grid.update({point_at(0.1, 0.5, 10.0)}, EgoMotion{});
+  const Peak before = peak_of(grid.log_odds());
+  ASSERT_EQ(before.row, 47);
+  ASSERT_EQ(before.column, 50);
+  // The vehicle drove 1.0 m forward and 0.6 m left: p_previous = p_current + (1.0, 0.6, 0) (vehicle
+  // x forward, y left). The point, at vehicle (10.0, -0.1) before, is at (9.0, -0.7) now: camera
+  // x = 0.7, z = 9.0, cell ((9 - 0.5) / 0.2, (0.7 + 10) / 0.2) = (42.5, 53.5) -> (42, 53).
+  EgoMotion motion;
+  motion.available = true;
+  motion.previous_from_current.translation() = Eigen::Vector3d(1.0, 0.6, 0.0);
+  grid.update({}, motion);
+  const Peak after = peak_of(grid.log_odds());
+  EXPECT_EQ(after.row, 42);
+  EXPECT_EQ(after.column, 53);
+  EXPECT_NEAR(after.value, before.value + logit(0.45), 1e-5);  // carried, then one frame without evidence
+  EXPECT_NE(grid.status().find("ego-motion compensated"), std::string::npos) << grid.status();
+}
+
+TEST(OccupancyGridEgoMotion, AYawTurnsThePolarCellByTheAngle) {
+  OccupancyGrid grid(grid_parameters(GridKind::polar));
+  // theta = 0.055 rad (column 65), range 10.0 m (row (10 - 0.5) / 0.2 = 47.5 -> 47).
+  grid.update({point_at(10.0 * std::sin(0.055), 0.5, 10.0 * std::cos(0.055))}, EgoMotion{});
+  const Peak before = peak_of(grid.log_odds());
+  ASSERT_EQ(before.row, 47);
+  ASSERT_EQ(before.column, 65);
+  // Turning left by psi = 0.05 rad about the camera (p_previous = Rz(psi) p_current): a fixed
+  // point's bearing (+ right) grows by psi, theta = 0.105 -> column 70.5 -> 70; its range is kept.
+  EgoMotion motion;
+  motion.available = true;
+  motion.previous_from_current.linear() = Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  grid.update({}, motion);
+  const Peak after = peak_of(grid.log_odds());
+  EXPECT_EQ(after.row, 47);
+  EXPECT_EQ(after.column, 70);
+}
+
+TEST(OccupancyGridEgoMotion, DrivingForwardMovesTheColumnDisparityCellToALargerDisparity) {
+  OccupancyGrid grid(grid_parameters(GridKind::column_disparity));
+  // u = 318 (column [316, 320) = 79), d = 5.25 px (row [5.0, 5.5) = 10): z = f B / d = 28.57 m.
+  ObstaclePoint point = point_at(0.0, 0.5, kFocalPx * kBaselineM / 5.25);
+  point.u_px = 318;
+  grid.update({point}, EgoMotion{});
+  ASSERT_EQ(peak_of(grid.log_odds()).row, 10);
+  ASSERT_EQ(peak_of(grid.log_odds()).column, 79);
+  // 5 m forward. Backward lookup from the current cell centres: row 12 (d = 6.25, z = 24.0 m) was at
+  // z = 29.0 m, d = 5.17 (row 10); its neighbours row 11 (d = 5.75 -> z 26.09 -> 31.09 m, d = 4.83,
+  // row 9) and row 13 (d = 6.75 -> z 22.22 -> 27.22 m, d = 5.51, row 11) miss it. Column 79's
+  // centre u = 318: x = -1.5 z / f keeps its x, u = 319.5 - 1.5 * 24 / 29 = 318.26 (column 79).
+  EgoMotion motion;
+  motion.available = true;
+  motion.previous_from_current.translation() = Eigen::Vector3d(5.0, 0.0, 0.0);
+  grid.update({}, motion);
+  EXPECT_EQ(peak_of(grid.log_odds()).row, 12);
+  EXPECT_EQ(peak_of(grid.log_odds()).column, 79);
+}
+
+std::vector<Eigen::Vector2d> points_2d(std::initializer_list<std::pair<double, double>> coordinates) {
+  std::vector<Eigen::Vector2d> points;
+  for (const auto& [x, y] : coordinates) points.emplace_back(x, y);
+  return points;
+}
+
+TEST(GiftWrapping, SquareWithInteriorCollinearAndDuplicatePoints) {
+  const std::vector<Eigen::Vector2d> points = points_2d({{1, 1}, {2, 2}, {0, 0}, {1, 0}, {2, 0}, {2, 1}, {0, 2},
+                                                         {1, 2}, {0, 1}, {0.5, 1.5}, {2, 2}, {0, 0}, {2, 0}});
+  const std::vector<Eigen::Vector2d> hull = gift_wrapping_hull(points);
+  const std::vector<Eigen::Vector2d> expected = points_2d({{0, 0}, {2, 0}, {2, 2}, {0, 2}});  // CCW from lowest-left
+  ASSERT_EQ(hull.size(), expected.size());
+  for (size_t i = 0; i < hull.size(); ++i) EXPECT_EQ(hull[i], expected[i]) << i;
+}
+
+TEST(GiftWrapping, DegenerateSets) {
+  EXPECT_TRUE(gift_wrapping_hull({}).empty());
+  const auto same = gift_wrapping_hull(points_2d({{3, 4}, {3, 4}, {3, 4}}));
+  ASSERT_EQ(same.size(), 1u);
+  EXPECT_EQ(same[0], Eigen::Vector2d(3, 4));
+  const auto line = gift_wrapping_hull(points_2d({{1, 1}, {3, 3}, {0, 0}, {2, 2}, {3, 3}}));
+  ASSERT_EQ(line.size(), 2u);
+  EXPECT_EQ(line[0], Eigen::Vector2d(0, 0));
+  EXPECT_EQ(line[1], Eigen::Vector2d(3, 3));
+  const auto triangle = gift_wrapping_hull(points_2d({{0, 0}, {4, 0}, {0, 0}, {2, 3}, {4, 0}, {2, 1}}));
+  ASSERT_EQ(triangle.size(), 3u);
+  EXPECT_EQ(triangle[0], Eigen::Vector2d(0, 0));
+  EXPECT_EQ(triangle[1], Eigen::Vector2d(4, 0));
+  EXPECT_EQ(triangle[2], Eigen::Vector2d(2, 3));
+}
+
+TEST(GiftWrapping, RandomSetsAgreeWithABruteForceCheck) {
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> coordinate(-10, 10);
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<Eigen::Vector2d> points;
+    for (int i = 0; i < 60; ++i) points.emplace_back(coordinate(random), coordinate(random));
+    const std::vector<Eigen::Vector2d> hull = gift_wrapping_hull(points);
+    ASSERT_GE(hull.size(), 3u);
+    for (size_t i = 0; i < hull.size(); ++i) {
+      const Eigen::Vector2d& a = hull[i];
+      const Eigen::Vector2d& b = hull[(i + 1) % hull.size()];
+      const Eigen::Vector2d& c = hull[(i + 2) % hull.size()];
+      // Strictly left turns (convex, counter-clockwise, no collinear vertices) ...
+      EXPECT_GT((b - a).x() * (c - b).y() - (b - a).y() * (c - b).x(), 0);
+      // ... and every point on or left of every edge.
+      for (const Eigen::Vector2d& p : points) EXPECT_GE((b - a).x() * (p - a).y() - (b - a).y() * (p - a).x(), -1e-9);
+    }
+    // A point is a vertex exactly when it is not inside the hull of the others: brute force over the
+    // vertex list, each vertex must be an input point.
+    for (const Eigen::Vector2d& vertex : hull)
+      EXPECT_TRUE(std::find(points.begin(), points.end(), vertex) != points.end());
+  }
+}
+
+TEST(ConnectedComponents, DiagonalNeighboursJoinAndSmallComponentsAreDropped) {
+  // 4 x 5 mask:      components in raster order:
+  //   1 0 0 0 1      {0, 6, 12} (diagonal chain), {4, 9} , {15} (single, dropped with min_cells 2)
+  //   0 1 0 0 1
+  //   0 0 1 0 0
+  //   1 0 0 0 0
+  const std::vector<uint8_t> mask = {1, 0, 0, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0};
+  std::vector<int> labels;
+  const auto components = connected_components_8(mask, 4, 5, 2, &labels, nullptr);
+  ASSERT_EQ(components.size(), 2u);
+  EXPECT_EQ(components[0], (std::vector<int>{0, 6, 12}));
+  EXPECT_EQ(components[1], (std::vector<int>{4, 9}));
+  EXPECT_EQ(labels[15], -1);
+  EXPECT_EQ(labels[12], 0);
+  EXPECT_EQ(labels[9], 1);
+}
+
+TEST(OccupancyGridClusters, TwoSeparatedBlobsGiveTwoObstacles) {
+  for (GridKind kind : {GridKind::cartesian, GridKind::polar, GridKind::column_disparity}) {
+    OccupancyGrid grid(grid_parameters(kind));
+    std::vector<ObstaclePoint> points;
+    add_patch(points, -3.3, -2.7, 0.0, 1.0, 10.0, 0.02);  // a 0.6 m wide, 1 m tall object left
+    add_patch(points, 2.6, 3.4, 0.0, 0.5, 12.0, 0.02);    // a 0.8 m wide, 0.5 m tall object right
+    for (int frame = 0; frame < 3; ++frame) grid.update(points, EgoMotion{});
+    ASSERT_EQ(grid.obstacles().size(), 2u) << grid_kind_name(kind) << ": " << grid.status();
+    ASSERT_EQ(grid.clusters().size(), 2u) << grid_kind_name(kind);
+    // Raster order (row = far..., cartesian row 0 is near): find each by its side.
+    const Obstacle3d& left = grid.obstacles()[0].position_m.x() < 0 ? grid.obstacles()[0] : grid.obstacles()[1];
+    const Obstacle3d& right = grid.obstacles()[0].position_m.x() < 0 ? grid.obstacles()[1] : grid.obstacles()[0];
+    EXPECT_NEAR(left.position_m.x(), -3.0, 0.02) << grid_kind_name(kind);
+    EXPECT_NEAR(left.position_m.z(), 10.0, 0.01) << grid_kind_name(kind);
+    EXPECT_NEAR(left.size_m.x(), 0.6, 0.02) << grid_kind_name(kind);
+    EXPECT_NEAR(left.min_height_m, 0.0, 1e-6);
+    EXPECT_NEAR(left.max_height_m, 1.0, 1e-5);
+    EXPECT_NEAR(right.position_m.x(), 3.0, 0.02) << grid_kind_name(kind);
+    EXPECT_NEAR(right.max_height_m, 0.5, 1e-5);
+    EXPECT_LT(left.bbox_px[2], right.bbox_px[0]);  // left's pixels left of right's
+    for (const GridCluster& cluster : grid.clusters()) {
+      EXPECT_GE(cluster.hull.size(), 3u);
+      EXPECT_GT(cluster.point_count, 0);
+      // Every cell centre of the cluster lies inside its hull (left of every counter-clockwise edge).
+      for (int cell : cluster.cells) {
+        const int row = cell / grid.columns(), column = cell % grid.columns();
+        const OccupancyGridParameters& p = grid.parameters();
+        const Eigen::Vector2d centre = grid.picture_plane_of(p.column_min + (column + 0.5) * p.column_cell,
+                                                             p.row_min + (row + 0.5) * p.row_cell);
+        for (size_t i = 0; i < cluster.hull.size(); ++i) {
+          const Eigen::Vector2d& a = cluster.hull[i];
+          const Eigen::Vector2d& b = cluster.hull[(i + 1) % cluster.hull.size()];
+          EXPECT_GT((b - a).x() * (centre - a).y() - (b - a).y() * (centre - a).x(), 0) << grid_kind_name(kind);
+        }
+      }
+    }
+  }
+}
+
+TEST(OccupancyGridBadInput, PointsBeyondTheBoundsAreClippedAndCounted) {
+  OccupancyGrid grid(grid_parameters(GridKind::cartesian));
+  std::vector<ObstaclePoint> points = {point_at(0.0, 0.5, 10.0), point_at(0.0, 0.5, 100.0), point_at(50.0, 0.5, 20.0),
+                                       point_at(-12.0, 0.5, 5.0)};
+  ObstaclePoint not_finite = point_at(0.0, 0.5, 10.0);
+  not_finite.camera_m.x() = std::numeric_limits<float>::quiet_NaN();
+  ObstaclePoint no_disparity = point_at(0.0, 0.5, 10.0);
+  no_disparity.disparity_px = 0;
+  points.push_back(not_finite);
+  points.push_back(no_disparity);
+  grid.update(points, EgoMotion{});
+  EXPECT_EQ(grid.statistics().points_in, 6);
+  EXPECT_EQ(grid.statistics().points_used, 1);
+  EXPECT_EQ(grid.statistics().points_clipped, 3);
+  EXPECT_EQ(grid.statistics().points_rejected, 2);
+  EXPECT_NE(grid.status().find("3 beyond the grid bounds (clipped)"), std::string::npos) << grid.status();
+  EXPECT_NE(grid.status().find("2 rejected"), std::string::npos) << grid.status();
+  EXPECT_EQ(grid.point_cells()[1], -1);
+}
+
+TEST(OccupancyGridBadInput, EmptyCloudAndNoEgoMotionAreReported) {
+  OccupancyGrid grid(grid_parameters(GridKind::polar));
+  grid.update({}, EgoMotion{});
+  EXPECT_NE(grid.status().find("empty cloud"), std::string::npos) << grid.status();
+  EXPECT_NE(grid.status().find("static camera assumed (no ego-motion)"), std::string::npos) << grid.status();
+  EXPECT_TRUE(grid.obstacles().empty());
+  EXPECT_FALSE(grid.statistics().ego_motion_used);
+}
+
+TEST(OccupancyGridBadInput, BadCellSizesAndParametersThrowNamingTheParameter) {
+  auto message_of = [](const OccupancyGridParameters& parameters) {
+    try {
+      OccupancyGrid grid(parameters);
+    } catch (const std::invalid_argument& error) {
+      return std::string(error.what());
+    }
+    return std::string("no exception");
+  };
+  OccupancyGridParameters parameters = grid_parameters(GridKind::cartesian);
+  parameters.row_cell = 0;
+  EXPECT_EQ(message_of(parameters), "row_cell: expected > 0 (cell depth), got 0");
+  parameters = grid_parameters(GridKind::polar);
+  parameters.column_cell = -0.01;
+  EXPECT_EQ(message_of(parameters), "column_cell: expected > 0 (cell width), got -0.01");
+  parameters = grid_parameters(GridKind::column_disparity);
+  parameters.error_model.focal_px = 0;
+  EXPECT_EQ(message_of(parameters), "error_model.focal_px: expected > 0, got 0");
+  parameters = grid_parameters(GridKind::cartesian);
+  parameters.row_max = parameters.row_min;
+  EXPECT_NE(message_of(parameters).find("row_max: expected > row_min"), std::string::npos);
+  parameters = grid_parameters(GridKind::cartesian);
+  parameters.occupied_probability = 0.4;
+  EXPECT_EQ(message_of(parameters), "occupied_probability: expected in (0.5, 1), got 0.4");
+}
+
+TEST(OccupancyGridWork, AnEmptyFrameCostsTheHeadersPerCellModel) {
+  OccupancyGrid grid(grid_parameters(GridKind::cartesian));
+  grid.update({}, EgoMotion{});
+  const uint64_t cells = static_cast<uint64_t>(grid.rows()) * static_cast<uint64_t>(grid.columns());
+  EXPECT_EQ(grid.work().scalar_ops, (24 + 12) * cells);  // update + clustering, no member cells
+  EXPECT_EQ(grid.work().memory_bytes, (12 + 1) * cells);
+  EgoMotion motion;
+  motion.available = true;
+  grid.update({}, motion);
+  EXPECT_EQ(grid.work().scalar_ops, (20 + 24 + 12) * cells);  // + resampling
+  // A point adds its own terms: more work than an empty frame.
+  const uint64_t empty_ops = grid.work().scalar_ops;
+  grid.update({point_at(0.0, 0.5, 10.0)}, motion);
+  EXPECT_GT(grid.work().scalar_ops, empty_ops + 40);
+}
+
+TEST(OccupancyGridThreads, TwoThreadsGiveTheSameGrid) {
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -2.0, 2.0, 0.0, 1.0, 15.0, 0.005);  // 801 x 201 = 161k points, more than 4096 per thread
+  OccupancyGridParameters parameters = grid_parameters(GridKind::polar);
+  OccupancyGrid one(parameters);
+  parameters.threads = 2;
+  OccupancyGrid two(parameters);
+  one.update(points, EgoMotion{});
+  two.update(points, EgoMotion{});
+  EXPECT_LT((one.evidence() - two.evidence()).cwiseAbs().maxCoeff(), 1e-3f * one.evidence().maxCoeff());
+  EXPECT_EQ(one.obstacles().size(), two.obstacles().size());
+  EXPECT_EQ(one.work().scalar_ops, two.work().scalar_ops);
+}
+
+}  // namespace
+}  // namespace lpstereo::arm::obstacles3d
