@@ -83,6 +83,8 @@ void validate_tracking_parameters(const ObstacleTrackingParameters& p) {
   require(p.moving_speed_mps >= 0 && p.moving_speed_mps <= 100, "moving_speed_mps", "[0, 100] m/s", p.moving_speed_mps);
   require(p.moving_consistency_frames >= 1 && p.moving_consistency_frames <= 1000, "moving_consistency_frames", "[1, 1000]",
           p.moving_consistency_frames);
+  require(p.moving_significance_chi2 >= 0 && p.moving_significance_chi2 <= 1000, "moving_significance_chi2", "[0, 1000]",
+          p.moving_significance_chi2);
 }
 
 const char* track_queue_name(TrackQueue queue) {
@@ -182,9 +184,11 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
       track.queue = TrackQueue::tracked;
       ++result_.confirmed;
     }
-    if (track.updates >= p.acceptance_frames) {
-      const Eigen::Vector3d velocity = track.filter.velocity_mps();
-      const bool fast = std::hypot(velocity.x(), velocity.y()) > p.moving_speed_mps;
+    if (track.updates >= p.acceptance_frames && !cluster.truncated) {
+      const Eigen::Vector2d velocity = track.filter.velocity_mps().head<2>();
+      const Eigen::Matrix2d velocity_covariance = track.filter.covariance().block<2, 2>(3, 3);
+      const bool fast = velocity.norm() > p.moving_speed_mps &&
+                        velocity.dot(velocity_covariance.inverse() * velocity) > p.moving_significance_chi2;
       track.moving_votes = fast ? track.moving_votes + 1 : 0;
       track.static_votes = fast ? 0 : track.static_votes + 1;
       if (track.moving_votes >= p.moving_consistency_frames) track.moving = true;

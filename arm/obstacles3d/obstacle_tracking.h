@@ -39,18 +39,22 @@
 // Output: one Obstacle3d per tracked-queue track associated this frame (the cluster's fields, track_id,
 // velocity_mps, moving), in increasing track id; acceptance and ghost tracks are not reported.
 //
-// Moving versus static: at each association of a track with at least acceptance_frames updates, its
-// horizontal world speed |(v_x, v_y)| (the vertical one is the cluster's height jitter, not motion on
-// the ground) above moving_speed_mps is a "moving" vote, else a "static" vote. The track turns moving
-// after moving_consistency_frames consecutive moving votes and back to static after as many
-// consecutive static votes (hysteresis: one noisy frame does not flip it).
+// Moving versus static: at each association of a track with at least acceptance_frames updates with
+// a cluster that is not truncated (voxel_clustering.h: cut by the map bounds or the image border, so
+// its centroid moves with the cut), the horizontal world velocity v_h = (v_x, v_y) (the vertical one
+// is the cluster's height jitter, not motion on the ground) votes "moving" when
+//     |v_h| > moving_speed_mps   and   v_h^T P_vh^-1 v_h > moving_significance_chi2
+// (P_vh the filter's 2x2 covariance of v_h: the speed must also be significantly non-zero, which
+// keeps a young track's uncertain velocity from voting; chi-square, 2 degrees of freedom), else
+// "static". The track turns moving after moving_consistency_frames consecutive moving votes and back
+// to static after as many consecutive static votes (hysteresis: one noisy frame does not flip it).
 //
 // Counted work (ArmWork) per update, with T tracks before the update, C clusters, G candidate pairs,
 // U associations, N new tracks, O reported obstacles:
 //   scalar_ops   = 16 + 150 T (F P F^T + Q on 6x6 with F's block structure, F s) + 60 C (R: rotation
 //                  and stereo terms) + 40 T C (distance: innovation 6, norms 12, colour 16, gate 6)
 //                  + 4 G ceil(log2 G) + 4 G (sort, greedy pass) + 400 U (3x3 innovation inverse, 6x3
-//                  gain, Joseph form on 6x6, votes) + 60 N (track start) + 30 O (velocity rotation, output)
+//                  gain, Joseph form on 6x6, votes and their 2x2 significance test) + 60 N (track start) + 30 O (velocity rotation, output)
 //                  + 8 T (queue moves);
 //   memory_bytes = sizeof(Track3d) 2 (T + N) + sizeof(VoxelCluster) C.
 #pragma once
@@ -107,6 +111,7 @@ struct ObstacleTrackingParameters {
   int ghost_frames = 5;                 // [0, 1000]
   double moving_speed_mps = 1.0;        // horizontal ground speed threshold, [0, 100]
   int moving_consistency_frames = 3;    // [1, 1000]
+  double moving_significance_chi2 = 9.21;  // chi-square, 2 degrees of freedom, 0.99; [0, 1000]
   CameraMount camera_mount;             // camera axes of the outputs (default: level, looking along the vehicle's x)
 };
 

@@ -94,6 +94,9 @@ void validate_clustering_parameters(const VoxelClusteringParameters& p) {
           p.small_cluster_voxels);
   require(p.min_cluster_voxels >= 1 && p.min_cluster_voxels <= 1000000, "min_cluster_voxels", "[1, 1000000]", p.min_cluster_voxels);
   require(p.min_density >= 0.0 && p.min_density <= 1.0, "min_density", "[0, 1]", p.min_density);
+  require(p.image_width_px >= 0 && p.image_width_px <= 100000, "image_width_px", "[0, 100000] (0: unknown)", p.image_width_px);
+  require(p.image_height_px >= 0 && p.image_height_px <= 100000, "image_height_px", "[0, 100000] (0: unknown)", p.image_height_px);
+  require(p.border_margin_px >= 0 && p.border_margin_px <= 1000, "border_margin_px", "[0, 1000]", p.border_margin_px);
 }
 
 ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParameters& parameters) {
@@ -201,6 +204,7 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
       const Candidate& candidate = candidates[member];
       const Voxel& voxel = *candidate.voxel;
       cluster.voxels.push_back(voxel.key);
+      cluster.truncated = cluster.truncated || map.near_bounds(voxel.key, map.parameters().voxel_size_m);
       mean.add(candidate.rgb, candidate.hsl);
       cluster.frame_points += voxel.frame_point_count;
       world_sum += voxel.frame_world_sum_m;
@@ -226,6 +230,12 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
     cluster.centroid_world_m = world_sum / double(std::max<int64_t>(1, cluster.frame_points));
     cluster.rgb_mean = mean.rgb();
     cluster.hsl_mean = mean.hsl();
+    const int margin = parameters.border_margin_px;
+    if (parameters.image_width_px > 0 && parameters.image_height_px > 0 &&
+        (box[0] <= margin || box[1] <= margin || box[2] >= parameters.image_width_px - 1 - margin ||
+         box[3] >= parameters.image_height_px - 1 - margin)) {
+      cluster.truncated = true;
+    }
     Obstacle3d& obstacle = cluster.obstacle;
     obstacle.id = static_cast<int>(result.clusters.size());
     obstacle.bbox_px = box;

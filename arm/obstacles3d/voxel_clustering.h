@@ -32,12 +32,18 @@
 // union of the points' pixels; id = index in the result, track_id = -1, velocity 0, moving = false
 // (obstacle_tracking.h fills those).
 //
+// Truncation. A cluster is marked truncated when one of its voxels lies within one voxel of the map
+// bounds (VoxelMap::near_bounds: the clipping may cut the object) or, when the image size is given,
+// its pixel box comes within border_margin_px of the image border (the object leaves the field of
+// view). A truncated cluster's centroid moves as the cut moves, not as the object does: the tracker
+// takes no motion decision from it.
+//
 // Counted work (ArmWork) per call, with V voxels in the map, K candidates, E neighbour probes
-// (26 per dequeued voxel in the flood fill and in the aggregation's adjacency count), J voxels
+// (26 per dequeued voxel in the flood fill and in the aggregation's adjacency count), J = K voxels
 // joined, A aggregated clusters, L clusters after the flood fill:
 //   scalar_ops   = 4 V (candidate test) + 4 K ceil(log2 K) (seed order) + 8 E (key arithmetic, hash and
 //                  probe) + 36 E_similarity (eq. 3.17 for each probe that reaches a free candidate) + 16 J
-//                  (running mean) + 8 A + 40 L (density, removal, obstacle fields) + 30 K (obstacle sums);
+//                  (running mean) + 8 A + 40 L (density, removal, obstacle fields) + 30 K (obstacle sums, bounds test);
 //   memory_bytes = sizeof(Voxel) (V + 2 K).
 // The result's counts give the figures (ClusteringResult::work).
 #pragma once
@@ -59,6 +65,9 @@ struct VoxelClusteringParameters {
   int small_cluster_voxels = 4;            // fewer voxels: small (aggregated if it touches a big cluster)
   int min_cluster_voxels = 3;              // fewer voxels after aggregation: removed as noise
   double min_density = 0.05;               // voxels / key-box volume; below: removed as sparse
+  int image_width_px = 0;                  // left image size for the truncation test; 0: not tested
+  int image_height_px = 0;
+  int border_margin_px = 2;                // [0, 1000]
 };
 
 // The similarity of eq. 3.17 as defined in the header comment.
@@ -72,6 +81,7 @@ struct VoxelCluster {
   Hsl hsl_mean;                                                 // mean of the voxels' HSL means (hue circular)
   VoxelKey min_key, max_key;                                    // key bounding box
   double density = 0;                                           // voxels / key-box volume, (0, 1]
+  bool truncated = false;                                       // cut by the map bounds or the image border (header)
   Eigen::Vector3d size_world_m = Eigen::Vector3d::Zero();       // key box extent, metres
   Obstacle3d obstacle;
 };

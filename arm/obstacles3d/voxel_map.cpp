@@ -142,6 +142,13 @@ bool VoxelMap::inside_bounds(const Eigen::Vector3d& vehicle_m) const {
          vehicle_m.z() >= p.min_up_m && vehicle_m.z() <= p.max_up_m;
 }
 
+bool VoxelMap::near_bounds(const VoxelKey& key, double margin_m) const {
+  const VoxelMapParameters& p = parameters_;
+  const Eigen::Vector3d vehicle = world_from_current_.inverse() * centre_of(key);
+  return vehicle.x() < p.min_forward_m + margin_m || vehicle.x() > p.max_forward_m - margin_m ||
+         std::abs(vehicle.y()) > p.max_lateral_m - margin_m || vehicle.z() < p.min_up_m + margin_m || vehicle.z() > p.max_up_m - margin_m;
+}
+
 bool VoxelMap::in_view(const Eigen::Vector3d& vehicle_m) const {
   return vehicle_m.x() > 0.0 && std::abs(std::atan2(vehicle_m.y(), vehicle_m.x())) <= parameters_.view_half_angle_rad;
 }

@@ -199,6 +199,10 @@ class VoxelMap {
   VoxelKey key_of(const Eigen::Vector3d& world_m) const;
   Eigen::Vector3d centre_of(const VoxelKey& key) const;
 
+  // Whether a voxel's centre, in the current vehicle frame, lies within margin_m of a face of the map
+  // bounds: an object there may be cut by the clipping (voxel_clustering.h marks its cluster truncated).
+  bool near_bounds(const VoxelKey& key, double margin_m) const;
+
   // The work model of the header comment from a status's counts.
   static ArmWork expected_work(const VoxelMapStatus& status);
 
