@@ -168,6 +168,63 @@ TEST(ObstacleTracking, AGhostSeenAgainReturnsToTrackedWithItsId) {
   EXPECT_EQ(tracker.tracks()[0].queue, TrackQueue::tracked);
 }
 
+// A hand-made cluster: one voxel's worth of fields, at a world position.
+VoxelCluster cluster_at(const Eigen::Vector3d& world_m, bool truncated) {
+  VoxelCluster cluster;
+  cluster.voxels = {VoxelKey{0, 0, 0}};
+  cluster.centroid_world_m = world_m;
+  cluster.rgb_mean = Eigen::Vector3d(0.8, 0.2, 0.2);
+  cluster.hsl_mean = Hsl{0.0, 0.6, 0.5};
+  cluster.density = 1.0;
+  cluster.size_world_m = Eigen::Vector3d(1, 1, 1.5);
+  cluster.truncated = truncated;
+  cluster.obstacle.position_m = Eigen::Vector3d(-world_m.y(), 0.75, world_m.x());
+  return cluster;
+}
+
+TEST(ObstacleTracking, ATruncatedClusterTakesNoMotionDecision) {
+  for (const bool truncated : {false, true}) {
+    ObstacleTracker3d tracker;  // 10 Hz
+    bool moving = false;
+    for (int frame = 0; frame < 20; ++frame) {
+      // 3 m/s along the world x: clearly moving, unless its cluster is cut.
+      const TrackingResult& result = tracker.update({cluster_at(Eigen::Vector3d(10.0 + 0.3 * frame, 2.0, 0.75), truncated)},
+                                                    Eigen::Isometry3d::Identity());
+      if (!result.obstacles.empty()) moving = result.obstacles[0].moving;
+    }
+    EXPECT_EQ(moving, !truncated);
+    ASSERT_EQ(tracker.tracks().size(), 1u);
+    EXPECT_NEAR(tracker.tracks()[0].filter.velocity_mps().x(), 3.0, 0.2);  // the filter runs either way
+  }
+}
+
+TEST(ObstacleTracking, AFastButUncertainVelocityDoesNotVoteMoving) {
+  // The same target; a huge centroid noise makes the velocity's covariance large: not significant.
+  ObstacleTrackingParameters parameters;
+  parameters.centroid_sigma_m = 5.0;
+  ObstacleTracker3d tracker(parameters);
+  for (int frame = 0; frame < 8; ++frame) {
+    tracker.update({cluster_at(Eigen::Vector3d(10.0 + 0.3 * frame, 2.0, 0.75), false)}, Eigen::Isometry3d::Identity());
+  }
+  ASSERT_EQ(tracker.tracks().size(), 1u);
+  EXPECT_FALSE(tracker.tracks()[0].moving);
+  EXPECT_EQ(tracker.tracks()[0].moving_votes, 0);
+}
+
+TEST(ObstacleTracking, CountedWorkFollowsTheHeaderModel) {
+  ObstacleTracker3d tracker;
+  // Frame 1: T = 0 tracks, C = 2 clusters, no pairs, N = 2 new tracks, nothing reported (acceptance).
+  const std::vector<VoxelCluster> clusters = {cluster_at(Eigen::Vector3d(10, 2, 0.75), false), cluster_at(Eigen::Vector3d(20, -3, 0.75), false)};
+  ArmWork work = tracker.update(clusters, Eigen::Isometry3d::Identity()).work;
+  EXPECT_EQ(work.scalar_ops, 16u + 60u * 2 + 60u * 2);
+  EXPECT_EQ(work.memory_bytes, sizeof(Track3d) * 2 * 2 + sizeof(VoxelCluster) * 2);
+  // Frame 2: T = 2, C = 2, G = 2 candidate pairs (the two are 10 m apart, beyond the 3 m gate), U = 2, O = 0.
+  const TrackingResult& result = tracker.update(clusters, Eigen::Isometry3d::Identity());
+  ASSERT_EQ(result.candidate_pairs, 2);
+  ASSERT_EQ(result.associations, 2);
+  EXPECT_EQ(result.work.scalar_ops, 16u + 150u * 2 + 60u * 2 + 40u * 2 * 2 + 4u * 2 * 1 + 4u * 2 + 400u * 2 + 8u * 2);
+}
+
 TEST(ObstacleTracking, EmptyInputAndBadParameters) {
   ObstacleTracker3d tracker;
   EXPECT_TRUE(tracker.update({}, Eigen::Isometry3d::Identity()).obstacles.empty());

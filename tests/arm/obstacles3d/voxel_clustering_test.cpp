@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <limits>
+#include <string>
+#include <cmath>
 #include <stdexcept>
 
 #include "tests/arm/obstacles3d/voxel_scene.h"
@@ -140,6 +142,31 @@ TEST(VoxelClustering, ObstacleFieldsComeFromTheFramesPoints) {
   // A level camera 1.5 m up: the box's camera-frame centre is (0, 1.5 - 0.875, 10.25) (x = -y, y = 1.5 - z).
   EXPECT_NEAR(obstacle.position_m.x(), 0.0, 1e-6);
   EXPECT_NEAR(obstacle.position_m.z(), 10.25, 1e-6);
+}
+
+TEST(VoxelClustering, ClustersCutByTheMapBoundsOrTheImageBorderAreTruncated) {
+  std::vector<ObstaclePoint> points;
+  add_box(points, {39.5, 0.0, 0.5}, {40.0, 0.5, 1.0}, kRed);     // against the 40 m far bound
+  add_box(points, {15.0, 0.0, 0.5}, {15.5, 0.5, 1.0}, kBlue);    // in the middle of the map and the image
+  add_box(points, {12.0, -9.0, 0.5}, {12.5, -8.5, 1.0}, kRed);   // 9 m right at 12 m: u = 320 + 500 * 8.75 / 12 > 639, clamped to 639
+  VoxelClusteringParameters parameters;
+  ClusteringResult result = cluster_points(points, parameters);
+  ASSERT_EQ(result.clusters.size(), 3u);
+  auto find = [&](double vehicle_x) -> const VoxelCluster& {
+    for (const VoxelCluster& cluster : result.clusters) {
+      if (std::abs(cluster.centroid_world_m.x() - vehicle_x) < 0.5) return cluster;
+    }
+    throw std::runtime_error("no cluster near x = " + std::to_string(vehicle_x));
+  };
+  EXPECT_TRUE(find(39.75).truncated);
+  EXPECT_FALSE(find(15.25).truncated);
+  EXPECT_FALSE(find(12.25).truncated);  // the image size is not given: no border test
+  parameters.image_width_px = 640;
+  parameters.image_height_px = 480;
+  result = cluster_points(points, parameters);
+  ASSERT_EQ(result.clusters.size(), 3u);
+  EXPECT_TRUE(find(12.25).truncated);
+  EXPECT_FALSE(find(15.25).truncated);
 }
 
 TEST(VoxelClustering, EmptyMapAndBadParameters) {
