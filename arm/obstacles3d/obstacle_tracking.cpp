@@ -10,19 +10,9 @@
 
 #include <Eigen/Dense>
 
+#include "arm/obstacles3d/parameter_check.h"
+
 namespace lpstereo::arm::obstacles3d {
-
-namespace {
-
-void require(bool ok, const char* name, const char* expected, double value) {
-  if (!ok) {
-    std::ostringstream text;
-    text << name << ": expected " << expected << ", got " << value;
-    throw std::invalid_argument(text.str());
-  }
-}
-
-}  // namespace
 
 ConstantVelocityFilter3d::ConstantVelocityFilter3d(const Eigen::Vector3d& position_m, const Eigen::Matrix3d& position_covariance,
                                                    double initial_speed_sigma_mps) {
@@ -62,28 +52,28 @@ double ConstantVelocityFilter3d::update(const Eigen::Vector3d& measured_position
 }
 
 void validate_tracking_parameters(const ObstacleTrackingParameters& p) {
-  require(p.frame_period_s > 0 && p.frame_period_s <= 10, "frame_period_s", "(0, 10] s", p.frame_period_s);
-  require(p.accel_sigma_mps2 >= 0 && p.accel_sigma_mps2 <= 100, "accel_sigma_mps2", "[0, 100] m/s^2", p.accel_sigma_mps2);
-  require(p.centroid_sigma_m > 0 && p.centroid_sigma_m <= 10, "centroid_sigma_m", "(0, 10] m", p.centroid_sigma_m);
-  require(p.stereo_error.focal_px >= 0 && std::isfinite(p.stereo_error.focal_px), "stereo_error.focal_px", ">= 0 px", p.stereo_error.focal_px);
-  require(p.stereo_error.baseline_m >= 0 && std::isfinite(p.stereo_error.baseline_m), "stereo_error.baseline_m", ">= 0 m",
+  require_parameter(p.frame_period_s > 0 && p.frame_period_s <= 10, "frame_period_s", "(0, 10] s", p.frame_period_s);
+  require_parameter(p.accel_sigma_mps2 >= 0 && p.accel_sigma_mps2 <= 100, "accel_sigma_mps2", "[0, 100] m/s^2", p.accel_sigma_mps2);
+  require_parameter(p.centroid_sigma_m > 0 && p.centroid_sigma_m <= 10, "centroid_sigma_m", "(0, 10] m", p.centroid_sigma_m);
+  require_parameter(p.stereo_error.focal_px >= 0 && std::isfinite(p.stereo_error.focal_px), "stereo_error.focal_px", ">= 0 px", p.stereo_error.focal_px);
+  require_parameter(p.stereo_error.baseline_m >= 0 && std::isfinite(p.stereo_error.baseline_m), "stereo_error.baseline_m", ">= 0 m",
           p.stereo_error.baseline_m);
-  require(p.initial_speed_sigma_mps > 0 && p.initial_speed_sigma_mps <= 100, "initial_speed_sigma_mps", "(0, 100] m/s",
+  require_parameter(p.initial_speed_sigma_mps > 0 && p.initial_speed_sigma_mps <= 100, "initial_speed_sigma_mps", "(0, 100] m/s",
           p.initial_speed_sigma_mps);
-  require(p.max_position_distance_m > 0 && p.max_position_distance_m <= 100, "max_position_distance_m", "(0, 100] m",
+  require_parameter(p.max_position_distance_m > 0 && p.max_position_distance_m <= 100, "max_position_distance_m", "(0, 100] m",
           p.max_position_distance_m);
-  require(p.position_weight >= 0 && std::isfinite(p.position_weight), "position_weight", ">= 0", p.position_weight);
-  require(p.size_weight >= 0 && std::isfinite(p.size_weight), "size_weight", ">= 0", p.size_weight);
-  require(p.colour_weight >= 0 && std::isfinite(p.colour_weight), "colour_weight", ">= 0", p.colour_weight);
-  require(p.density_weight >= 0 && std::isfinite(p.density_weight), "density_weight", ">= 0", p.density_weight);
-  require(p.max_association_distance > 0 && std::isfinite(p.max_association_distance), "max_association_distance", "> 0",
+  require_parameter(p.position_weight >= 0 && std::isfinite(p.position_weight), "position_weight", ">= 0", p.position_weight);
+  require_parameter(p.size_weight >= 0 && std::isfinite(p.size_weight), "size_weight", ">= 0", p.size_weight);
+  require_parameter(p.colour_weight >= 0 && std::isfinite(p.colour_weight), "colour_weight", ">= 0", p.colour_weight);
+  require_parameter(p.density_weight >= 0 && std::isfinite(p.density_weight), "density_weight", ">= 0", p.density_weight);
+  require_parameter(p.max_association_distance > 0 && std::isfinite(p.max_association_distance), "max_association_distance", "> 0",
           p.max_association_distance);
-  require(p.acceptance_frames >= 1 && p.acceptance_frames <= 1000, "acceptance_frames", "[1, 1000]", p.acceptance_frames);
-  require(p.ghost_frames >= 0 && p.ghost_frames <= 1000, "ghost_frames", "[0, 1000]", p.ghost_frames);
-  require(p.moving_speed_mps >= 0 && p.moving_speed_mps <= 100, "moving_speed_mps", "[0, 100] m/s", p.moving_speed_mps);
-  require(p.moving_consistency_frames >= 1 && p.moving_consistency_frames <= 1000, "moving_consistency_frames", "[1, 1000]",
+  require_parameter(p.acceptance_frames >= 1 && p.acceptance_frames <= 1000, "acceptance_frames", "[1, 1000]", p.acceptance_frames);
+  require_parameter(p.ghost_frames >= 0 && p.ghost_frames <= 1000, "ghost_frames", "[0, 1000]", p.ghost_frames);
+  require_parameter(p.moving_speed_mps >= 0 && p.moving_speed_mps <= 100, "moving_speed_mps", "[0, 100] m/s", p.moving_speed_mps);
+  require_parameter(p.moving_consistency_frames >= 1 && p.moving_consistency_frames <= 1000, "moving_consistency_frames", "[1, 1000]",
           p.moving_consistency_frames);
-  require(p.moving_significance_chi2 >= 0 && p.moving_significance_chi2 <= 1000, "moving_significance_chi2", "[0, 1000]",
+  require_parameter(p.moving_significance_chi2 >= 0 && p.moving_significance_chi2 <= 1000, "moving_significance_chi2", "[0, 1000]",
           p.moving_significance_chi2);
 }
 

@@ -12,17 +12,11 @@
 #include <string>
 #include <unordered_map>
 
+#include "arm/obstacles3d/parameter_check.h"
+
 namespace lpstereo::arm::obstacles3d {
 
 namespace {
-
-void require(bool ok, const char* name, const char* expected, double value) {
-  if (!ok) {
-    std::ostringstream text;
-    text << name << ": expected " << expected << ", got " << value;
-    throw std::invalid_argument(text.str());
-  }
-}
 
 // Running colour mean of a set of voxels (each voxel once), hue averaged on the circle.
 struct ColourMean {
@@ -43,9 +37,7 @@ struct ColourMean {
   Hsl hsl() const {
     Hsl mean;
     if (count == 0) return mean;
-    double hue = std::atan2(hue_sin_sum, hue_cos_sum) / (2.0 * std::numbers::pi);
-    if (hue < 0) hue += 1.0;
-    mean.hue = hue >= 1.0 ? 0.0 : hue;
+    mean.hue = hue_from_circular_sums(hue_cos_sum, hue_sin_sum);
     mean.saturation = saturation_sum / count;
     mean.lightness = lightness_sum / count;
     return mean;
@@ -87,16 +79,16 @@ double colour_distance(const Eigen::Vector3d& rgb_a, const Hsl& hsl_a, const Eig
 }
 
 void validate_clustering_parameters(const VoxelClusteringParameters& p) {
-  require(std::isfinite(p.min_height_above_ground_m) && std::abs(p.min_height_above_ground_m) <= 100.0, "min_height_above_ground_m",
+  require_parameter(std::isfinite(p.min_height_above_ground_m) && std::abs(p.min_height_above_ground_m) <= 100.0, "min_height_above_ground_m",
           "a finite height in [-100, 100] m", p.min_height_above_ground_m);
-  require(p.similarity_threshold > 0.0 && p.similarity_threshold <= 10.0, "similarity_threshold", "(0, 10]", p.similarity_threshold);
-  require(p.small_cluster_voxels >= 1 && p.small_cluster_voxels <= 1000000, "small_cluster_voxels", "[1, 1000000]",
+  require_parameter(p.similarity_threshold > 0.0 && p.similarity_threshold <= 10.0, "similarity_threshold", "(0, 10]", p.similarity_threshold);
+  require_parameter(p.small_cluster_voxels >= 1 && p.small_cluster_voxels <= 1000000, "small_cluster_voxels", "[1, 1000000]",
           p.small_cluster_voxels);
-  require(p.min_cluster_voxels >= 1 && p.min_cluster_voxels <= 1000000, "min_cluster_voxels", "[1, 1000000]", p.min_cluster_voxels);
-  require(p.min_density >= 0.0 && p.min_density <= 1.0, "min_density", "[0, 1]", p.min_density);
-  require(p.image_width_px >= 0 && p.image_width_px <= 100000, "image_width_px", "[0, 100000] (0: unknown)", p.image_width_px);
-  require(p.image_height_px >= 0 && p.image_height_px <= 100000, "image_height_px", "[0, 100000] (0: unknown)", p.image_height_px);
-  require(p.border_margin_px >= 0 && p.border_margin_px <= 1000, "border_margin_px", "[0, 1000]", p.border_margin_px);
+  require_parameter(p.min_cluster_voxels >= 1 && p.min_cluster_voxels <= 1000000, "min_cluster_voxels", "[1, 1000000]", p.min_cluster_voxels);
+  require_parameter(p.min_density >= 0.0 && p.min_density <= 1.0, "min_density", "[0, 1]", p.min_density);
+  require_parameter(p.image_width_px >= 0 && p.image_width_px <= 100000, "image_width_px", "[0, 100000] (0: unknown)", p.image_width_px);
+  require_parameter(p.image_height_px >= 0 && p.image_height_px <= 100000, "image_height_px", "[0, 100000] (0: unknown)", p.image_height_px);
+  require_parameter(p.border_margin_px >= 0 && p.border_margin_px <= 1000, "border_margin_px", "[0, 1000]", p.border_margin_px);
 }
 
 ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParameters& parameters) {

@@ -8,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "arm/obstacles3d/parameter_check.h"
+
 namespace lpstereo::arm::obstacles3d {
 
 namespace {
@@ -18,22 +20,23 @@ std::string number_text(double value) {
   return text.str();
 }
 
+// value in [minimum, maximum] (NaN refused), else "<name>: expected [minimum, maximum] unit, got value".
 void require_range(const char* name, double value, double minimum, double maximum, const char* unit) {
-  // !(a <= b) also refuses NaN.
-  if (!(value >= minimum && value <= maximum)) {
-    throw std::invalid_argument(std::string(name) + ": expected [" + number_text(minimum) + ", " + number_text(maximum) + "]" +
-                                unit + ", got " + number_text(value));
-  }
+  require_parameter(value >= minimum && value <= maximum, name, "[" + number_text(minimum) + ", " + number_text(maximum) + "]" + unit,
+                    value);
 }
 
 void require_less(const char* lower_name, double lower, const char* upper_name, double upper) {
-  if (!(lower < upper)) {
-    throw std::invalid_argument(std::string(lower_name) + ": expected < " + upper_name + " (" + number_text(upper) + "), got " +
-                                number_text(lower));
-  }
+  require_parameter(lower < upper, lower_name, std::string("< ") + upper_name + " (" + number_text(upper) + ")", lower);
 }
 
 }  // namespace
+
+double hue_from_circular_sums(double cos_sum, double sin_sum) {
+  double hue = std::atan2(sin_sum, cos_sum) / (2.0 * std::numbers::pi);
+  if (hue < 0) hue += 1.0;
+  return hue >= 1.0 ? 0.0 : hue;
+}
 
 Hsl hsl_from_rgb(const std::array<uint8_t, 3>& rgb) {
   const double r = rgb[0] / 255.0, g = rgb[1] / 255.0, b = rgb[2] / 255.0;
@@ -83,9 +86,7 @@ Eigen::Vector3d ColourStatistics::rgb_variance() const {
 Hsl ColourStatistics::hsl_mean() const {
   Hsl mean;
   if (count == 0) return mean;
-  double hue = std::atan2(hue_sin_sum, hue_cos_sum) / (2.0 * std::numbers::pi);
-  if (hue < 0) hue += 1.0;
-  mean.hue = hue >= 1.0 ? 0.0 : hue;
+  mean.hue = hue_from_circular_sums(hue_cos_sum, hue_sin_sum);
   mean.saturation = saturation_sum / double(count);
   mean.lightness = lightness_sum / double(count);
   return mean;

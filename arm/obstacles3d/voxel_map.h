@@ -84,6 +84,9 @@ struct Hsl {
 };
 Hsl hsl_from_rgb(const std::array<uint8_t, 3>& rgb);
 
+// The circular mean of hues (turns) from the sums of cos(2 pi h) and sin(2 pi h), in [0, 1).
+double hue_from_circular_sums(double cos_sum, double sin_sum);
+
 // Running colour statistics of a set of points. RGB normalised to [0, 1]. Hue is an angle: its mean
 // is the circular mean atan2(sum sin, sum cos) and its variance the circular variance 1 - |mean
 // resultant| in [0, 1] (Mardia and Jupp, "Directional Statistics", 2000, §2.2 and §2.3.1); saturation
