@@ -161,7 +161,8 @@ const VoxelMapStatus& VoxelMap::update(const std::vector<ObstaclePoint>& points,
   status_.ego_motion_available = ego_motion.available;
   if (frame == 0) {
     world_from_current_ = Eigen::Isometry3d::Identity();
-    status_.ego_motion_note = "first frame: world = this vehicle frame";
+    status_.ego_motion_note = ego_motion.available ? "first frame: world = this vehicle frame"
+                                                   : "first frame: world = this vehicle frame; no ego-motion: static camera assumed";
   } else if (ego_motion.available) {
     world_from_current_ = world_from_current_ * ego_motion.previous_from_current;
     status_.ego_motion_note = "ego-motion applied";

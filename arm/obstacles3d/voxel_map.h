@@ -167,7 +167,9 @@ struct VoxelMapParameters {
 struct VoxelMapStatus {
   int64_t frame_index = -1;  // 0 for the first update
   bool ego_motion_available = false;
-  std::string ego_motion_note;  // "ego-motion applied", "first frame: world = this vehicle frame", "no ego-motion: static camera assumed"
+  // "ego-motion applied", "no ego-motion: static camera assumed", or on the first frame "first frame: world =
+  // this vehicle frame" (followed by "; no ego-motion: static camera assumed" when none came with it).
+  std::string ego_motion_note;
   int64_t points_in = 0;
   int64_t points_inserted = 0;
   int64_t points_clipped_out_of_bounds = 0;

@@ -114,7 +114,8 @@ TEST(VoxelMap, EgoMotionKeepsAStaticPointsVoxelFixedInTheWorld) {
 
 TEST(VoxelMap, WithoutEgoMotionTheCameraIsStaticAndTheStatusSaysSo) {
   VoxelMap map;
-  map.update({make_point({10.1, 0.1, 0.6}, {1, 2, 3})}, EgoMotion{});
+  const std::string first = map.update({make_point({10.1, 0.1, 0.6}, {1, 2, 3})}, EgoMotion{}).text();
+  EXPECT_NE(first.find("static camera assumed"), std::string::npos) << first;
   const VoxelMapStatus& status = map.update({make_point({10.1, 0.1, 0.6}, {1, 2, 3})}, EgoMotion{});
   EXPECT_FALSE(status.ego_motion_available);
   EXPECT_NE(status.text().find("static camera assumed"), std::string::npos) << status.text();
