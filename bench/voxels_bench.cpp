@@ -248,6 +248,18 @@ void print_rendered_pass() {
                 static_cast<long long>(clusters.removed_small), static_cast<long long>(clusters.removed_sparse), tracked.obstacles.size(),
                 static_cast<int>(std::count_if(tracked.obstacles.begin(), tracked.obstacles.end(), [](const Obstacle3d& o) { return o.moving; })),
                 work.scalar_ops / 1e6, work.memory_bytes / 1e6);
+    if (frame == kFrames - 1) {
+      const double t = kFramePeriodS * frame;
+      std::printf("  last frame: the crossing pedestrian's truth: base centre camera x %.2f m, z %.2f m, velocity (+1.50, 0, 0) m/s; "
+                  "obstacles flagged moving:\n", -3.0 + 1.5 * t, 14.0 - kCameraSpeedMps * t);
+      for (const Obstacle3d& obstacle : tracked.obstacles) {
+        if (!obstacle.moving) continue;
+        std::printf("    track %d at (%.2f, %.2f, %.2f) m, size (%.2f, %.2f, %.2f) m, velocity (%+.2f, %+.2f, %+.2f) m/s, box %d %d %d %d\n",
+                    obstacle.track_id, obstacle.position_m.x(), obstacle.position_m.y(), obstacle.position_m.z(), obstacle.size_m.x(),
+                    obstacle.size_m.y(), obstacle.size_m.z(), obstacle.velocity_mps.x(), obstacle.velocity_mps.y(), obstacle.velocity_mps.z(),
+                    obstacle.bbox_px[0], obstacle.bbox_px[1], obstacle.bbox_px[2], obstacle.bbox_px[3]);
+      }
+    }
   }
 }
 
