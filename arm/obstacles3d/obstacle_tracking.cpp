@@ -1,0 +1,243 @@
+// Tracking of voxel clusters: filter, association, queues, motion and counted work in obstacle_tracking.h.
+#include "arm/obstacles3d/obstacle_tracking.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <tuple>
+
+#include <Eigen/Dense>
+
+#include "arm/obstacles3d/parameter_check.h"
+
+namespace lpstereo::arm::obstacles3d {
+
+ConstantVelocityFilter3d::ConstantVelocityFilter3d(const Eigen::Vector3d& position_m, const Eigen::Matrix3d& position_covariance,
+                                                   double initial_speed_sigma_mps) {
+  state_.head<3>() = position_m;
+  state_.tail<3>().setZero();
+  covariance_.setZero();
+  covariance_.topLeftCorner<3, 3>() = position_covariance;
+  covariance_.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * initial_speed_sigma_mps * initial_speed_sigma_mps;
+}
+
+void ConstantVelocityFilter3d::predict(double period_s, double accel_sigma_mps2) {
+  const double t = period_s;
+  Matrix6d transition = Matrix6d::Identity();
+  transition.topRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * t;
+  const double q = accel_sigma_mps2 * accel_sigma_mps2;
+  Matrix6d process = Matrix6d::Zero();
+  process.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * (q * t * t * t * t / 4.0);
+  process.topRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * (q * t * t * t / 2.0);
+  process.bottomLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * (q * t * t * t / 2.0);
+  process.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * (q * t * t);
+  state_ = transition * state_;
+  covariance_ = transition * covariance_ * transition.transpose() + process;
+}
+
+double ConstantVelocityFilter3d::update(const Eigen::Vector3d& measured_position_m, const Eigen::Matrix3d& measurement_covariance) {
+  Eigen::Matrix<double, 3, 6> observation = Eigen::Matrix<double, 3, 6>::Zero();
+  observation.leftCols<3>().setIdentity();
+  const Eigen::Vector3d innovation = measured_position_m - state_.head<3>();
+  const Eigen::Matrix3d innovation_covariance = covariance_.topLeftCorner<3, 3>() + measurement_covariance;
+  const Eigen::Matrix3d inverse = innovation_covariance.inverse();
+  const Eigen::Matrix<double, 6, 3> gain = covariance_ * observation.transpose() * inverse;
+  state_ += gain * innovation;
+  const Matrix6d reduce = Matrix6d::Identity() - gain * observation;
+  covariance_ = reduce * covariance_ * reduce.transpose() + gain * measurement_covariance * gain.transpose();
+  covariance_ = (0.5 * (covariance_ + covariance_.transpose())).eval();
+  return innovation.dot(inverse * innovation);
+}
+
+void validate_tracking_parameters(const ObstacleTrackingParameters& p) {
+  require_parameter(p.frame_period_s > 0 && p.frame_period_s <= 10, "frame_period_s", "(0, 10] s", p.frame_period_s);
+  require_parameter(p.accel_sigma_mps2 >= 0 && p.accel_sigma_mps2 <= 100, "accel_sigma_mps2", "[0, 100] m/s^2", p.accel_sigma_mps2);
+  require_parameter(p.centroid_sigma_m > 0 && p.centroid_sigma_m <= 10, "centroid_sigma_m", "(0, 10] m", p.centroid_sigma_m);
+  require_parameter(p.stereo_error.focal_px >= 0 && std::isfinite(p.stereo_error.focal_px), "stereo_error.focal_px", ">= 0 px", p.stereo_error.focal_px);
+  require_parameter(p.stereo_error.baseline_m >= 0 && std::isfinite(p.stereo_error.baseline_m), "stereo_error.baseline_m", ">= 0 m",
+          p.stereo_error.baseline_m);
+  require_parameter(p.initial_speed_sigma_mps > 0 && p.initial_speed_sigma_mps <= 100, "initial_speed_sigma_mps", "(0, 100] m/s",
+          p.initial_speed_sigma_mps);
+  require_parameter(p.max_position_distance_m > 0 && p.max_position_distance_m <= 100, "max_position_distance_m", "(0, 100] m",
+          p.max_position_distance_m);
+  require_parameter(p.position_weight >= 0 && std::isfinite(p.position_weight), "position_weight", ">= 0", p.position_weight);
+  require_parameter(p.size_weight >= 0 && std::isfinite(p.size_weight), "size_weight", ">= 0", p.size_weight);
+  require_parameter(p.colour_weight >= 0 && std::isfinite(p.colour_weight), "colour_weight", ">= 0", p.colour_weight);
+  require_parameter(p.density_weight >= 0 && std::isfinite(p.density_weight), "density_weight", ">= 0", p.density_weight);
+  require_parameter(p.max_association_distance > 0 && std::isfinite(p.max_association_distance), "max_association_distance", "> 0",
+          p.max_association_distance);
+  require_parameter(p.acceptance_frames >= 1 && p.acceptance_frames <= 1000, "acceptance_frames", "[1, 1000]", p.acceptance_frames);
+  require_parameter(p.ghost_frames >= 0 && p.ghost_frames <= 1000, "ghost_frames", "[0, 1000]", p.ghost_frames);
+  require_parameter(p.moving_speed_mps >= 0 && p.moving_speed_mps <= 100, "moving_speed_mps", "[0, 100] m/s", p.moving_speed_mps);
+  require_parameter(p.moving_consistency_frames >= 1 && p.moving_consistency_frames <= 1000, "moving_consistency_frames", "[1, 1000]",
+          p.moving_consistency_frames);
+  require_parameter(p.moving_significance_chi2 >= 0 && p.moving_significance_chi2 <= 1000, "moving_significance_chi2", "[0, 1000]",
+          p.moving_significance_chi2);
+}
+
+const char* track_queue_name(TrackQueue queue) {
+  switch (queue) {
+    case TrackQueue::acceptance: return "acceptance";
+    case TrackQueue::tracked: return "tracked";
+    case TrackQueue::ghost: return "ghost";
+  }
+  return "?";
+}
+
+ObstacleTracker3d::ObstacleTracker3d(const ObstacleTrackingParameters& parameters) : parameters_(parameters) {
+  validate_tracking_parameters(parameters);
+  camera_from_vehicle_ = CameraToVehicle(parameters.camera_mount).rotation().transpose();
+}
+
+Eigen::Matrix3d ObstacleTracker3d::measurement_covariance(const VoxelCluster& cluster, const Eigen::Matrix3d& world_from_camera) const {
+  const double centroid_variance = parameters_.centroid_sigma_m * parameters_.centroid_sigma_m;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity() * centroid_variance;
+  const StereoErrorModel& stereo = parameters_.stereo_error;
+  if (stereo.focal_px > 0 && stereo.baseline_m > 0) {
+    const double depth_m = std::max(cluster.obstacle.position_m.z(), 0.1);
+    const double lateral = stereo.lateral_sigma_m(depth_m), depth = stereo.depth_sigma_m(depth_m);
+    const Eigen::Vector3d camera_variances(lateral * lateral, lateral * lateral, depth * depth);
+    covariance += world_from_camera * camera_variances.asDiagonal() * world_from_camera.transpose();
+  }
+  return covariance;
+}
+
+double ObstacleTracker3d::association_distance(const Track3d& track, const VoxelCluster& cluster, double position_distance_m) const {
+  const ObstacleTrackingParameters& p = parameters_;
+  return p.position_weight * position_distance_m + p.size_weight * (track.size_world_m - cluster.size_world_m).cwiseAbs().sum() +
+         p.colour_weight * colour_distance(track.rgb_mean, track.hsl_mean, cluster.rgb_mean, cluster.hsl_mean) +
+         p.density_weight * std::abs(track.density - cluster.density);
+}
+
+void ObstacleTracker3d::report(Track3d& track, const VoxelCluster& cluster, const Eigen::Matrix3d& camera_from_world) {
+  track.size_world_m = cluster.size_world_m;
+  track.rgb_mean = cluster.rgb_mean;
+  track.hsl_mean = cluster.hsl_mean;
+  track.density = cluster.density;
+  track.obstacle = cluster.obstacle;
+  track.obstacle.track_id = track.id;
+  track.obstacle.velocity_mps = camera_from_world * track.filter.velocity_mps();
+  track.obstacle.moving = track.moving;
+}
+
+const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>& clusters, const Eigen::Isometry3d& world_from_current) {
+  const ObstacleTrackingParameters& p = parameters_;
+  result_ = TrackingResult{};
+  const Eigen::Matrix3d world_from_camera = world_from_current.linear() * camera_from_vehicle_.transpose();
+  const Eigen::Matrix3d camera_from_world = world_from_camera.transpose();
+  const uint64_t previous_tracks = tracks_.size();
+
+  for (Track3d& track : tracks_) {
+    track.filter.predict(p.frame_period_s, p.accel_sigma_mps2);
+    track.associated_this_frame = false;
+  }
+  std::vector<Eigen::Matrix3d> noise;
+  noise.reserve(clusters.size());
+  for (const VoxelCluster& cluster : clusters) noise.push_back(measurement_covariance(cluster, world_from_camera));
+
+  // Algorithm 3.2.3.4: greedy by increasing distance.
+  struct Pair {
+    double distance;
+    int track, cluster;
+  };
+  std::vector<Pair> pairs;
+  for (int t = 0; t < static_cast<int>(tracks_.size()); ++t) {
+    for (int c = 0; c < static_cast<int>(clusters.size()); ++c) {
+      const double position_distance = (clusters[c].centroid_world_m - tracks_[t].filter.position_m()).norm();
+      if (position_distance > p.max_position_distance_m) continue;
+      const double distance = association_distance(tracks_[t], clusters[c], position_distance);
+      if (distance < p.max_association_distance) pairs.push_back(Pair{distance, t, c});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(), [&](const Pair& a, const Pair& b) {
+    return std::tie(a.distance, tracks_[a.track].id, a.cluster) < std::tie(b.distance, tracks_[b.track].id, b.cluster);
+  });
+  result_.candidate_pairs = static_cast<int64_t>(pairs.size());
+  std::vector<char> cluster_used(clusters.size(), 0);
+  for (const Pair& pair : pairs) {
+    Track3d& track = tracks_[pair.track];
+    if (track.associated_this_frame || cluster_used[pair.cluster]) continue;
+    track.associated_this_frame = true;
+    cluster_used[pair.cluster] = 1;
+    const VoxelCluster& cluster = clusters[pair.cluster];
+    track.filter.update(cluster.centroid_world_m, noise[pair.cluster]);
+    ++track.updates;
+    ++track.consecutive_updates;
+    track.misses = 0;
+    ++result_.associations;
+    if (track.queue == TrackQueue::ghost) {
+      track.queue = TrackQueue::tracked;
+      ++result_.revived;
+    } else if (track.queue == TrackQueue::acceptance && track.consecutive_updates >= p.acceptance_frames) {
+      track.queue = TrackQueue::tracked;
+      ++result_.confirmed;
+    }
+    if (track.updates >= p.acceptance_frames && !cluster.truncated) {
+      const Eigen::Vector2d velocity = track.filter.velocity_mps().head<2>();
+      const Eigen::Matrix2d velocity_covariance = track.filter.covariance().block<2, 2>(3, 3);
+      const bool fast = velocity.norm() > p.moving_speed_mps &&
+                        velocity.dot(velocity_covariance.inverse() * velocity) > p.moving_significance_chi2;
+      track.moving_votes = fast ? track.moving_votes + 1 : 0;
+      track.static_votes = fast ? 0 : track.static_votes + 1;
+      if (track.moving_votes >= p.moving_consistency_frames) track.moving = true;
+      if (track.static_votes >= p.moving_consistency_frames) track.moving = false;
+    }
+    report(track, cluster, camera_from_world);
+  }
+
+  // Misses: acceptance -> discarded, tracked -> ghost, ghost -> deleted after ghost_frames.
+  std::vector<Track3d> kept;
+  kept.reserve(tracks_.size() + clusters.size());
+  for (Track3d& track : tracks_) {
+    ++track.age_frames;
+    if (!track.associated_this_frame) {
+      ++track.misses;
+      track.consecutive_updates = 0;
+      if (track.queue == TrackQueue::acceptance) {
+        ++result_.discarded;
+        continue;
+      }
+      if (track.queue == TrackQueue::tracked) {
+        track.queue = TrackQueue::ghost;
+        ++result_.ghosted;
+      } else if (track.misses > p.ghost_frames) {
+        ++result_.deleted;
+        continue;
+      }
+    }
+    kept.push_back(std::move(track));
+  }
+  tracks_ = std::move(kept);
+
+  // New tracks from the clusters nobody took.
+  for (int c = 0; c < static_cast<int>(clusters.size()); ++c) {
+    if (cluster_used[c]) continue;
+    Track3d track;
+    track.id = next_id_++;
+    track.age_frames = 1;
+    track.updates = track.consecutive_updates = 1;
+    track.associated_this_frame = true;
+    track.filter = ConstantVelocityFilter3d(clusters[c].centroid_world_m, noise[c], p.initial_speed_sigma_mps);
+    track.queue = p.acceptance_frames <= 1 ? TrackQueue::tracked : TrackQueue::acceptance;
+    if (track.queue == TrackQueue::tracked) ++result_.confirmed;
+    report(track, clusters[c], camera_from_world);
+    tracks_.push_back(std::move(track));
+    ++result_.new_tracks;
+  }
+
+  for (const Track3d& track : tracks_) {
+    if (track.queue == TrackQueue::tracked && track.associated_this_frame) result_.obstacles.push_back(track.obstacle);
+  }
+  for (size_t i = 0; i < result_.obstacles.size(); ++i) result_.obstacles[i].id = static_cast<int>(i);
+
+  const uint64_t t = previous_tracks, c = clusters.size(), g = pairs.size(), u = static_cast<uint64_t>(result_.associations),
+                 n = static_cast<uint64_t>(result_.new_tracks), o = result_.obstacles.size();
+  const uint64_t log_g = g > 1 ? static_cast<uint64_t>(std::bit_width(g - 1)) : 0;
+  result_.work.scalar_ops = 16 + 150 * t + 60 * c + 40 * t * c + 4 * g * log_g + 4 * g + 400 * u + 60 * n + 30 * o + 8 * t;
+  result_.work.memory_bytes = sizeof(Track3d) * 2 * (t + n) + sizeof(VoxelCluster) * c;
+  return result_;
+}
+
+}  // namespace lpstereo::arm::obstacles3d

@@ -1,0 +1,178 @@
+// Tracking of the voxel clusters over frames and moving versus static obstacles (issue 10 deliverable
+// 5; thesis 000, Sabbatelli 2015, §3.2.3.4 and Algorithm 3.2.3.4). The 2D ground-plane tracker of the
+// obstacle detector (arm/tasks/obstacle_tracker.*, issue 6) is a DAG task over record planes; this one
+// is a plain class over VoxelCluster lists, in 3D and in world coordinates, with the thesis's queues.
+//
+// Frame. Tracks live in the voxel map's world frame (voxel_map.h: the first frame's vehicle frame, x
+// forward, y left, z up), so a filter's velocity is relative to the ground: the ego-motion is
+// already removed by the map's world_from_current. Outputs are expressed in the current camera axes:
+//     velocity_camera = R_camera_from_vehicle R_current_from_world v_world,
+// R_camera_from_vehicle = CameraToVehicle(camera_mount).rotation()^T (arm/point_cloud.h).
+//
+// Filter (ConstantVelocityFilter3d): the linear Kalman filter (Kalman 1960) on the 6-state
+// s = (p, v) in m and m/s, the discrete white noise acceleration model (Bar-Shalom, Li, Kirubarajan,
+// "Estimation with Applications to Tracking and Navigation", 2001, §6.3.2), period T:
+//     F = [I  T I; 0  I],   Q = accel_sigma_mps2^2 [T^4/4 I, T^3/2 I; T^3/2 I, T^2 I],
+// measurement z = the cluster's centroid (this frame's points, world frame), H = [I 0], noise
+//     R = centroid_sigma_m^2 I + R_wc diag(sigma_x^2, sigma_x^2, sigma_z^2) R_wc^T
+// with sigma_z = Z^2 sigma_d / (f B), sigma_x = Z sigma_u / f at the cluster's camera depth Z (the
+// StereoErrorModel of obstacle_points.h; its term is left out when focal_px or baseline_m is 0) and
+// R_wc the world-from-camera rotation. Update in the Joseph form P = (I - K H) P (I - K H)^T + K R K^T
+// (Bucy and Joseph 1968), as arm/tasks/obstacle_tracker.cpp does. A new track starts at (z, 0) with
+// P = diag(R, initial_speed_sigma_mps^2 I).
+//
+// Association (Algorithm 3.2.3.4, greedy): every track is predicted one period; for each (track,
+// cluster) pair the distance
+//     d = position_weight |z - H s_predicted| + size_weight |size_t - size_c|_1
+//         + colour_weight f(t, c) + density_weight |density_t - density_c|
+// (f: the colour distance of eq. 3.17, voxel_clustering.h; size and density: the clusters' key-box
+// extents in metres and voxel densities, the track keeping its last cluster's). A pair is a candidate
+// when |z - H s_predicted| <= max_position_distance_m and d < max_association_distance; candidates
+// are taken in increasing (d, track id, cluster index) while neither side is used.
+//
+// Queues (thesis §3.2.3.4):
+//   acceptance: a cluster no track took starts a track here; it moves to tracked after
+//     acceptance_frames consecutive associated frames (its first included); a miss discards it;
+//   tracked: stays while associated; a miss moves it to ghost;
+//   ghost: predicted only; associated again -> tracked; after more than ghost_frames consecutive
+//     misses it is deleted.
+// Output: one Obstacle3d per tracked-queue track associated this frame (the cluster's fields, track_id,
+// velocity_mps, moving), in increasing track id; acceptance and ghost tracks are not reported.
+//
+// Moving versus static: at each association of a track with at least acceptance_frames updates with
+// a cluster that is not truncated (voxel_clustering.h: cut by the map bounds or the image border, so
+// its centroid moves with the cut), the horizontal world velocity v_h = (v_x, v_y) (the vertical one
+// is the cluster's height jitter, not motion on the ground) votes "moving" when
+//     |v_h| > moving_speed_mps   and   v_h^T P_vh^-1 v_h > moving_significance_chi2
+// (P_vh the filter's 2x2 covariance of v_h: the speed must also be significantly non-zero, which
+// keeps a young track's uncertain velocity from voting; chi-square, 2 degrees of freedom), else
+// "static". The track turns moving after moving_consistency_frames consecutive moving votes and back
+// to static after as many consecutive static votes (hysteresis: one noisy frame does not flip it).
+//
+// Counted work (ArmWork) per update, with T tracks before the update, C clusters, G candidate pairs,
+// U associations, N new tracks, O reported obstacles:
+//   scalar_ops   = 16 + 150 T (F P F^T + Q on 6x6 with F's block structure, F s) + 60 C (R: rotation
+//                  and stereo terms) + 40 T C (distance: innovation 6, norms 12, colour 16, gate 6)
+//                  + 4 G ceil(log2 G) + 4 G (sort, greedy pass) + 400 U (3x3 innovation inverse, 6x3
+//                  gain, Joseph form on 6x6, votes and their 2x2 significance test) + 60 N (track start) + 30 O (velocity rotation, output)
+//                  + 8 T (queue moves);
+//   memory_bytes = sizeof(Track3d) 2 (T + N) + sizeof(VoxelCluster) C.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "arm/obstacles3d/obstacle_points.h"
+#include "arm/obstacles3d/voxel_clustering.h"
+#include "arm/obstacles3d/voxel_map.h"
+#include "arm/point_cloud.h"
+#include "dag/arm_task.h"
+
+namespace lpstereo::arm::obstacles3d {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+// The constant-velocity Kalman filter of the header comment, on its own (the tracker holds one per track).
+class ConstantVelocityFilter3d {
+ public:
+  ConstantVelocityFilter3d() = default;
+  ConstantVelocityFilter3d(const Eigen::Vector3d& position_m, const Eigen::Matrix3d& position_covariance, double initial_speed_sigma_mps);
+  void predict(double period_s, double accel_sigma_mps2);
+  // Returns the innovation's squared Mahalanobis distance (before the update).
+  double update(const Eigen::Vector3d& measured_position_m, const Eigen::Matrix3d& measurement_covariance);
+  Eigen::Vector3d position_m() const { return state_.head<3>(); }
+  Eigen::Vector3d velocity_mps() const { return state_.tail<3>(); }
+  const Vector6d& state() const { return state_; }
+  const Matrix6d& covariance() const { return covariance_; }
+
+ private:
+  Vector6d state_ = Vector6d::Zero();
+  Matrix6d covariance_ = Matrix6d::Identity();
+};
+
+struct ObstacleTrackingParameters {
+  double frame_period_s = 0.1;          // (0, 10]
+  double accel_sigma_mps2 = 2.0;        // process noise, [0, 100]
+  double centroid_sigma_m = 0.2;        // cluster centroid jitter (voxel quantisation, partial views), (0, 10]
+  StereoErrorModel stereo_error;        // focal_px or baseline_m 0: no stereo term
+  double initial_speed_sigma_mps = 5.0; // (0, 100]
+  double max_position_distance_m = 3.0; // gate on |z - H s_predicted|, (0, 100]
+  double position_weight = 1.0;         // per metre, >= 0
+  double size_weight = 0.5;             // per metre of L1 size difference, >= 0
+  double colour_weight = 1.0;           // per unit of eq. 3.17, >= 0
+  double density_weight = 1.0;          // per unit of density, >= 0
+  double max_association_distance = 4.0;  // > 0
+  int acceptance_frames = 3;            // [1, 1000]
+  int ghost_frames = 5;                 // [0, 1000]
+  double moving_speed_mps = 1.0;        // horizontal ground speed threshold, [0, 100]
+  int moving_consistency_frames = 3;    // [1, 1000]
+  double moving_significance_chi2 = 9.21;  // chi-square, 2 degrees of freedom, 0.99; [0, 1000]
+  CameraMount camera_mount;             // camera axes of the outputs (default: level, looking along the vehicle's x)
+};
+
+// Throws std::invalid_argument naming the parameter, the expected range and the value.
+void validate_tracking_parameters(const ObstacleTrackingParameters& parameters);
+
+enum class TrackQueue { acceptance, tracked, ghost };
+const char* track_queue_name(TrackQueue queue);
+
+struct Track3d {
+  int id = 0;                      // >= 1, never reused
+  TrackQueue queue = TrackQueue::acceptance;
+  int age_frames = 0;              // frames since creation, creation included
+  int updates = 0;                 // associated frames
+  int consecutive_updates = 0;
+  int misses = 0;                  // consecutive frames without an association
+  bool associated_this_frame = false;
+  ConstantVelocityFilter3d filter;  // world frame
+  Eigen::Vector3d size_world_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rgb_mean = Eigen::Vector3d::Zero();
+  Hsl hsl_mean;
+  double density = 0;
+  int moving_votes = 0, static_votes = 0;
+  bool moving = false;
+  Obstacle3d obstacle;             // the last associated cluster's, with track fields
+};
+
+struct TrackingResult {
+  std::vector<Obstacle3d> obstacles;  // tracked-queue tracks associated this frame, increasing track id
+  int64_t associations = 0;
+  int64_t new_tracks = 0;
+  int64_t confirmed = 0;   // acceptance -> tracked
+  int64_t discarded = 0;   // missed in acceptance
+  int64_t ghosted = 0;     // tracked -> ghost
+  int64_t revived = 0;     // ghost -> tracked
+  int64_t deleted = 0;     // ghost too long
+  int64_t candidate_pairs = 0;
+  ArmWork work;
+};
+
+class ObstacleTracker3d {
+ public:
+  explicit ObstacleTracker3d(const ObstacleTrackingParameters& parameters = {});
+
+  // One frame: the clusters of cluster_voxels and the map's world_from_current (vehicle frames).
+  const TrackingResult& update(const std::vector<VoxelCluster>& clusters, const Eigen::Isometry3d& world_from_current);
+
+  const std::vector<Track3d>& tracks() const { return tracks_; }  // increasing id, every queue
+  const TrackingResult& result() const { return result_; }
+  const ObstacleTrackingParameters& parameters() const { return parameters_; }
+
+ private:
+  Eigen::Matrix3d measurement_covariance(const VoxelCluster& cluster, const Eigen::Matrix3d& world_from_camera) const;
+  double association_distance(const Track3d& track, const VoxelCluster& cluster, double position_distance_m) const;
+  void report(Track3d& track, const VoxelCluster& cluster, const Eigen::Matrix3d& camera_from_world);
+
+  ObstacleTrackingParameters parameters_;
+  Eigen::Matrix3d camera_from_vehicle_ = Eigen::Matrix3d::Identity();
+  std::vector<Track3d> tracks_;
+  TrackingResult result_;
+  int next_id_ = 1;
+};
+
+}  // namespace lpstereo::arm::obstacles3d

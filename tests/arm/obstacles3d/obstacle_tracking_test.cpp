@@ -1,0 +1,246 @@
+// Tracking of voxel clusters (arm/obstacles3d/obstacle_tracking.h): the constant-velocity Kalman
+// filter, moving versus static through the whole chain (map, clustering, tracking) with a moving
+// camera, the acceptance / tracked / ghost queues, and parameter errors.
+#include "arm/obstacles3d/obstacle_tracking.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <stdexcept>
+
+#include "tests/arm/obstacles3d/voxel_scene.h"
+
+namespace lpstereo::arm::obstacles3d {
+namespace {
+
+using test::add_box;
+
+TEST(ObstacleTracking, KalmanVelocityConvergesOnAConstantVelocityTargetWithNoise) {
+  const Eigen::Vector3d start(5.0, -2.0, 0.5), velocity(1.5, -0.8, 0.0);
+  const double period_s = 0.1, noise_sigma_m = 0.1;
+  std::mt19937 random(7);
+  std::normal_distribution<double> noise(0.0, noise_sigma_m);
+  const Eigen::Matrix3d measurement_covariance = Eigen::Matrix3d::Identity() * noise_sigma_m * noise_sigma_m;
+  ConstantVelocityFilter3d filter(start, measurement_covariance, 5.0);
+  double first_error = 0;
+  for (int step = 1; step <= 80; ++step) {
+    filter.predict(period_s, 0.5);
+    const Eigen::Vector3d truth = start + velocity * period_s * step;
+    filter.update(truth + Eigen::Vector3d(noise(random), noise(random), noise(random)), measurement_covariance);
+    if (step == 2) first_error = (filter.velocity_mps() - velocity).norm();
+  }
+  const double final_error = (filter.velocity_mps() - velocity).norm();
+  // After 8 s of 0.1 m noise at 10 Hz the velocity is known to a few cm/s (steady-state sigma of a
+  // white-acceleration filter with q = 0.5^2: ~0.15 m/s per axis at most); it started 1.7 m/s off.
+  EXPECT_GT(first_error, 0.5);
+  EXPECT_LT(final_error, 0.3);
+  // The covariance stays symmetric and its velocity block shrank from the initial 25 (m/s)^2.
+  EXPECT_TRUE(filter.covariance().isApprox(filter.covariance().transpose(), 1e-12));
+  EXPECT_LT(filter.covariance()(3, 3), 0.1);
+}
+
+// A scene seen from a camera driving along the vehicle x at camera_speed_mps: a static red box and a
+// blue box crossing from right to left (world +y) at crossing_speed_mps. Returns the tracker's
+// obstacles of the last frame.
+struct SceneRun {
+  std::vector<Obstacle3d> last_obstacles;
+  std::vector<Track3d> tracks;
+};
+
+SceneRun run_scene(int frames, double camera_speed_mps, double crossing_speed_mps, bool with_ego_motion, int crossing_until_frame = 1 << 30) {
+  const double period_s = 0.1;
+  VoxelMap map;
+  ObstacleTrackingParameters tracking;
+  tracking.frame_period_s = period_s;
+  ObstacleTracker3d tracker(tracking);
+  SceneRun run;
+  for (int frame = 0; frame < frames; ++frame) {
+    const double camera_x = camera_speed_mps * period_s * frame;  // world x of the vehicle
+    std::vector<ObstaclePoint> points;
+    const Eigen::Vector3d static_min(18.0, 3.0, 0.0), crossing_min(22.0, -4.0 + crossing_speed_mps * period_s * frame, 0.0);
+    const Eigen::Vector3d shift(camera_x, 0, 0);
+    add_box(points, static_min - shift, static_min - shift + Eigen::Vector3d(1.0, 1.0, 1.5), {200, 40, 40});
+    if (frame < crossing_until_frame) {
+      add_box(points, crossing_min - shift, crossing_min - shift + Eigen::Vector3d(1.0, 1.0, 1.5), {40, 60, 200});
+    }
+    EgoMotion ego;
+    ego.available = with_ego_motion;
+    ego.previous_from_current = Eigen::Translation3d(camera_speed_mps * period_s, 0, 0);
+    map.update(points, ego);
+    const ClusteringResult clusters = cluster_voxels(map);
+    run.last_obstacles = tracker.update(clusters.clusters, map.world_from_current()).obstacles;
+  }
+  run.tracks = tracker.tracks();
+  return run;
+}
+
+TEST(ObstacleTracking, AStaticObjectFromAMovingCameraIsStaticAndACrossingOneIsMoving) {
+  const double crossing_speed_mps = 2.0;
+  const SceneRun run = run_scene(25, 5.0, crossing_speed_mps, true);
+  ASSERT_EQ(run.last_obstacles.size(), 2u);
+  int static_seen = 0, moving_seen = 0;
+  for (const Obstacle3d& obstacle : run.last_obstacles) {
+    EXPECT_GE(obstacle.track_id, 1);
+    if (obstacle.position_m.x() < -2.5) {  // the static box, 3-4 m to the left (camera x = -vehicle y); the crossing one ends 0.8-1.8 m left
+      ++static_seen;
+      EXPECT_FALSE(obstacle.moving);
+      EXPECT_LT(obstacle.velocity_mps.norm(), 0.5);
+    } else {
+      ++moving_seen;
+      EXPECT_TRUE(obstacle.moving);
+      // World +y (left) is camera -x: velocity (-2, 0, 0) in the camera axes.
+      EXPECT_NEAR(obstacle.velocity_mps.x(), -crossing_speed_mps, 0.3);
+      EXPECT_NEAR(obstacle.velocity_mps.z(), 0.0, 0.3);
+    }
+  }
+  EXPECT_EQ(static_seen, 1);
+  EXPECT_EQ(moving_seen, 1);
+}
+
+TEST(ObstacleTracking, WithoutEgoMotionAStaticObjectSeenFromAMovingCameraLooksMoving) {
+  // The fallback assumes a static camera: the static box then approaches at the camera's speed.
+  const SceneRun run = run_scene(25, 5.0, 0.0, false);
+  ASSERT_EQ(run.last_obstacles.size(), 2u);
+  for (const Obstacle3d& obstacle : run.last_obstacles) {
+    EXPECT_TRUE(obstacle.moving);
+    EXPECT_NEAR(obstacle.velocity_mps.z(), -5.0, 0.5);
+  }
+}
+
+TEST(ObstacleTracking, QueuesAcceptanceThenTrackedThenGhostThenDeletion) {
+  VoxelMap map;
+  ObstacleTrackingParameters parameters;
+  parameters.acceptance_frames = 3;
+  parameters.ghost_frames = 4;
+  ObstacleTracker3d tracker(parameters);
+  std::vector<ObstaclePoint> points;
+  add_box(points, {12.0, 0.0, 0.0}, {13.0, 1.0, 1.5}, {40, 160, 60});
+  for (int frame = 0; frame < 3; ++frame) {
+    map.update(points, EgoMotion{});
+    const TrackingResult& result = tracker.update(cluster_voxels(map).clusters, map.world_from_current());
+    ASSERT_EQ(tracker.tracks().size(), 1u);
+    // Reported only once accepted (third frame).
+    EXPECT_EQ(result.obstacles.size(), frame < 2 ? 0u : 1u) << "frame " << frame;
+    EXPECT_EQ(tracker.tracks()[0].queue, frame < 2 ? TrackQueue::acceptance : TrackQueue::tracked) << "frame " << frame;
+  }
+  const int id = tracker.tracks()[0].id;
+  // The object disappears: ghost for ghost_frames frames, then deleted.
+  for (int miss = 1; miss <= parameters.ghost_frames + 1; ++miss) {
+    map.update({}, EgoMotion{});
+    const TrackingResult& result = tracker.update(cluster_voxels(map).clusters, map.world_from_current());
+    EXPECT_TRUE(result.obstacles.empty());
+    if (miss <= parameters.ghost_frames) {
+      ASSERT_EQ(tracker.tracks().size(), 1u) << "miss " << miss;
+      EXPECT_EQ(tracker.tracks()[0].queue, TrackQueue::ghost);
+      EXPECT_EQ(tracker.tracks()[0].misses, miss);
+      EXPECT_EQ(result.ghosted, miss == 1 ? 1 : 0);
+    } else {
+      EXPECT_TRUE(tracker.tracks().empty());
+      EXPECT_EQ(result.deleted, 1);
+    }
+  }
+  // It comes back: a new track (new id) in acceptance.
+  map.update(points, EgoMotion{});
+  tracker.update(cluster_voxels(map).clusters, map.world_from_current());
+  ASSERT_EQ(tracker.tracks().size(), 1u);
+  EXPECT_GT(tracker.tracks()[0].id, id);
+  EXPECT_EQ(tracker.tracks()[0].queue, TrackQueue::acceptance);
+}
+
+TEST(ObstacleTracking, AGhostSeenAgainReturnsToTrackedWithItsId) {
+  const SceneRun run = run_scene(12, 0.0, 0.0, true, /*crossing_until_frame=*/6);
+  // The crossing box (here standing) left at frame 6: 6 misses > ghost_frames 5, deleted; the static one tracked.
+  ASSERT_EQ(run.tracks.size(), 1u);
+  VoxelMap map;
+  ObstacleTracker3d tracker;
+  std::vector<ObstaclePoint> points;
+  add_box(points, {12.0, 0.0, 0.0}, {13.0, 1.0, 1.5}, {40, 160, 60});
+  for (int frame = 0; frame < 8; ++frame) {
+    const bool visible = frame < 4 || frame >= 6;  // hidden for two frames
+    map.update(visible ? points : std::vector<ObstaclePoint>{}, EgoMotion{});
+    const TrackingResult& result = tracker.update(cluster_voxels(map).clusters, map.world_from_current());
+    if (frame == 6) {
+      EXPECT_EQ(result.revived, 1);
+    }
+  }
+  ASSERT_EQ(tracker.tracks().size(), 1u);
+  EXPECT_EQ(tracker.tracks()[0].id, 1);
+  EXPECT_EQ(tracker.tracks()[0].queue, TrackQueue::tracked);
+}
+
+// A hand-made cluster: one voxel's worth of fields, at a world position.
+VoxelCluster cluster_at(const Eigen::Vector3d& world_m, bool truncated) {
+  VoxelCluster cluster;
+  cluster.voxels = {VoxelKey{0, 0, 0}};
+  cluster.centroid_world_m = world_m;
+  cluster.rgb_mean = Eigen::Vector3d(0.8, 0.2, 0.2);
+  cluster.hsl_mean = Hsl{0.0, 0.6, 0.5};
+  cluster.density = 1.0;
+  cluster.size_world_m = Eigen::Vector3d(1, 1, 1.5);
+  cluster.truncated = truncated;
+  cluster.obstacle.position_m = Eigen::Vector3d(-world_m.y(), 0.75, world_m.x());
+  return cluster;
+}
+
+TEST(ObstacleTracking, ATruncatedClusterTakesNoMotionDecision) {
+  for (const bool truncated : {false, true}) {
+    ObstacleTracker3d tracker;  // 10 Hz
+    bool moving = false;
+    for (int frame = 0; frame < 20; ++frame) {
+      // 3 m/s along the world x: clearly moving, unless its cluster is cut.
+      const TrackingResult& result = tracker.update({cluster_at(Eigen::Vector3d(10.0 + 0.3 * frame, 2.0, 0.75), truncated)},
+                                                    Eigen::Isometry3d::Identity());
+      if (!result.obstacles.empty()) moving = result.obstacles[0].moving;
+    }
+    EXPECT_EQ(moving, !truncated);
+    ASSERT_EQ(tracker.tracks().size(), 1u);
+    EXPECT_NEAR(tracker.tracks()[0].filter.velocity_mps().x(), 3.0, 0.2);  // the filter runs either way
+  }
+}
+
+TEST(ObstacleTracking, AFastButUncertainVelocityDoesNotVoteMoving) {
+  // The same target; a huge centroid noise makes the velocity's covariance large: not significant.
+  ObstacleTrackingParameters parameters;
+  parameters.centroid_sigma_m = 5.0;
+  ObstacleTracker3d tracker(parameters);
+  for (int frame = 0; frame < 8; ++frame) {
+    tracker.update({cluster_at(Eigen::Vector3d(10.0 + 0.3 * frame, 2.0, 0.75), false)}, Eigen::Isometry3d::Identity());
+  }
+  ASSERT_EQ(tracker.tracks().size(), 1u);
+  EXPECT_FALSE(tracker.tracks()[0].moving);
+  EXPECT_EQ(tracker.tracks()[0].moving_votes, 0);
+}
+
+TEST(ObstacleTracking, CountedWorkFollowsTheHeaderModel) {
+  ObstacleTracker3d tracker;
+  // Frame 1: T = 0 tracks, C = 2 clusters, no pairs, N = 2 new tracks, nothing reported (acceptance).
+  const std::vector<VoxelCluster> clusters = {cluster_at(Eigen::Vector3d(10, 2, 0.75), false), cluster_at(Eigen::Vector3d(20, -3, 0.75), false)};
+  ArmWork work = tracker.update(clusters, Eigen::Isometry3d::Identity()).work;
+  EXPECT_EQ(work.scalar_ops, 16u + 60u * 2 + 60u * 2);
+  EXPECT_EQ(work.memory_bytes, sizeof(Track3d) * 2 * 2 + sizeof(VoxelCluster) * 2);
+  // Frame 2: T = 2, C = 2, G = 2 candidate pairs (the two are 10 m apart, beyond the 3 m gate), U = 2, O = 0.
+  const TrackingResult& result = tracker.update(clusters, Eigen::Isometry3d::Identity());
+  ASSERT_EQ(result.candidate_pairs, 2);
+  ASSERT_EQ(result.associations, 2);
+  EXPECT_EQ(result.work.scalar_ops, 16u + 150u * 2 + 60u * 2 + 40u * 2 * 2 + 4u * 2 * 1 + 4u * 2 + 400u * 2 + 8u * 2);
+}
+
+TEST(ObstacleTracking, EmptyInputAndBadParameters) {
+  ObstacleTracker3d tracker;
+  EXPECT_TRUE(tracker.update({}, Eigen::Isometry3d::Identity()).obstacles.empty());
+  ObstacleTrackingParameters parameters;
+  parameters.acceptance_frames = 0;
+  EXPECT_THROW(ObstacleTracker3d{parameters}, std::invalid_argument);
+  parameters = {};
+  parameters.frame_period_s = -1;
+  try {
+    ObstacleTracker3d bad(parameters);
+    ADD_FAILURE() << "negative frame period accepted";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("frame_period_s"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("-1"), std::string::npos) << error.what();
+  }
+}
+
+}  // namespace
+}  // namespace lpstereo::arm::obstacles3d

@@ -1,0 +1,187 @@
+// Colour flood-fill clustering (arm/obstacles3d/voxel_clustering.h): split by colour, merge by
+// colour, aggregation of a small cluster into a big neighbour, noise removal, the ground, and the
+// Obstacle3d fields.
+#include "arm/obstacles3d/voxel_clustering.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <limits>
+#include <string>
+#include <cmath>
+#include <stdexcept>
+
+#include "tests/arm/obstacles3d/voxel_scene.h"
+
+namespace lpstereo::arm::obstacles3d {
+namespace {
+
+using test::add_box;
+using test::make_point;
+
+constexpr std::array<uint8_t, 3> kRed{210, 40, 40};
+constexpr std::array<uint8_t, 3> kBlue{40, 60, 200};
+constexpr std::array<uint8_t, 3> kDarkRed{190, 45, 35};
+
+ClusteringResult cluster_points(const std::vector<ObstaclePoint>& points, const VoxelClusteringParameters& parameters = {}) {
+  VoxelMap map;  // 0.25 m voxels
+  map.update(points, EgoMotion{});
+  return cluster_voxels(map, parameters);
+}
+
+TEST(VoxelClustering, ColourDistanceIsEquation317WithACircularSaturationWeightedHue) {
+  const Eigen::Vector3d rgb(0.5, 0.5, 0.5);
+  // Hues 0.95 and 0.05 are 0.1 turn apart on the circle; saturations 0.8 and 0.6: hue term 0.1 * 0.6.
+  const double distance = colour_distance(rgb, Hsl{0.95, 0.8, 0.4}, rgb, Hsl{0.05, 0.6, 0.5});
+  EXPECT_NEAR(distance, 0.1 * 0.6 + 0.2 + 0.1, 1e-12);
+  // Greys: hue does not count.
+  EXPECT_NEAR(colour_distance(rgb, Hsl{0.0, 0.0, 0.5}, rgb, Hsl{0.5, 0.0, 0.5}), 0.0, 1e-12);
+  // RGB part: the L2 norm.
+  EXPECT_NEAR(colour_distance(Eigen::Vector3d(0, 0, 0), Hsl{}, Eigen::Vector3d(0.3, 0.4, 0), Hsl{}), 0.5, 1e-12);
+}
+
+// Two 3x3x3-voxel blobs touching face to face along the vehicle y axis.
+std::vector<ObstaclePoint> touching_blobs(std::array<uint8_t, 3> first, std::array<uint8_t, 3> second) {
+  std::vector<ObstaclePoint> points;
+  add_box(points, {10.0, -0.75, 0.5}, {10.75, 0.0, 1.25}, first);
+  add_box(points, {10.0, 0.0, 0.5}, {10.75, 0.75, 1.25}, second);
+  return points;
+}
+
+TEST(VoxelClustering, TouchingBlobsOfDifferentColoursSplit) {
+  const ClusteringResult result = cluster_points(touching_blobs(kRed, kBlue));
+  EXPECT_EQ(result.candidate_voxels, 54);
+  ASSERT_EQ(result.clusters.size(), 2u);
+  for (const VoxelCluster& cluster : result.clusters) {
+    EXPECT_EQ(cluster.voxels.size(), 27u);
+    EXPECT_NEAR(cluster.density, 1.0, 1e-12);
+    // One colour per cluster: every voxel on the same side of y = 0.
+    const bool negative = cluster.voxels.front().y < 0;
+    for (const VoxelKey& key : cluster.voxels) EXPECT_EQ(key.y < 0, negative);
+  }
+}
+
+TEST(VoxelClustering, TouchingBlobsOfTheSameColourMerge) {
+  const ClusteringResult result = cluster_points(touching_blobs(kRed, kDarkRed));
+  ASSERT_EQ(result.clusters.size(), 1u);
+  EXPECT_EQ(result.clusters[0].voxels.size(), 54u);
+}
+
+TEST(VoxelClustering, ASmallClusterAggregatesIntoItsBigNeighbourAndAnIsolatedOneIsRemoved) {
+  std::vector<ObstaclePoint> points;
+  add_box(points, {10.0, -0.75, 0.5}, {10.75, 0.0, 1.25}, kRed);   // 27 voxels
+  add_box(points, {10.0, 0.0, 0.5}, {10.5, 0.25, 0.75}, kBlue);    // 2 voxels touching it, another colour
+  add_box(points, {14.0, 2.0, 0.5}, {14.5, 2.25, 0.75}, kBlue);    // 2 voxels alone
+  VoxelClusteringParameters parameters;
+  parameters.small_cluster_voxels = 4;
+  parameters.min_cluster_voxels = 3;
+  const ClusteringResult result = cluster_points(points, parameters);
+  EXPECT_EQ(result.flood_fill_clusters, 3);
+  EXPECT_EQ(result.aggregated_clusters, 1);
+  EXPECT_EQ(result.removed_small, 1);
+  ASSERT_EQ(result.clusters.size(), 1u);
+  EXPECT_EQ(result.clusters[0].voxels.size(), 29u);
+  // Without aggregation (nothing is small) the blue pair stays on its own and survives.
+  parameters.small_cluster_voxels = 1;
+  parameters.min_cluster_voxels = 2;
+  const ClusteringResult separate = cluster_points(points, parameters);
+  EXPECT_EQ(separate.aggregated_clusters, 0);
+  EXPECT_EQ(separate.clusters.size(), 3u);
+}
+
+TEST(VoxelClustering, SparseClustersAreRemoved) {
+  // A diagonal line of 6 voxels: connected through corners (Chebyshev ball), density 6 / 6^3.
+  std::vector<ObstaclePoint> points;
+  for (int i = 0; i < 6; ++i) add_box(points, {10.0 + 0.25 * i, 0.25 * i, 0.5 + 0.25 * i}, {10.25 + 0.25 * i, 0.25 + 0.25 * i, 0.75 + 0.25 * i}, kRed);
+  VoxelClusteringParameters parameters;
+  parameters.min_density = 0.05;
+  ClusteringResult result = cluster_points(points, parameters);
+  EXPECT_EQ(result.flood_fill_clusters, 1);
+  EXPECT_EQ(result.removed_sparse, 1);
+  EXPECT_TRUE(result.clusters.empty());
+  parameters.min_density = 6.0 / 216.0 - 1e-9;
+  result = cluster_points(points, parameters);
+  ASSERT_EQ(result.clusters.size(), 1u);
+  EXPECT_NEAR(result.clusters[0].density, 6.0 / 216.0, 1e-12);
+}
+
+TEST(VoxelClustering, VoxelsOnTheGroundAreNotCandidates) {
+  std::vector<ObstaclePoint> points;
+  add_box(points, {10.0, 0.0, 0.0}, {11.0, 1.0, 0.0625}, kRed);  // a flat layer 3 cm above the ground
+  add_box(points, {12.0, 0.0, 0.5}, {12.75, 0.75, 1.25}, kBlue);
+  const ClusteringResult result = cluster_points(points);
+  EXPECT_EQ(result.candidate_voxels, 27);
+  ASSERT_EQ(result.clusters.size(), 1u);
+}
+
+TEST(VoxelClustering, ObstacleFieldsComeFromTheFramesPoints) {
+  std::vector<ObstaclePoint> points;
+  add_box(points, {10.0, -0.5, 0.25}, {10.5, 0.5, 1.5}, kBlue);
+  const ClusteringResult result = cluster_points(points);
+  ASSERT_EQ(result.clusters.size(), 1u);
+  const Obstacle3d& obstacle = result.clusters[0].obstacle;
+  // Expected from the points themselves.
+  Eigen::Vector3f low = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), high = -low;
+  int u0 = 10000, v0 = 10000, u1 = -1, v1 = -1;
+  float min_height = 1e9f, max_height = -1e9f;
+  Eigen::Vector3d world_sum = Eigen::Vector3d::Zero();
+  for (const ObstaclePoint& point : points) {
+    low = low.cwiseMin(point.camera_m), high = high.cwiseMax(point.camera_m);
+    u0 = std::min<int>(u0, point.u_px), v0 = std::min<int>(v0, point.v_px), u1 = std::max<int>(u1, point.u_px), v1 = std::max<int>(v1, point.v_px);
+    min_height = std::min(min_height, point.height_above_ground_m), max_height = std::max(max_height, point.height_above_ground_m);
+    world_sum += point.vehicle_m.cast<double>();
+  }
+  EXPECT_TRUE(obstacle.position_m.isApprox(((low + high) / 2).cast<double>(), 1e-6));
+  EXPECT_TRUE(obstacle.size_m.isApprox((high - low).cast<double>(), 1e-6));
+  EXPECT_EQ(obstacle.bbox_px, (std::array<int, 4>{u0, v0, u1, v1}));
+  EXPECT_FLOAT_EQ(static_cast<float>(obstacle.min_height_m), min_height);
+  EXPECT_FLOAT_EQ(static_cast<float>(obstacle.max_height_m), max_height);
+  EXPECT_TRUE(result.clusters[0].centroid_world_m.isApprox(world_sum / double(points.size()), 1e-9));
+  EXPECT_EQ(obstacle.track_id, -1);
+  EXPECT_FALSE(obstacle.moving);
+  // A level camera 1.5 m up: the box's camera-frame centre is (0, 1.5 - 0.875, 10.25) (x = -y, y = 1.5 - z).
+  EXPECT_NEAR(obstacle.position_m.x(), 0.0, 1e-6);
+  EXPECT_NEAR(obstacle.position_m.z(), 10.25, 1e-6);
+}
+
+TEST(VoxelClustering, ClustersCutByTheMapBoundsOrTheImageBorderAreTruncated) {
+  std::vector<ObstaclePoint> points;
+  add_box(points, {39.5, 0.0, 0.5}, {40.0, 0.5, 1.0}, kRed);     // against the 40 m far bound
+  add_box(points, {15.0, 0.0, 0.5}, {15.5, 0.5, 1.0}, kBlue);    // in the middle of the map and the image
+  add_box(points, {12.0, -9.0, 0.5}, {12.5, -8.5, 1.0}, kRed);   // 9 m right at 12 m: u = 320 + 500 * 8.75 / 12 > 639, clamped to 639
+  VoxelClusteringParameters parameters;
+  ClusteringResult result = cluster_points(points, parameters);
+  ASSERT_EQ(result.clusters.size(), 3u);
+  auto find = [&](double vehicle_x) -> const VoxelCluster& {
+    for (const VoxelCluster& cluster : result.clusters) {
+      if (std::abs(cluster.centroid_world_m.x() - vehicle_x) < 0.5) return cluster;
+    }
+    throw std::runtime_error("no cluster near x = " + std::to_string(vehicle_x));
+  };
+  EXPECT_TRUE(find(39.75).truncated);
+  EXPECT_FALSE(find(15.25).truncated);
+  EXPECT_FALSE(find(12.25).truncated);  // the image size is not given: no border test
+  parameters.image_width_px = 640;
+  parameters.image_height_px = 480;
+  result = cluster_points(points, parameters);
+  ASSERT_EQ(result.clusters.size(), 3u);
+  EXPECT_TRUE(find(12.25).truncated);
+  EXPECT_FALSE(find(15.25).truncated);
+}
+
+TEST(VoxelClustering, EmptyMapAndBadParameters) {
+  VoxelMap map;
+  map.update({}, EgoMotion{});
+  const ClusteringResult result = cluster_voxels(map);
+  EXPECT_TRUE(result.clusters.empty());
+  EXPECT_EQ(result.candidate_voxels, 0);
+  VoxelClusteringParameters parameters;
+  parameters.similarity_threshold = 0;
+  EXPECT_THROW(cluster_voxels(map, parameters), std::invalid_argument);
+  parameters = {};
+  parameters.min_density = 2;
+  EXPECT_THROW(cluster_voxels(map, parameters), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace lpstereo::arm::obstacles3d
