@@ -1,6 +1,8 @@
 // The keyframe localizer (arm/localization/localizer.h) end to end on a short rendered flight
 // (io/stereo_flight.h: small images, a 1 m square at 1 m with a quarter turn at the first corner, noise):
-// with keyframe corrections it lands closer to the truth than visual odometry alone; textureless
+// with keyframe corrections it lands closer to the truth than visual odometry alone, the odometry
+// follows the turn on the spot (a pure rotation), the landing is corrected against the take-off
+// keyframe with steered descriptors; textureless
 // frames keep the filter predicting with a growing covariance and a falling confidence; the frame
 // conversion (body_from_camera) reproduces the flight's yaw convention.
 #include <cmath>
@@ -75,7 +77,7 @@ TEST(KeyframeLocalizer, KeyframeCorrectionsLandCloserThanOdometryAlone) {
   KeyframeLocalizer alone(flight.width, flight.height, odometry_only, 2);
   Eigen::Isometry3d first_truth = Eigen::Isometry3d::Identity(), truth = first_truth;
   LocalizerFrame with_corrections, without;
-  int accepted = 0, turned_sector_accepted = 0, last_frames_sector_4 = 0;
+  int accepted = 0, turned_sector_accepted = 0, last_frames_sector_4 = 0, turn_frames = 0;
   for (size_t i = 0; i < plan.frame_times_s.size(); ++i) {
     const io::FlightState state = io::flight_state_at(flight, plan, plan.frame_times_s[i]);
     const io::StereoFlightFrame frame = io::render_flight_frame(flight, state, static_cast<int>(i));
@@ -89,7 +91,15 @@ TEST(KeyframeLocalizer, KeyframeCorrectionsLandCloserThanOdometryAlone) {
     turned_sector_accepted += with_corrections.correction_accepted && with_corrections.yaw_sector != 0 ? 1 : 0;
     if (i + 5 >= plan.frame_times_s.size()) last_frames_sector_4 += with_corrections.correction_accepted && with_corrections.keyframe_id == 0 && with_corrections.yaw_sector == 4 ? 1 : 0;
     EXPECT_EQ(without.keyframe_id, -1);
+    // A pure rotation (the quarter turn on the spot at waypoint 1): the odometry follows it.
+    for (const io::FlightLeg& leg : plan.legs) {
+      if (leg.name.rfind("turn", 0) == 0 && plan.frame_times_s[i] > leg.start_s && plan.frame_times_s[i] <= leg.end_s) {
+        EXPECT_TRUE(with_corrections.odometry_valid) << "frame " << i << " during " << leg.name;
+        ++turn_frames;
+      }
+    }
   }
+  EXPECT_GE(turn_frames, 3);
   ASSERT_GT(plan.frame_times_s.size(), 30u);
   EXPECT_GE(corrected.database().size(), 1u);
   EXPECT_EQ(alone.database().size(), 0u);
