@@ -10,8 +10,12 @@
 #include <string>
 #include <utility>
 
+#include <vector>
+
 #include "io/frame_pattern.h"
+#include "io/rectification.h"
 #include "tools/command_error.h"
+#include "tools/rectified_pair.h"
 
 namespace lpstereo::tools {
 
@@ -25,6 +29,24 @@ inline void check_frame_patterns(const std::string& left_pattern, const std::str
       throw CommandError(kExitUsage, std::string(flag) + " " + error.what());
     }
   }
+}
+
+// The rectified pinhole geometry of a sequence's calibration (--calib: one file or two) for
+// width x height views. Throws CommandError(kExitInput, "calibration <files>: ...") for a
+// latitude-longitude rectification or a baseline that is not positive (rectified_geometry's own
+// errors for a missing or unreadable file).
+inline io::RectifiedGeometry sequence_pinhole_geometry(const std::vector<std::string>& calibration_files, int width, int height) {
+  const io::RectifiedGeometry geometry = rectified_geometry(calibration_files, width, height);
+  const std::string calibration_name = calibration_files.size() == 1 ? calibration_files[0]
+                                                                     : calibration_files[0] + "," + calibration_files[1];
+  if (geometry.projection != io::RectifiedProjection::pinhole) {
+    throw CommandError(kExitInput, "calibration " + calibration_name + ": expected a pinhole rectification, got latitude-longitude");
+  }
+  if (!(geometry.baseline_m > 0)) {
+    throw CommandError(kExitInput, "calibration " + calibration_name + ": expected a baseline > 0 m, got " +
+                                       std::to_string(geometry.baseline_m));
+  }
+  return geometry;
 }
 
 // "frames [#####     ] 12 / 51" redrawn in place on stderr, on a terminal only (logs and pipes get

@@ -13,6 +13,8 @@
 //   points, synth   point clouds (tools/points_command.h), synthetic scenes (tools/synth_command.h)
 //   obstacles   the obstacle detector on a rectified pair (tools/obstacles_command.h)
 //   odometry    stereo visual odometry over a rectified sequence, KITTI poses out (tools/odometry_command.h)
+//   localize    keyframe localization of a downward stereo camera, KITTI poses + keyframe database out
+//               (tools/localize_command.h)
 //   run         a graph on a stereo source (camera or recording), live status, outputs, recording
 //               (tools/run_command.h)
 //
@@ -50,6 +52,7 @@
 #include "tools/disparity_options.h"
 #include "tools/eval_command.h"
 #include "tools/geometry_commands.h"
+#include "tools/localize_command.h"
 #include "tools/obstacles_command.h"
 #include "tools/odometry_command.h"
 #include "tools/points_command.h"
@@ -631,6 +634,7 @@ int main(int argc, char** argv) {
   tools::PointsCommand points(app);  // points (tools/points_command.h)
   tools::ObstaclesCommand obstacles(app);  // obstacles (tools/obstacles_command.h)
   tools::OdometryCommand odometry(app);    // odometry (tools/odometry_command.h)
+  tools::LocalizeCommand localize(app);    // localize (tools/localize_command.h)
   tools::SynthCommand synth(app);    // synth (tools/synth_command.h)
   tools::RunCommand run(app);        // run (tools/run_command.h)
 
@@ -657,6 +661,7 @@ int main(int argc, char** argv) {
     if (points.selected()) return points.run();
     if (obstacles.selected()) return obstacles.run();
     if (odometry.selected()) return odometry.run();
+    if (localize.selected()) return localize.run();
     if (synth.selected()) return synth.run();
     if (run.selected()) return run.run();
   } catch (const CommandError& error) {

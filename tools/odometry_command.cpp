@@ -63,16 +63,7 @@ int OdometryCommand::run() const {
                                                                 frame_limit_);
   const int frame_count = source->frame_count();
   const int width = source->width(), height = source->height();
-  const io::RectifiedGeometry geometry = rectified_geometry(calibration_files_, width, height);
-  const std::string calibration_name = calibration_files_.size() == 1 ? calibration_files_[0]
-                                                                      : calibration_files_[0] + "," + calibration_files_[1];
-  if (geometry.projection != io::RectifiedProjection::pinhole) {
-    throw CommandError(kExitInput, "calibration " + calibration_name + ": expected a pinhole rectification, got latitude-longitude");
-  }
-  if (!(geometry.baseline_m > 0)) {
-    throw CommandError(kExitInput, "calibration " + calibration_name + ": expected a baseline > 0 m, got " +
-                                       std::to_string(geometry.baseline_m));
-  }
+  const io::RectifiedGeometry geometry = sequence_pinhole_geometry(calibration_files_, width, height);
   arm::StereoOdometryParameters parameters = parameters_;
   parameters.focal_px = geometry.focal_px;
   parameters.principal_point_x_px = geometry.cx_left_px;

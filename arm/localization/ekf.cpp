@@ -76,9 +76,14 @@ void LocalizationEkf::predict(const OdometryIncrement& increment) {
   jacobian(1, 3) = c * dx - s * dy;
   Eigen::Matrix4d input_jacobian = Eigen::Matrix4d::Identity();  // G
   input_jacobian.topLeftCorner<2, 2>() << c, -s, s, c;
-  const double translation_sigma =
+  const double proportional_translation_sigma =
       parameters_.odometry_translation_fraction * increment.translation_m.norm() + parameters_.odometry_translation_floor_m;
-  const double yaw_sigma = parameters_.odometry_yaw_fraction * std::abs(increment.yaw_rad) + parameters_.odometry_yaw_floor_rad;
+  const double proportional_yaw_sigma =
+      parameters_.odometry_yaw_fraction * std::abs(increment.yaw_rad) + parameters_.odometry_yaw_floor_rad;
+  const double extra_translation_sigma = std::isfinite(increment.extra_translation_sigma_m) ? std::abs(increment.extra_translation_sigma_m) : 0.0;
+  const double extra_yaw_sigma = std::isfinite(increment.extra_yaw_sigma_rad) ? std::abs(increment.extra_yaw_sigma_rad) : 0.0;
+  const double translation_sigma = std::hypot(proportional_translation_sigma, extra_translation_sigma);
+  const double yaw_sigma = std::hypot(proportional_yaw_sigma, extra_yaw_sigma);
   const Eigen::Vector4d input_variance(translation_sigma * translation_sigma, translation_sigma * translation_sigma,
                                        translation_sigma * translation_sigma, yaw_sigma * yaw_sigma);
   state_(0) += c * dx - s * dy;

@@ -16,7 +16,8 @@
 // G = d x' / d u (the yaw rotation on dx, dy; identity on dz, dyaw), Q = diag of the increment's
 // variances: sigma_xy = odometry_translation_fraction |(dx, dy, dz)| + odometry_translation_floor_m,
 // the same for dz, sigma_yaw = odometry_yaw_fraction |dyaw| + odometry_yaw_floor_rad (odometry drifts
-// in proportion to the motion).
+// in proportion to the motion), each combined in quadrature with the increment's extra sigma (a lost
+// frame's unseen motion, arm/localization/localizer.h).
 //
 // Updates (linear measurements, H a selection of the state; K = P H^T (H P H^T + R)^-1,
 // x += K r, P = (I - K H) P (I - K H)^T + K R K^T, the Joseph form, which stays symmetric positive):
@@ -59,6 +60,10 @@ struct EkfParameters {
 struct OdometryIncrement {
   Eigen::Vector3d translation_m = Eigen::Vector3d::Zero();  // body frame of the previous step
   double yaw_rad = 0;
+  // Extra sigma added in quadrature to the proportional model's (a frame the odometry lost: the
+  // caller predicts a zero increment with the motion the drone may have made unseen), >= 0.
+  double extra_translation_sigma_m = 0;
+  double extra_yaw_sigma_rad = 0;
 };
 
 struct KeyframePoseMeasurement {

@@ -101,6 +101,25 @@ TEST(LocalizationEkf, LostOdometryKeepsPredictingWithGrowingUncertainty) {
   EXPECT_NE(filter.log_line().find("kind=predict accepted=0"), std::string::npos);
 }
 
+// A zero increment with an extra sigma (the localizer's lost frame): the variances grow by the floor
+// and the extra sigma in quadrature, (floor^2 + extra^2) per axis; the state does not move.
+TEST(LocalizationEkf, ExtraSigmaAddsInQuadrature) {
+  EkfParameters parameters;
+  LocalizationEkf filter(parameters, {1, 2, 3}, 0.5);
+  const Eigen::Matrix4d before = filter.covariance();
+  OdometryIncrement lost;
+  lost.extra_translation_sigma_m = 0.1;
+  lost.extra_yaw_sigma_rad = 0.05;
+  filter.predict(lost);
+  const double floor_m = parameters.odometry_translation_floor_m, floor_rad = parameters.odometry_yaw_floor_rad;
+  for (int axis = 0; axis < 3; ++axis) {
+    EXPECT_NEAR(filter.covariance()(axis, axis) - before(axis, axis), floor_m * floor_m + 0.1 * 0.1, 1e-12) << "axis " << axis;
+  }
+  EXPECT_NEAR(filter.covariance()(3, 3) - before(3, 3), floor_rad * floor_rad + 0.05 * 0.05, 1e-12);
+  EXPECT_LT((filter.position_m() - Eigen::Vector3d(1, 2, 3)).norm(), 1e-15);
+  EXPECT_DOUBLE_EQ(filter.yaw_rad(), 0.5);
+}
+
 TEST(LocalizationEkf, LogLineHoldsTheStateAndTheCovarianceTriangle) {
   LocalizationEkf filter({}, {1.5, -2, 0.4}, 0.25);
   filter.predict({{0.1, 0, 0}, 0});
