@@ -43,24 +43,29 @@
 // with regularisation = 0: a column with fewer distinct spans than control points); a non-finite
 // surface.
 //
-// Counted work (ArmWork), with C = m0 m1 cells, V valid cells, for each fit with n0 x n1 control
-// points and degrees d0, d1 (Ck columns with weight, n0 control rows):
-//   per fit: 3 d0 (d0 + 1) m0 + 3 d1 (d1 + 1) m1 (basis triangles) + (2 (d0 + 1)^2 + 4 (d0 + 1)) V
-//            (normal equations, step 1) + Ck (n0^3 / 3 + 2 n0^2 + 4 n0) (Cholesky and solves, step 1)
-//            + n0 ((2 (d1 + 1)^2 + 4 (d1 + 1)) m1 + n1^3 / 3 + 2 n1^2 + 4 n1) (step 2)
-//            + 2 m0 n0 n1 + 2 m0 n1 m1 (the surface at every cell: B0 Q B1^T)
-//   per iteration: the fit + 30 V (residual, mean, eq. 3.6 with a power, eq. 3.7);
+// Counted work (ArmWork), with C = m0 m1 cells, V valid cells; for each fit with n0 x n1 control
+// points, degrees d0, d1, Vj the valid cells of column j and Cw the columns with any:
+//   per fit: 3 d0 (d0 + 1) m0 + 3 d1 (d1 + 1) m1 (basis triangles)
+//            + ((d0 + 1)(d0 + 2) + 3 (d0 + 1)) V (step 1's normal equations, lower band only)
+//            + Cw (n0 (d0 + 1)^2 + 4 n0 (d0 + 1) + 6 n0) (banded Cholesky, two substitutions,
+//              regularisation and precision copy)
+//            + n0 (((d1 + 1)(d1 + 2) + 3 (d1 + 1)) m1 + n1 (d1 + 1)^2 + 4 n1 (d1 + 1) + 6 n1) (step 2)
+//            + 2 m0 (d0 + 1) n1 + 2 m0 m1 (d1 + 1) (the surface at every cell, B0 Q then (.) B1^T)
+//   per iteration: the fit + 30 V (residual, mean, eq. 3.6 with an integer power, eq. 3.7);
+//   once: 8 C (the data checks) + 4 V (the final error);
 //   memory_bytes = 12 C (the grid's heights and states read once) + 16 C (equalised grid and
 //                  weights written) + 8 n0 n1 (the final control points); the working set
 //                  (68 x 44 cells, 25 x 25 controls: ~80 KiB) stays in the core's cache.
+// The normal equations are banded (half-bandwidth = the degree: a sample touches degree + 1
+// consecutive control points), so each solve is O(n d^2), not O(n^3): 25 x 25 control points,
+// 21 fits, 68 x 44 cells take ~2 ms on one host core.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
-
-#include <Eigen/Cholesky>
+#include <vector>
 
 #include "arm/terrain/terrain_model.h"
 
@@ -123,6 +128,93 @@ void validate(const TerrainFitParameters& p, const HeightGrid& grid) {
   non_negative("equalisation_tolerance_m", p.equalisation_tolerance_m);
 }
 
+// A symmetric positive definite band matrix (half-bandwidth p = the degree) in lower band storage:
+// band(k, q) = A(k, k - p + q), q = 0 .. p (q = p the diagonal). The normal equations of a B-spline
+// least-squares fit are banded because each sample touches degree + 1 consecutive control points.
+class BandSystem {
+ public:
+  BandSystem(int n, int p) : n_(n), p_(p), band_(static_cast<size_t>(n * (p + 1)), 0.0), rhs_(static_cast<size_t>(n), 0.0) {}
+  void clear() {
+    std::fill(band_.begin(), band_.end(), 0.0);
+    std::fill(rhs_.begin(), rhs_.end(), 0.0);
+  }
+  // Adds weight * v v^T (v non-zero on first .. first + p) and weight * value * v.
+  void add_sample(int first, const double* v, double weight, double value) {
+    for (int a = 0; a <= p_; ++a) {
+      const double wa = weight * v[a];
+      rhs_[static_cast<size_t>(first + a)] += wa * value;
+      for (int b = 0; b <= a; ++b) at(first + a, first + b) += wa * v[b];
+    }
+  }
+  double diagonal(int k) const { return band_[static_cast<size_t>(k * (p_ + 1) + p_)]; }
+  // + lambda (D^T D + 1e-3 I), D the first differences; lambda = regularisation x the mean diagonal.
+  void regularise(double regularisation) {
+    double mean = 0;
+    for (int k = 0; k < n_; ++k) mean += diagonal(k);
+    mean /= n_;
+    const double lambda = regularisation * (mean > 0 ? mean : 1.0);
+    if (!(lambda > 0)) return;
+    for (int k = 0; k < n_; ++k) {
+      at(k, k) += lambda * ((k > 0 ? 1.0 : 0.0) + (k + 1 < n_ ? 1.0 : 0.0) + 1e-3);
+      if (k > 0) at(k, k - 1) -= lambda;
+    }
+  }
+  // Banded Cholesky A = L L^T in place, then L L^T x = rhs. False when a pivot is not positive
+  // (relative to the largest diagonal): the system is singular.
+  bool solve(double* solution) {
+    double largest = 0;
+    for (int k = 0; k < n_; ++k) largest = std::max(largest, diagonal(k));
+    const double tolerance = 1e-12 * largest;
+    for (int k = 0; k < n_; ++k) {
+      for (int j = std::max(0, k - p_); j <= k; ++j) {
+        double sum = at(k, j);
+        for (int i = std::max(0, k - p_); i < j; ++i) sum -= at(k, i) * at(j, i);
+        if (j == k) {
+          if (!(sum > tolerance)) return false;
+          at(k, k) = std::sqrt(sum);
+        } else {
+          at(k, j) = sum / at(j, j);
+        }
+      }
+    }
+    for (int k = 0; k < n_; ++k) {  // L y = rhs
+      double sum = rhs_[static_cast<size_t>(k)];
+      for (int i = std::max(0, k - p_); i < k; ++i) sum -= at(k, i) * solution[i];
+      solution[k] = sum / at(k, k);
+    }
+    for (int k = n_ - 1; k >= 0; --k) {  // L^T x = y
+      double sum = solution[k];
+      for (int i = k + 1; i <= std::min(n_ - 1, k + p_); ++i) sum -= at(i, k) * solution[i];
+      solution[k] = sum / at(k, k);
+    }
+    return true;
+  }
+  // Counted operations of solve(): the factorisation ~ n (p + 1)^2, the two substitutions 4 n (p + 1).
+  uint64_t solve_ops() const { return static_cast<uint64_t>(n_ * (p_ + 1) * (p_ + 1) + 4 * n_ * (p_ + 1)); }
+
+ private:
+  double& at(int row, int column) { return band_[static_cast<size_t>(row * (p_ + 1) + column - row + p_)]; }
+  int n_, p_;
+  std::vector<double> band_, rhs_;
+};
+
+// The non-zero basis values of every sample position: span - degree is the first control point.
+struct SampleBasis {
+  std::vector<int> first;
+  std::vector<double> values;  // (degree + 1) per sample
+  int width = 0;
+  SampleBasis(const std::vector<double>& knots, int degree, const std::vector<double>& positions) : width(degree + 1) {
+    first.resize(positions.size());
+    values.resize(positions.size() * static_cast<size_t>(width));
+    for (size_t k = 0; k < positions.size(); ++k) {
+      const int span = knot_span(knots, degree, positions[k]);
+      first[k] = span - degree;
+      basis_functions(knots, degree, span, positions[k], &values[k * static_cast<size_t>(width)], nullptr);
+    }
+  }
+  const double* at(int sample) const { return &values[static_cast<size_t>(sample * width)]; }
+};
+
 // One separable weighted least-squares fit; false when a system is singular.
 struct SeparableFit {
   const TerrainGridSpec& spec;
@@ -146,87 +238,76 @@ struct SeparableFit {
     std::vector<double> xs(static_cast<size_t>(m0)), ys(static_cast<size_t>(m1));
     for (int i = 0; i < m0; ++i) xs[static_cast<size_t>(i)] = spec.cell_centre_x_m(i);
     for (int j = 0; j < m1; ++j) ys[static_cast<size_t>(j)] = spec.cell_centre_y_m(j);
-    const Eigen::MatrixXd basis0 = basis_matrix(surface->knots_forward_m, d0, xs);
-    const Eigen::MatrixXd basis1 = basis_matrix(surface->knots_lateral_m, d1, ys);
-    std::vector<int> span0(static_cast<size_t>(m0)), span1(static_cast<size_t>(m1));
-    for (int i = 0; i < m0; ++i) span0[static_cast<size_t>(i)] = knot_span(surface->knots_forward_m, d0, xs[static_cast<size_t>(i)]);
-    for (int j = 0; j < m1; ++j) span1[static_cast<size_t>(j)] = knot_span(surface->knots_lateral_m, d1, ys[static_cast<size_t>(j)]);
+    const SampleBasis basis0(surface->knots_forward_m, d0, xs), basis1(surface->knots_lateral_m, d1, ys);
     work->scalar_ops += static_cast<uint64_t>(3 * d0 * (d0 + 1) * m0 + 3 * d1 * (d1 + 1) * m1);
 
     // Step 1: along x, per column.
     Eigen::MatrixXd column_controls = Eigen::MatrixXd::Zero(n0, m1), column_precision = Eigen::MatrixXd::Zero(n0, m1);
-    Eigen::MatrixXd normal(n0, n0);
-    Eigen::VectorXd rhs(n0);
+    BandSystem system0(n0, d0);
     for (int j = 0; j < m1; ++j) {
-      normal.setZero();
-      rhs.setZero();
+      system0.clear();
       int samples = 0;
       for (int i = 0; i < m0; ++i) {
         const double w = weights(i, j);
         if (w == 0) continue;
         ++samples;
-        const int first = span0[static_cast<size_t>(i)] - d0;
-        for (int a = 0; a <= d0; ++a) {
-          const double wa = w * basis0(i, first + a);
-          rhs(first + a) += wa * heights(i, j);
-          for (int b = 0; b <= d0; ++b) normal(first + a, first + b) += wa * basis0(i, first + b);
-        }
+        system0.add_sample(basis0.first[static_cast<size_t>(i)], basis0.at(i), w, heights(i, j));
       }
-      work->scalar_ops += static_cast<uint64_t>(samples * (2 * (d0 + 1) * (d0 + 1) + 4 * (d0 + 1)));
+      work->scalar_ops += static_cast<uint64_t>(samples * ((d0 + 1) * (d0 + 2) + 3 * (d0 + 1)));
       if (samples == 0) continue;
-      column_precision.col(j) = normal.diagonal();
-      if (!solve(&normal, rhs, column_controls.col(j))) return false;
-      work->scalar_ops += static_cast<uint64_t>(n0 * n0 * n0 / 3 + 2 * n0 * n0 + 4 * n0);
+      for (int a = 0; a < n0; ++a) column_precision(a, j) = system0.diagonal(a);
+      system0.regularise(regularisation);
+      if (!system0.solve(column_controls.col(j).data())) return false;
+      work->scalar_ops += system0.solve_ops() + static_cast<uint64_t>(6 * n0);
     }
     // Step 2: along y, per control row.
     surface->control_z_m.resize(n0, n1);
-    Eigen::MatrixXd normal1(n1, n1);
-    Eigen::VectorXd rhs1(n1), solution(n1);
+    BandSystem system1(n1, d1);
+    std::vector<double> solution(static_cast<size_t>(n1));
     for (int a = 0; a < n0; ++a) {
-      normal1.setZero();
-      rhs1.setZero();
+      system1.clear();
       for (int j = 0; j < m1; ++j) {
         const double w = column_precision(a, j);
         if (w == 0) continue;
-        const int first = span1[static_cast<size_t>(j)] - d1;
-        for (int r = 0; r <= d1; ++r) {
-          const double wr = w * basis1(j, first + r);
-          rhs1(first + r) += wr * column_controls(a, j);
-          for (int s = 0; s <= d1; ++s) normal1(first + r, first + s) += wr * basis1(j, first + s);
-        }
+        system1.add_sample(basis1.first[static_cast<size_t>(j)], basis1.at(j), w, column_controls(a, j));
       }
-      if (!solve(&normal1, rhs1, solution)) return false;
-      surface->control_z_m.row(a) = solution.transpose();
-      work->scalar_ops += static_cast<uint64_t>(m1 * (2 * (d1 + 1) * (d1 + 1) + 4 * (d1 + 1)) + n1 * n1 * n1 / 3 + 2 * n1 * n1 + 4 * n1);
+      system1.regularise(regularisation);
+      if (!system1.solve(solution.data())) return false;
+      for (int b = 0; b < n1; ++b) surface->control_z_m(a, b) = solution[static_cast<size_t>(b)];
+      work->scalar_ops += static_cast<uint64_t>(m1 * ((d1 + 1) * (d1 + 2) + 3 * (d1 + 1))) + system1.solve_ops() +
+                          static_cast<uint64_t>(6 * n1);
     }
     if (!surface->control_z_m.allFinite()) return false;
-    *surface_at_cells = basis0 * surface->control_z_m * basis1.transpose();
-    work->scalar_ops += static_cast<uint64_t>(2 * m0 * n0 * n1 + 2 * m0 * n1 * m1);
-    return true;
-  }
-
-  // (normal + lambda (D^T D + 1e-3 I)) x = rhs; false when singular. A row without samples has no
-  // weight at all: x stays 0 there only if lambda > 0 (then the membrane term carries neighbours).
-  template <typename Out>
-  bool solve(Eigen::MatrixXd* normal, const Eigen::VectorXd& rhs, Out&& solution) const {
-    const Eigen::Index n = normal->rows();
-    const double scale = normal->diagonal().mean();
-    const double lambda = regularisation * (scale > 0 ? scale : 1.0);
-    if (lambda > 0) {
-      for (Eigen::Index k = 0; k + 1 < n; ++k) {  // first differences (x_k+1 - x_k)^2
-        (*normal)(k, k) += lambda;
-        (*normal)(k + 1, k + 1) += lambda;
-        (*normal)(k, k + 1) -= lambda;
-        (*normal)(k + 1, k) -= lambda;
-      }
-      normal->diagonal().array() += 1e-3 * lambda;
+    // The surface at every cell: T = B0 Q (m0 x n1), then S = T B1^T, each with degree + 1 terms.
+    Eigen::MatrixXd partial = Eigen::MatrixXd::Zero(m0, n1);
+    for (int i = 0; i < m0; ++i) {
+      const double* v = basis0.at(i);
+      const int first = basis0.first[static_cast<size_t>(i)];
+      for (int a = 0; a <= d0; ++a) partial.row(i) += v[a] * surface->control_z_m.row(first + a);
     }
-    const Eigen::LLT<Eigen::MatrixXd> cholesky(*normal);
-    if (cholesky.info() != Eigen::Success || !(cholesky.rcond() > 1e-13)) return false;
-    solution = cholesky.solve(rhs);
+    surface_at_cells->resize(m0, m1);
+    for (int j = 0; j < m1; ++j) {
+      const double* v = basis1.at(j);
+      const int first = basis1.first[static_cast<size_t>(j)];
+      auto column = surface_at_cells->col(j);
+      column.setZero();
+      for (int b = 0; b <= d1; ++b) column += v[b] * partial.col(first + b);
+    }
+    work->scalar_ops += static_cast<uint64_t>(2 * m0 * (d0 + 1) * n1 + 2 * m0 * m1 * (d1 + 1));
     return true;
   }
 };
+
+// ratio^(-alpha); integer alpha (the default schedule) by multiplication, much cheaper than pow.
+double inverse_power(double ratio, double alpha) {
+  if (alpha == std::floor(alpha) && alpha <= 64) {
+    const double inverse = 1.0 / ratio;
+    double result = 1.0;
+    for (int k = 0; k < static_cast<int>(alpha); ++k) result *= inverse;
+    return result;
+  }
+  return std::pow(ratio, -alpha);
+}
 
 TerrainEstimate unknown(TerrainEstimate estimate, const std::string& reason) {
   estimate.known = false;
@@ -312,7 +393,7 @@ TerrainEstimate fit_terrain(const HeightGrid& grid, const TerrainFitParameters& 
         const double dz = heights(i, j) - at_cells(i, j);
         const double ratio = threshold > 0 ? std::abs(dz) / threshold : 0.0;
         // eq. 3.6, capped: ratio -> 0 gives an infinite weight.
-        const double weight = ratio > 0 ? std::min(parameters.maximum_weight, 1.0 + std::pow(ratio, -alpha)) : parameters.maximum_weight;
+        const double weight = ratio > 0 ? std::min(parameters.maximum_weight, 1.0 + inverse_power(ratio, alpha)) : parameters.maximum_weight;
         weights(i, j) = weight;
         if (dz > parameters.equalisation_tolerance_m) {  // eq. 3.7, never raising samples below S
           heights(i, j) -= parameters.equalisation == TerrainFitParameters::Equalisation::never_overshoot

@@ -127,7 +127,7 @@ struct TerrainFitParameters {
   int degree_forward = 3, degree_lateral = 3;
   int control_forward = 25, control_lateral = 25;   // n_max: the final fit's control points
   int initial_control_forward = 5, initial_control_lateral = 5;  // the first iteration's
-  int max_iterations = 8;          // re-weighting iterations before the final fit
+  int max_iterations = 20;         // re-weighting iterations before the final fit (20: one control point per axis per iteration from 5 to 25, the thesis's schedule)
   double threshold_factor = 1.0;   // th(e) = threshold_factor * e, e the mean absolute error
   double alpha_initial = 1.0;      // alpha of the first iteration, growing by alpha_step per iteration
   double alpha_step = 1.0;
