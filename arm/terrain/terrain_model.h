@@ -139,6 +139,10 @@ struct TerrainFitParameters {
   // Added by the implementation (arm/terrain/terrain_fit.cpp explains each):
   double maximum_weight = 1000.0;         // eq. 3.6 caps here (|dz| -> 0 would give an infinite weight)
   double equalisation_tolerance_m = 0.001; // samples less than this above the surface are not equalised
+  // Nor those less than this x th(e) above it (0: every sample above, as the thesis). 3 keeps the
+  // noise and the smooth bumps the coarse first surfaces cannot follow (hills, banks) from being
+  // shaved off (terrain_fit.cpp has the figures).
+  double equalisation_threshold_factor = 3.0;
   // Eq. 3.7: never_overshoot = Z -= dz W / (W + 1) (the thesis's prose: moved towards the surface,
   // never past it); as_printed = Z -= dz (1 + 1/W) (the formula as the text conversion prints it,
   // which puts the sample below the surface; kept to show the difference in bench/terrain_bench).
