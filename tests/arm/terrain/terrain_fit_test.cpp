@@ -262,35 +262,31 @@ void expect_parameter_error(const TerrainFitParameters& parameters, const std::s
 
 TEST(TerrainFit, ParametersOutOfRangeThrowNamingTheParameter) {
   const TerrainFitParameters base = small_parameters(3, 10);
-  TerrainFitParameters p = base;
-  p.degree_forward = 0;
-  expect_parameter_error(p, "degree_forward");
-  p = base, p.degree_lateral = 9;
-  expect_parameter_error(p, "degree_lateral");
-  p = base, p.control_forward = 3;
-  expect_parameter_error(p, "control_forward");
-  p = base, p.control_lateral = 21;  // more than the 20 cells
-  expect_parameter_error(p, "control_lateral");
-  p = base, p.initial_control_forward = 11;
-  expect_parameter_error(p, "initial_control_forward");
-  p = base, p.initial_control_lateral = 2;
-  expect_parameter_error(p, "initial_control_lateral");
-  p = base, p.max_iterations = -1;
-  expect_parameter_error(p, "max_iterations");
-  p = base, p.threshold_factor = 0;
-  expect_parameter_error(p, "threshold_factor");
-  p = base, p.alpha_initial = 0.5;
-  expect_parameter_error(p, "alpha_initial");
-  p = base, p.alpha_step = -1;
-  expect_parameter_error(p, "alpha_step");
-  p = base, p.regularisation = std::numeric_limits<double>::quiet_NaN();
-  expect_parameter_error(p, "regularisation");
-  p = base, p.min_valid_cells = 0;
-  expect_parameter_error(p, "min_valid_cells");
-  p = base, p.maximum_weight = 1;
-  expect_parameter_error(p, "maximum_weight");
-  p = base, p.equalisation_tolerance_m = -0.1;
-  expect_parameter_error(p, "equalisation_tolerance_m");
+  const struct {
+    const char* name;
+    std::function<void(TerrainFitParameters&)> change;
+  } cases[] = {
+      {"degree_forward", [](TerrainFitParameters& p) { p.degree_forward = 0; }},
+      {"degree_lateral", [](TerrainFitParameters& p) { p.degree_lateral = 9; }},
+      {"control_forward", [](TerrainFitParameters& p) { p.control_forward = 3; }},
+      {"control_lateral", [](TerrainFitParameters& p) { p.control_lateral = 21; }},  // more than the 20 cells
+      {"initial_control_forward", [](TerrainFitParameters& p) { p.initial_control_forward = 11; }},
+      {"initial_control_lateral", [](TerrainFitParameters& p) { p.initial_control_lateral = 2; }},
+      {"max_iterations", [](TerrainFitParameters& p) { p.max_iterations = -1; }},
+      {"threshold_factor", [](TerrainFitParameters& p) { p.threshold_factor = 0; }},
+      {"alpha_initial", [](TerrainFitParameters& p) { p.alpha_initial = 0.5; }},
+      {"alpha_step", [](TerrainFitParameters& p) { p.alpha_step = -1; }},
+      {"regularisation", [](TerrainFitParameters& p) { p.regularisation = std::numeric_limits<double>::quiet_NaN(); }},
+      {"min_valid_cells", [](TerrainFitParameters& p) { p.min_valid_cells = 0; }},
+      {"maximum_weight", [](TerrainFitParameters& p) { p.maximum_weight = 1; }},
+      {"equalisation_tolerance_m", [](TerrainFitParameters& p) { p.equalisation_tolerance_m = -0.1; }},
+      {"equalisation_threshold_factor", [](TerrainFitParameters& p) { p.equalisation_threshold_factor = -1; }},
+  };
+  for (const auto& bad : cases) {
+    TerrainFitParameters parameters = base;
+    bad.change(parameters);
+    expect_parameter_error(parameters, bad.name);
+  }
   // A grid whose matrices do not match its spec.
   HeightGrid grid = grid_of(spec_of(10, 10, 0.5), [](double, double) { return 0.0; });
   grid.spec.cell_m = 0.25;
