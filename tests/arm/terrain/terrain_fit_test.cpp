@@ -170,6 +170,26 @@ TEST(TerrainFit, EqualisationNeverOvershootsTheSurface) {
   }
 }
 
+// The counted work of one plain fit against terrain_fit.cpp's model, term by term: 20 x 16 cells
+// (C = V = 320, every column has samples), degree 3 (d + 1 = 4), 8 x 6 control points.
+TEST(TerrainFit, PlainFitWorkFollowsTheDocumentedModel) {
+  TerrainFitParameters parameters = small_parameters(3, 8);
+  parameters.control_lateral = 6;
+  parameters.initial_control_lateral = 4;
+  parameters.max_iterations = 0;
+  const TerrainEstimate estimate = fit_terrain(grid_of(spec_of(10, 8, 0.5), [](double x, double) { return 0.1 * x; }), parameters);
+  ASSERT_TRUE(estimate.known);
+  const uint64_t checks = 8 * 320;                                  // the data checks
+  const uint64_t basis = 3 * 3 * 4 * 20 + 3 * 3 * 4 * 16;           // the basis triangles per axis
+  const uint64_t normal_x = (4 * 5 + 3 * 4) * 320;                  // step 1's normal equations
+  const uint64_t solve_x = 16 * (8 * 16 + 4 * 8 * 4 + 6 * 8);       // 16 columns: Cholesky, substitutions
+  const uint64_t step_y = 8 * ((4 * 5 + 3 * 4) * 16 + 6 * 16 + 4 * 6 * 4 + 6 * 6);  // 8 control rows
+  const uint64_t surface = 2 * 20 * 4 * 6 + 2 * 20 * 16 * 4;        // B0 Q, then (.) B1^T
+  const uint64_t final_error = 4 * 320;
+  EXPECT_EQ(estimate.work.scalar_ops, checks + basis + normal_x + solve_x + step_y + surface + final_error);
+  EXPECT_EQ(estimate.work.memory_bytes, 12u * 320 + 16u * 320 + 8u * 8 * 6);
+}
+
 TEST(TerrainFit, WorkIsCountedAndGrowsWithTheGrid) {
   const TerrainEstimate small = fit_terrain(box_grid(2.0, 1.0), TerrainFitParameters{});
   TerrainFitParameters parameters;
