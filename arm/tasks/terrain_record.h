@@ -11,8 +11,9 @@
 //
 // "cost": lateral_cells x forward_cells s32 (row i forward, column j lateral, the cell layout of
 // TerrainGridSpec): the traversability cost Tc = w_occ occupancy + w_slope |grad S| in thousandths
-// (round(1000 Tc)), kUnknownCostMilli where unknown. Tc <= w_occ + w_slope * slope; the task's
-// parameter limits (weights <= 1000, |grad S| capped at 1000 when written) keep 1000 Tc < 2^31.
+// (round(1000 Tc)), kUnknownCostMilli where unknown. Tc is clamped to [0, 2e6] before scaling, so
+// 1000 Tc <= 2e9 < 2^31 (a cost that large means a vertical surface; every real one is far below).
+// The control heights are clamped to +-2e6 m the same way (+-2e9 mm).
 #pragma once
 
 #include <cstdint>
