@@ -154,6 +154,20 @@ void accumulate_binned(const BinnedPoints& binned, const terrain::TerrainGridSpe
   }
 }
 
+std::string ground_extent_problem(const terrain::HeightGrid& grid, int min_rows, int min_columns) {
+  // A row (column) counts when it holds at least 1 % of the points: a few mismatched pixels of a
+  // wall, scattered into other rows, must not make up an extent.
+  const int64_t total = grid.point_count.cast<int64_t>().sum();
+  const int64_t least = std::max<int64_t>(1, total / 100);
+  int rows = 0, columns = 0;
+  for (int i = 0; i < grid.point_count.rows(); ++i) rows += grid.point_count.row(i).cast<int64_t>().sum() >= least;
+  for (int j = 0; j < grid.point_count.cols(); ++j) columns += grid.point_count.col(j).cast<int64_t>().sum() >= least;
+  if (rows >= min_rows && columns >= min_columns) return {};
+  return "no ground extent: " + std::to_string(rows) + " forward row(s) and " + std::to_string(columns) +
+         " lateral column(s) of cells hold at least 1 % of the " + std::to_string(total) + " points each, expected at least " +
+         std::to_string(min_rows) + " and " + std::to_string(min_columns) + " (a wall filling the view, or points on one line)";
+}
+
 std::optional<double> surface_camera_y_m(const terrain::TerrainEstimate& terrain, const CameraToVehicle& to_vehicle, double x_c_m,
                                          double z_c_m, bool require_valid_cell) {
   if (!terrain.known) return std::nullopt;

@@ -59,6 +59,13 @@ BinnedPoints bin_points(const CameraPoints& points, const CameraToVehicle& to_ve
 // accumulator's.
 void accumulate_binned(const BinnedPoints& binned, const terrain::TerrainGridSpec& grid, terrain::HeightGridAccumulator& accumulator);
 
+// A grid whose points lie in fewer than min_rows forward rows or fewer than min_columns lateral
+// columns of cells (a row or column counting when it holds at least 1 % of the points) has no
+// ground extent to fit: a wall filling the view bins into one or two forward rows (its distance),
+// a single line of points into one row or column. The fill would widen such a strip and the fit
+// would then return a made-up surface. Returns the one-line reason, or empty when the extent is enough.
+std::string ground_extent_problem(const terrain::HeightGrid& grid, int min_rows = 4, int min_columns = 4);
+
 // The camera-frame y (down, metres) of the fitted surface on the camera's vertical line through
 // (x_c, ., z_c): the y with p_vehicle = R C (x_c, y, z_c) + T on z = S(x, y), by Newton steps along
 // that line (dz_v / dy_c is the constant (R C)(2, 1); S's own slope enters through a secant

@@ -209,7 +209,12 @@ int TerrainCommand::run() const {
   if (reason.empty()) {
     arm::accumulate_binned(arm::bin_points(points, to_vehicle, grid), grid, accumulator);
     measured = accumulator.finish();
-    estimate = terrain::fit_terrain(*measured, fit_parameters);
+    const std::string extent_problem = arm::ground_extent_problem(*measured);
+    if (extent_problem.empty()) {
+      estimate = terrain::fit_terrain(*measured, fit_parameters);
+    } else {
+      estimate.reason = extent_problem;
+    }
     if (estimate.known) {
       map = terrain::compute_traversability(estimate, *measured, traversability_parameters);
     } else {

@@ -13,8 +13,11 @@
 //      cells outside this task's grid (a kernel configured for another area) are rejected;
 //   2. finish(): cell height Z = max(min z, mean z - sigma), empty cells filled from valid
 //      neighbours, else invalid;
-//   3. fewer than min_valid_cells valid cells: unknown (reason too_few_cells), no fit; otherwise
-//      fit_terrain; known = false from it: unknown (reason fit_refused);
+//   3. fewer than min_valid_cells valid cells: unknown (reason too_few_cells), no fit; points in
+//      fewer than 4 forward rows or 4 lateral columns of cells, each holding 1 % of them
+//      (arm::ground_extent_problem: a wall filling the view, a line of points): unknown (reason
+//      no_ground_extent), no fit; otherwise fit_terrain;
+//      known = false from it: unknown (reason fit_refused);
 //   4. known: compute_traversability against the grid of step 2; write the record and the cost grid.
 //
 // Ports: inputs "cell" s32 and "height" s32 (kernels/point_cell_binning.h, same size); outputs
@@ -31,7 +34,7 @@
 //
 // Counted work (deterministic, ArmWork), with S = ceil(W / step) ceil(H / step) sampled pixels of a
 // W x H plane, A of them accepted (cell >= 0), C = forward_cells lateral_cells, n0 n1 control points:
-//   scalar_ops   = 3 S (load cell, compare, branch) + 4 A (load height, split the index: divide and
+//   scalar_ops   = 3 S (load cell, compare, branch) + 2 C (the extent check, when run) + 4 A (load height, split the index: divide and
 //                  multiply-subtract, convert) + the accumulator's, fit's and traversability's own
 //                  counted work (HeightGridAccumulator::work, TerrainEstimate::work,
 //                  TraversabilityMap::work) + 2 C (writing the cost) + 2 n0 n1 + 32 (the record);
@@ -46,6 +49,7 @@
 #include <string>
 
 #include "arm/tasks/terrain_record.h"
+#include "arm/terrain_points.h"
 #include "arm/terrain/terrain_model.h"
 #include "dag/arm_task.h"
 
@@ -150,8 +154,14 @@ void run(const ArmTaskArgs& args) {
   record[kTerrainDegreeLateral] = p.fit.degree_lateral;
   record[kTerrainCellMm] = to_milli(p.grid.cell_m);
   uint64_t ops = 3 * sampled + 4 * accepted_pixels + 32;
-  if (grid.valid_cells() < p.fit.min_valid_cells) {
+  const uint64_t cell_count = static_cast<uint64_t>(forward_cells) * static_cast<uint64_t>(lateral_cells);
+  const bool enough_cells = grid.valid_cells() >= p.fit.min_valid_cells;
+  if (enough_cells) ops += 2 * cell_count;  // the extent check sums every cell's count twice
+  const bool ground_extent = enough_cells && ground_extent_problem(grid).empty();
+  if (!enough_cells) {
     record[kTerrainReason] = static_cast<int32_t>(TerrainUnknownReason::too_few_cells);
+  } else if (!ground_extent) {
+    record[kTerrainReason] = static_cast<int32_t>(TerrainUnknownReason::no_ground_extent);
   } else {
     const terrain::TerrainEstimate estimate = terrain::fit_terrain(grid, p.fit);
     work += estimate.work;

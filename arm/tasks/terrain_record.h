@@ -43,6 +43,7 @@ enum class TerrainUnknownReason : int32_t {
   none = 0,
   too_few_cells = 1,   // fewer than min_valid_cells valid cells
   fit_refused = 2,     // fit_terrain returned known = false for another reason (line, singular, non-finite)
+  no_ground_extent = 3,  // points in fewer than 4 forward rows or lateral columns of cells (a wall, a line)
 };
 
 inline constexpr int32_t kUnknownCostMilli = -1;

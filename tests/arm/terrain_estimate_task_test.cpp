@@ -2,8 +2,8 @@
 // give a known record whose control heights and cost grid match the ground (the plane z = 0.3 +
 // 0.05 x m: every control height on the line, slope 0.05 in every cell), the counts and the counted
 // work in the documented closed form (the fit's and traversability's own counts taken from the same
-// public calls); no points give an unknown record (too_few_cells, every cost -1); the parameters
-// and shapes it refuses.
+// public calls); no points give an unknown record (too_few_cells, every cost -1), a wall one with
+// no_ground_extent; the parameters and shapes it refuses.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -118,7 +118,7 @@ TEST(TerrainEstimateTask, TiltedPlaneGroundGivesItsControlHeightsAndSlope) {
   const terrain::TerrainEstimate estimate = terrain::fit_terrain(measured, fit);
   const terrain::TraversabilityMap map = terrain::compute_traversability(estimate, measured, {});
   const uint64_t sampled = 80 * 32, cells_count = 20 * 16, control = 8 * 6;
-  EXPECT_EQ(run.work.scalar_ops, 3 * sampled + 4 * static_cast<uint64_t>(accepted) + 32 + 2 * cells_count + 2 * control +
+  EXPECT_EQ(run.work.scalar_ops, 3 * sampled + 4 * static_cast<uint64_t>(accepted) + 32 + 2 * cells_count + 2 * cells_count + 2 * control +
                                      accumulator.work().scalar_ops + estimate.work.scalar_ops + map.work.scalar_ops);
   EXPECT_EQ(run.work.memory_bytes, 4ull * 160 * 32 + 4ull * static_cast<uint64_t>(accepted) + 4 * cells_count +
                                        4ull * (arm::kTerrainHeaderWords + control) + accumulator.work().memory_bytes +
@@ -140,6 +140,24 @@ TEST(TerrainEstimateTask, NoPointsGiveAnUnknownRecord) {
   for (int i = 0; i < 20; ++i) {
     for (int j = 0; j < 16; ++j) EXPECT_EQ(run.cost.at<int32_t>(j, i), arm::kUnknownCostMilli);
   }
+}
+
+// A wall 5 m ahead filling the view: every point in forward row 10, at heights 0 .. 3 m. The fill
+// would widen the row to three and a fit would make up a surface; the task says unknown.
+TEST(TerrainEstimateTask, AWallGivesNoGroundExtent) {
+  Plane cells(160, 64, {ElementType::s32, 0}), heights(160, 64, {ElementType::s32, 0});
+  for (int v = 0; v < 64; ++v) {
+    for (int u = 0; u < 160; ++u) {
+      cells.at<int32_t>(u, v) = 10 * 16 + u * 16 / 160;
+      heights.at<int32_t>(u, v) = 3000 - v * 3000 / 64;
+    }
+  }
+  const TaskRun run = run_task(cells, heights, kParams);
+  const int32_t* record = run.record.row<const int32_t>(0);
+  EXPECT_EQ(record[arm::kTerrainKnown], 0);
+  EXPECT_EQ(record[arm::kTerrainReason], static_cast<int32_t>(arm::TerrainUnknownReason::no_ground_extent));
+  EXPECT_EQ(record[arm::kTerrainMeasuredCells], 16);
+  EXPECT_EQ(run.cost.at<int32_t>(5, 10), arm::kUnknownCostMilli);
 }
 
 TEST(TerrainEstimateTaskMustFail, RefusesBadParametersAndShapes) {

@@ -204,6 +204,10 @@ TEST_F(TerrainCli, AWallFillingTheViewGivesUnknownTerrain) {
   expect_unknown(run("terrain " + path("wall_left.png") + " " + path("wall_right.png") + " --calib " + path("wall_calib.txt") +
                      " -o " + path("wall.json") + " --num-disp 32 --threads 2"),
                  path("wall.json"), "camera mount");
+  // With the mount given, the wall's points bin into one forward row of cells: no ground extent.
+  expect_unknown(run("terrain " + path("wall_left.png") + " " + path("wall_right.png") + " --calib " + path("wall_calib.txt") +
+                     " -o " + path("wall_given.json") + " --num-disp 32 --threads 2 --camera-height-m 1.5"),
+                 path("wall_given.json"), "no ground extent");
 }
 
 TEST_F(TerrainCli, ATexturelessPairGivesTooFewCells) {
