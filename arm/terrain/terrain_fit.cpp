@@ -70,12 +70,12 @@
 // 21 fits, 68 x 44 cells take ~2 ms on one host core.
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "arm/localization/ransac_sampling.h"
 #include "arm/terrain/terrain_model.h"
 
 namespace lpstereo::arm::terrain {
@@ -84,11 +84,8 @@ namespace {
 
 constexpr int kMaxDegree = 7;
 
-std::string number_text(double value) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.9g", value);
-  return text;
-}
+// The repository's number format for error messages (%.6g).
+using localization::format_number;
 
 [[noreturn]] void bad_parameter(const std::string& name, const std::string& expected, const std::string& actual) {
   throw std::invalid_argument(name + ": expected " + expected + ", got " + actual);
@@ -119,22 +116,23 @@ void validate(const TerrainFitParameters& p, const HeightGrid& grid) {
   controls("initial_control_lateral", p.initial_control_lateral, p.degree_lateral, p.control_lateral);
   if (p.max_iterations < 0 || p.max_iterations > 100) bad_parameter("max_iterations", "0..100", std::to_string(p.max_iterations));
   const auto positive = [](const char* name, double value) {
-    if (!(value > 0) || !std::isfinite(value)) bad_parameter(name, "a finite value > 0", number_text(value));
+    if (!(value > 0) || !std::isfinite(value)) bad_parameter(name, "a finite value > 0", format_number(value));
   };
   const auto non_negative = [](const char* name, double value) {
-    if (!(value >= 0) || !std::isfinite(value)) bad_parameter(name, "a finite value >= 0", number_text(value));
+    if (!(value >= 0) || !std::isfinite(value)) bad_parameter(name, "a finite value >= 0", format_number(value));
   };
   positive("threshold_factor", p.threshold_factor);
   if (!(p.alpha_initial >= 1) || !std::isfinite(p.alpha_initial)) {
-    bad_parameter("alpha_initial", "a finite value >= 1 (thesis eq. 3.6)", number_text(p.alpha_initial));
+    bad_parameter("alpha_initial", "a finite value >= 1 (thesis eq. 3.6)", format_number(p.alpha_initial));
   }
   non_negative("alpha_step", p.alpha_step);
   non_negative("regularisation", p.regularisation);
   if (p.min_valid_cells < 1) bad_parameter("min_valid_cells", ">= 1", std::to_string(p.min_valid_cells));
   if (!(p.maximum_weight > 1) || !std::isfinite(p.maximum_weight)) {
-    bad_parameter("maximum_weight", "a finite value > 1", number_text(p.maximum_weight));
+    bad_parameter("maximum_weight", "a finite value > 1", format_number(p.maximum_weight));
   }
   non_negative("equalisation_tolerance_m", p.equalisation_tolerance_m);
+  non_negative("equalisation_threshold_factor", p.equalisation_threshold_factor);
 }
 
 // A symmetric positive definite band matrix (half-bandwidth p = the degree) in lower band storage:
@@ -345,7 +343,7 @@ TerrainEstimate fit_terrain(const HeightGrid& grid, const TerrainFitParameters& 
       const double z = grid.height_m(i, j);
       if (!std::isfinite(z)) {
         return unknown(estimate, "terrain unknown: cell (" + std::to_string(i) + ", " + std::to_string(j) +
-                                     ") is valid but its height is " + number_text(z));
+                                     ") is valid but its height is " + format_number(z));
       }
       heights(i, j) = z;
       weights(i, j) = 1.0;
@@ -376,7 +374,7 @@ TerrainEstimate fit_terrain(const HeightGrid& grid, const TerrainFitParameters& 
   const auto singular = [&](int n0, int n1) {
     return unknown(estimate, "terrain unknown: the least-squares system with " + std::to_string(n0) + "x" + std::to_string(n1) +
                                  " control points is singular (too few samples per span; regularisation " +
-                                 number_text(parameters.regularisation) + ")");
+                                 format_number(parameters.regularisation) + ")");
   };
   const int iterations = parameters.max_iterations;
   for (int k = 0; k < iterations; ++k) {
@@ -404,7 +402,8 @@ TerrainEstimate fit_terrain(const HeightGrid& grid, const TerrainFitParameters& 
         // eq. 3.6, capped: ratio -> 0 gives an infinite weight.
         const double weight = ratio > 0 ? std::min(parameters.maximum_weight, 1.0 + inverse_power(ratio, alpha)) : parameters.maximum_weight;
         weights(i, j) = weight;
-        if (dz > std::max(parameters.equalisation_tolerance_m, parameters.equalisation_threshold_factor * threshold)) {  // eq. 3.7, never raising samples below S
+        // eq. 3.7, never raising samples below S
+        if (dz > std::max(parameters.equalisation_tolerance_m, parameters.equalisation_threshold_factor * threshold)) {
           heights(i, j) -= parameters.equalisation == TerrainFitParameters::Equalisation::never_overshoot
                                ? dz * weight / (weight + 1.0)
                                : dz * (1.0 + 1.0 / weight);
