@@ -12,6 +12,7 @@
 //   rectify, check-rectification, calibrate   cameras (tools/geometry_commands.h)
 //   points, synth   point clouds (tools/points_command.h), synthetic scenes (tools/synth_command.h)
 //   obstacles   the obstacle detector on a rectified pair (tools/obstacles_command.h)
+//   terrain     the B-spline terrain model and traversability cost of a rectified pair (tools/terrain_command.h)
 //   odometry    stereo visual odometry over a rectified sequence, KITTI poses out (tools/odometry_command.h)
 //   localize    keyframe localization of a downward stereo camera, KITTI poses + keyframe database out
 //               (tools/localize_command.h)
@@ -19,7 +20,7 @@
 //               (tools/run_command.h)
 //
 // Exit codes: 0 done; 1 bad input or a graph that fails verify (one line on stderr); 2 bad usage;
-// 3 over budget with --enforce.
+// 3 over budget with --enforce; 4 `terrain` found the terrain unknown (its JSON written, known false).
 #include <CLI/CLI.hpp>
 
 #include <unistd.h>
@@ -56,6 +57,7 @@
 #include "tools/obstacles_command.h"
 #include "tools/odometry_command.h"
 #include "tools/points_command.h"
+#include "tools/terrain_command.h"
 #include "tools/run_command.h"
 #include "tools/synth_command.h"
 #include "tools/target_profile.h"
@@ -633,6 +635,7 @@ int main(int argc, char** argv) {
   tools::GeometryCommands geometry(app);
   tools::PointsCommand points(app);  // points (tools/points_command.h)
   tools::ObstaclesCommand obstacles(app);  // obstacles (tools/obstacles_command.h)
+  tools::TerrainCommand terrain(app);      // terrain (tools/terrain_command.h)
   tools::OdometryCommand odometry(app);    // odometry (tools/odometry_command.h)
   tools::LocalizeCommand localize(app);    // localize (tools/localize_command.h)
   tools::SynthCommand synth(app);    // synth (tools/synth_command.h)
@@ -660,6 +663,7 @@ int main(int argc, char** argv) {
     if (geometry.selected()) return geometry.run();
     if (points.selected()) return points.run();
     if (obstacles.selected()) return obstacles.run();
+    if (terrain.selected()) return terrain.run();
     if (odometry.selected()) return odometry.run();
     if (localize.selected()) return localize.run();
     if (synth.selected()) return synth.run();

@@ -63,6 +63,17 @@ Plane golden_input(const PortSpec& port, PlaneShape shape, uint32_t seed) {
     return plane;
   }
   std::mt19937 words(seed);
+  if ((port.name == "x" || port.name == "y" || port.name == "z") && port.format.type == ElementType::s32) {
+    // Camera-frame points in mm (point_cell_binning's inputs): -70000 .. 69999 (past the kernel's
+    // +-65535 range at both ends), every 13th pixel no point (kNoPointMm = INT32_MIN).
+    for (int y = 0; y < shape.height; ++y) {
+      for (int x = 0; x < shape.width; ++x) {
+        const uint32_t word = static_cast<uint32_t>(words());
+        plane.at<int32_t>(x, y) = (x + y * shape.width) % 13 == 12 ? INT32_MIN : static_cast<int32_t>(word % 140000u) - 70000;
+      }
+    }
+    return plane;
+  }
   if (port.name == "keypoints" && port.format.type == ElementType::s32) {
     // A keypoint list (arm/tasks/keypoint_record.h: valid, x, y, response) over a 97 x 61 image:
     // positions anywhere (some too near the border for a patch), every fifth row invalid.
@@ -140,6 +151,11 @@ const std::vector<GoldenCase>& golden_cases() {
       // Inputs -100 .. 1099 (Q4): the invalid marker -64, d <= 0, the range and above it (> 976).
       {"disparity_to_points", {{"baseline_m", 0.12}, {"focal_px", 700.5}, {"u0_px", 48.3}, {"v0_px", 30.7}, {"min_disparity", -3}, {"num_disparities", 64}},
        BorderMode::replicate, {{97, 61}}, 0xb5e2659b9254767full},
+      // Random camera points (see golden_input) through a camera 1.65 m up, pitched and rolled
+      // (Q14 rotation of a few degrees), into a 60 m x 40 m area of 0.5 m cells around it.
+      {"point_cell_binning", {{"rotation_q14", {-286, 858, 16357, -16380, -15, -286, 0, -16362, 858}}, {"translation_mm", {0, 0, 1650}},
+                              {"forward_min_mm", -10000}, {"forward_max_mm", 50000}, {"lateral_min_mm", -20000}, {"lateral_max_mm", 20000}, {"cell_mm", 500}},
+       BorderMode::replicate, {{97, 61}, {97, 61}, {97, 61}}, 0x57f7d05dd28b032eull},
       {"disparity_fuse_multires", {{"min_far", 0}, {"num_far", 40}, {"min_near", 0}, {"num_near", 40}, {"margin_px", 2}},
        BorderMode::replicate, {{97, 61}, {49, 31}}, 0x34612fa49176e9deull},
       // SGM: D = 40 spans two 32-lane vectors with a partial one; the backward pass gets forward

@@ -1,0 +1,205 @@
+#include "arm/terrain_points.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+
+#include "kernels/disparity_to_points.h"
+#include "kernels/kernel.h"
+
+namespace lpstereo::arm {
+
+GroundMountEstimate estimate_ground_mount(const CameraPoints& points, const GroundMountSettings& settings) {
+  GroundMountEstimate estimate;
+  const int width = points.z_mm.width(), height = points.z_mm.height();
+  // Candidates: the lower image half (the ground in front of a forward-looking camera), a regular
+  // stride so that at most max_candidates are considered.
+  const int64_t area = static_cast<int64_t>(width) * (height - height / 2);
+  const int stride = std::max<int>(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(area) / settings.max_candidates))));
+  std::vector<Eigen::Vector3d> candidates;
+  for (int v = height / 2; v < height; v += stride) {
+    for (int u = 0; u < width; u += stride) {
+      const int32_t z_mm = points.z_mm.at<int32_t>(u, v);
+      if (z_mm == kernels::kNoPointMm) continue;
+      const Eigen::Vector3d p(points.x_mm.at<int32_t>(u, v) / 1000.0, points.y_mm.at<int32_t>(u, v) / 1000.0, z_mm / 1000.0);
+      if (p.z() >= settings.min_depth_m && p.z() <= settings.max_depth_m) candidates.push_back(p);
+    }
+  }
+  estimate.candidates = static_cast<int>(candidates.size());
+  if (estimate.candidates < std::max(3, settings.min_inliers)) {
+    estimate.reason = "camera mount: " + std::to_string(estimate.candidates) + " points in the lower image half between " +
+                      std::to_string(settings.min_depth_m) + " and " + std::to_string(settings.max_depth_m) +
+                      " m, expected at least " + std::to_string(settings.min_inliers);
+    return estimate;
+  }
+  // A plane is plausible ground when its upward normal is within max_tilt of the camera's -y and the
+  // camera is min..max height above it.
+  auto plausible = [&](const Eigen::Vector3d& normal, double camera_height_m) {
+    return -normal.y() >= std::cos(settings.max_tilt_rad) && camera_height_m >= settings.min_height_m &&
+           camera_height_m <= settings.max_height_m;
+  };
+  auto count_inliers = [&](const Eigen::Vector3d& normal, double offset) {
+    int count = 0;
+    for (const Eigen::Vector3d& p : candidates) count += std::abs(normal.dot(p) + offset) <= settings.inlier_distance_m;
+    return count;
+  };
+  uint32_t state = 12345u;
+  auto next_index = [&]() {
+    state = state * 1664525u + 1013904223u;  // Numerical Recipes' LCG: deterministic draws
+    return static_cast<size_t>((state >> 8) % candidates.size());
+  };
+  int best_inliers = 0;
+  Eigen::Vector3d best_normal = Eigen::Vector3d::Zero();
+  double best_offset = 0;
+  for (int iteration = 0; iteration < settings.iterations; ++iteration) {
+    const Eigen::Vector3d& a = candidates[next_index()];
+    const Eigen::Vector3d& b = candidates[next_index()];
+    const Eigen::Vector3d& c = candidates[next_index()];
+    Eigen::Vector3d normal = (b - a).cross(c - a);
+    if (normal.norm() < 1e-9) continue;
+    normal.normalize();
+    if (normal.y() > 0) normal = -normal;  // upward: towards the camera's -y
+    const double offset = -normal.dot(a);  // n . p + offset = 0; offset = camera height
+    if (!plausible(normal, offset)) continue;
+    const int inliers = count_inliers(normal, offset);
+    if (inliers > best_inliers) {
+      best_inliers = inliers;
+      best_normal = normal;
+      best_offset = offset;
+    }
+  }
+  if (best_inliers == 0) {
+    estimate.reason = "camera mount: no plausible ground plane (normal within " + std::to_string(settings.max_tilt_rad) +
+                      " rad of vertical, camera " + std::to_string(settings.min_height_m) + " .. " +
+                      std::to_string(settings.max_height_m) + " m above it) among the lower image half's points";
+    return estimate;
+  }
+  // Least squares on the inliers: centroid and the smallest principal axis.
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> inliers;
+  for (const Eigen::Vector3d& p : candidates) {
+    if (std::abs(best_normal.dot(p) + best_offset) <= settings.inlier_distance_m) inliers.push_back(p);
+  }
+  for (const Eigen::Vector3d& p : inliers) centroid += p;
+  centroid /= static_cast<double>(inliers.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : inliers) scatter += (p - centroid) * (p - centroid).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);
+  Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
+  if (normal.y() > 0) normal = -normal;
+  const double offset = -normal.dot(centroid);
+  estimate.inliers = static_cast<int>(inliers.size());
+  if (!plausible(normal, offset) || estimate.inliers < settings.min_inliers ||
+      estimate.inliers < settings.min_inlier_share * estimate.candidates) {
+    estimate.reason = "camera mount: the best ground plane has " + std::to_string(estimate.inliers) + " of " +
+                      std::to_string(estimate.candidates) + " points (expected at least " +
+                      std::to_string(std::max<int>(settings.min_inliers, static_cast<int>(settings.min_inlier_share * estimate.candidates))) +
+                      ") or an implausible camera height " + std::to_string(offset) + " m";
+    return estimate;
+  }
+  estimate.found = true;
+  estimate.camera_height_m = offset;
+  estimate.mount.pitch_rad = std::asin(std::clamp(-normal.z(), -1.0, 1.0));
+  estimate.mount.roll_rad = std::atan2(-normal.x(), -normal.y());
+  estimate.mount.yaw_rad = 0;
+  estimate.mount.position_m = Eigen::Vector3d(0, 0, offset);
+  return estimate;
+}
+
+nlohmann::json binning_params(const CameraToVehicle& to_vehicle, const terrain::TerrainGridSpec& grid) {
+  std::vector<int> rotation_q14;
+  for (int k = 0; k < 3; ++k) {
+    for (int l = 0; l < 3; ++l) rotation_q14.push_back(static_cast<int>(std::lround(16384.0 * to_vehicle.rotation()(k, l))));
+  }
+  std::vector<int> translation_mm;
+  for (int k = 0; k < 3; ++k) translation_mm.push_back(static_cast<int>(std::lround(1000.0 * to_vehicle.translation_m()(k))));
+  auto mm = [](double metres) { return static_cast<int>(std::lround(1000.0 * metres)); };
+  return {{"rotation_q14", rotation_q14},
+          {"translation_mm", translation_mm},
+          {"forward_min_mm", mm(grid.forward_min_m)},
+          {"forward_max_mm", mm(grid.forward_max_m)},
+          {"lateral_min_mm", mm(grid.lateral_min_m)},
+          {"lateral_max_mm", mm(grid.lateral_max_m)},
+          {"cell_mm", mm(grid.cell_m)}};
+}
+
+BinnedPoints bin_points(const CameraPoints& points, const CameraToVehicle& to_vehicle, const terrain::TerrainGridSpec& grid,
+                        KernelBackend backend) {
+  const KernelDescriptor* kernel = KernelRegistry::instance().find("point_cell_binning");
+  if (kernel == nullptr) throw std::logic_error("kernel 'point_cell_binning' is not linked into this program");
+  const PlaneShape shape{points.z_mm.width(), points.z_mm.height()};
+  const PreparedKernel prepared = kernel->prepare(binning_params(to_vehicle, grid), {shape, shape, shape});
+  const BufferFormat millimetres{ElementType::s32, 0};
+  BinnedPoints binned{Plane(shape.width, shape.height, millimetres), Plane(shape.width, shape.height, millimetres)};
+  VectorNodeBinding binding{kernel, prepared.params.get(), BorderMode::replicate, 0,
+                            {points.x_mm.view(), points.y_mm.view(), points.z_mm.view()},
+                            {binned.cell.view(), binned.height_mm.view()}};
+  run_vector_node(binding, 256, 32, backend, simd::active_isa());
+  return binned;
+}
+
+void accumulate_binned(const BinnedPoints& binned, const terrain::TerrainGridSpec& grid, terrain::HeightGridAccumulator& accumulator) {
+  const int lateral_cells = grid.lateral_cells();
+  for (int v = 0; v < binned.cell.height(); ++v) {
+    const int32_t* cells = binned.cell.row<const int32_t>(v);
+    const int32_t* heights = binned.height_mm.row<const int32_t>(v);
+    for (int u = 0; u < binned.cell.width(); ++u) {
+      if (cells[u] >= 0) accumulator.add_to_cell(cells[u] / lateral_cells, cells[u] % lateral_cells, heights[u] / 1000.0);
+    }
+  }
+}
+
+std::string ground_extent_problem(const terrain::HeightGrid& grid, int min_rows, int min_columns) {
+  // A row (column) counts when it holds at least 1 % of the points: a few mismatched pixels of a
+  // wall, scattered into other rows, must not make up an extent.
+  const int64_t total = grid.point_count.cast<int64_t>().sum();
+  const int64_t least = std::max<int64_t>(1, total / 100);
+  int rows = 0, columns = 0;
+  for (int i = 0; i < grid.point_count.rows(); ++i) rows += grid.point_count.row(i).cast<int64_t>().sum() >= least;
+  for (int j = 0; j < grid.point_count.cols(); ++j) columns += grid.point_count.col(j).cast<int64_t>().sum() >= least;
+  if (rows >= min_rows && columns >= min_columns) return {};
+  return "no ground extent: " + std::to_string(rows) + " forward row(s) and " + std::to_string(columns) +
+         " lateral column(s) of cells hold at least 1 % of the " + std::to_string(total) + " points each, expected at least " +
+         std::to_string(min_rows) + " and " + std::to_string(min_columns) + " (a wall filling the view, or points on one line)";
+}
+
+std::optional<double> surface_camera_y_m(const terrain::TerrainEstimate& terrain, const CameraToVehicle& to_vehicle, double x_c_m,
+                                         double z_c_m, bool require_valid_cell) {
+  if (!terrain.known) return std::nullopt;
+  // r(y) = z_v(y) - S(x_v(y), y_v(y)); z_v is linear in y with slope (R C)(2, 1).
+  const double dz_dy = to_vehicle.rotation()(2, 1);
+  auto residual = [&](double y_c_m, Eigen::Vector3d* vehicle) {
+    *vehicle = to_vehicle.apply(Eigen::Vector3d(x_c_m, y_c_m, z_c_m));
+    return vehicle->z() - terrain.surface.height_m(vehicle->x(), vehicle->y());
+  };
+  if (std::abs(dz_dy) < 1e-6) return std::nullopt;  // the camera's y axis is horizontal: no vertical line
+  // Start where the line meets the horizontal plane z_v = 0 through the vehicle origin.
+  Eigen::Vector3d vehicle;
+  double y = -(to_vehicle.apply(Eigen::Vector3d(x_c_m, 0.0, z_c_m)).z()) / dz_dy;
+  double r = residual(y, &vehicle);
+  double previous_y = y + 0.01, previous_r = residual(previous_y, &vehicle);
+  for (int step = 0; step < 30 && std::isfinite(r); ++step) {
+    if (std::abs(r) <= 1e-4) break;
+    // Secant slope (dr/dy includes S's slope along the line), falling back to dz_dy.
+    double slope = (r - previous_r) / (y - previous_y);
+    if (!std::isfinite(slope) || std::abs(slope) < 0.1 * std::abs(dz_dy)) slope = dz_dy;
+    previous_y = y;
+    previous_r = r;
+    y -= r / slope;
+    r = residual(y, &vehicle);
+  }
+  if (!std::isfinite(r) || std::abs(r) > 1e-4) return std::nullopt;
+  if (require_valid_cell) {
+    int i = 0, j = 0;
+    if (!terrain.grid.spec.cell_of(vehicle.x(), vehicle.y(), &i, &j)) return std::nullopt;
+    if (terrain.grid.state(i, j) == terrain::kCellInvalid) return std::nullopt;
+  }
+  return y;
+}
+
+}  // namespace lpstereo::arm

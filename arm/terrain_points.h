@@ -1,0 +1,78 @@
+// Camera points to the terrain model (issue 9): the glue the `lpstereo terrain` command, the terrain
+// evaluations and the KITTI acceptance share, between the disparity_to_points planes (arm/point_cloud.h)
+// and arm/terrain/terrain_model.h.
+//
+//   estimate_ground_mount  the camera mount (height, pitch, roll) from a RANSAC plane through the
+//                          points of the lower image half, for a camera whose mount is not given;
+//   bin_points             the point_cell_binning kernel (kernels/point_cell_binning.cpp) over the
+//                          three planes with the mount's rotation in Q14 and the grid's area in mm;
+//   accumulate_binned      its two planes summed into a HeightGridAccumulator (add_to_cell).
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "arm/point_cloud.h"
+#include "arm/terrain/terrain_model.h"
+#include "dag/plane.h"
+#include "dag/tile_executor.h"
+
+namespace lpstereo::arm {
+
+struct GroundMountEstimate {
+  bool found = false;
+  std::string reason;        // one line when !found
+  CameraMount mount;         // yaw 0, position (0, 0, camera height)
+  double camera_height_m = 0;
+  int inliers = 0, candidates = 0;
+};
+
+struct GroundMountSettings {
+  double min_depth_m = 1.0, max_depth_m = 40.0;  // camera z of the points considered
+  double inlier_distance_m = 0.1;                // RANSAC band about the plane
+  int iterations = 300;
+  int max_candidates = 20000;                    // points sampled (a regular stride over the lower half)
+  double max_tilt_rad = 0.5;                     // the plane's normal within this of the camera's -y
+  double min_height_m = 0.2, max_height_m = 10.0;
+  double min_inlier_share = 0.25;                // of the candidates
+  int min_inliers = 200;
+};
+
+// RANSAC (Fischler and Bolles 1981; 3-point planes drawn by a fixed LCG, deterministic) then least
+// squares (the inliers' centroid and smallest principal axis). Ground plane n . p + h = 0 in the camera
+// frame with n the upward unit normal (n_y < 0) and h the camera height; with yaw 0 the mount of
+// arm/point_cloud.h has n = (-sin r cos p, -cos r cos p, -sin p), so pitch = asin(-n_z), roll =
+// atan2(-n_x, -n_y). A wall, the sky or too few points fail the plausibility gate: found = false.
+GroundMountEstimate estimate_ground_mount(const CameraPoints& points, const GroundMountSettings& settings = {});
+
+// The kernel's parameters for a mount and a grid: R C in Q14 (round(16384 r)), T in mm, the area in mm.
+nlohmann::json binning_params(const CameraToVehicle& to_vehicle, const terrain::TerrainGridSpec& grid);
+
+struct BinnedPoints {
+  Plane cell, height_mm;  // kernels/point_cell_binning.h
+};
+// Throws KernelError (naming the parameter) when the grid or the mount is outside the kernel's range.
+BinnedPoints bin_points(const CameraPoints& points, const CameraToVehicle& to_vehicle, const terrain::TerrainGridSpec& grid,
+                        KernelBackend backend = KernelBackend::native);
+
+// Every pixel with a cell into the accumulator (heights in metres); `grid` is the binning's and the
+// accumulator's.
+void accumulate_binned(const BinnedPoints& binned, const terrain::TerrainGridSpec& grid, terrain::HeightGridAccumulator& accumulator);
+
+// A grid whose points lie in fewer than min_rows forward rows or fewer than min_columns lateral
+// columns of cells (a row or column counting when it holds at least 1 % of the points) has no
+// ground extent to fit: a wall filling the view bins into one or two forward rows (its distance),
+// a single line of points into one row or column. The fill would widen such a strip and the fit
+// would then return a made-up surface. Returns the one-line reason, or empty when the extent is enough.
+std::string ground_extent_problem(const terrain::HeightGrid& grid, int min_rows = 4, int min_columns = 4);
+
+// The camera-frame y (down, metres) of the fitted surface on the camera's vertical line through
+// (x_c, ., z_c): the y with p_vehicle = R C (x_c, y, z_c) + T on z = S(x, y), by Newton steps along
+// that line (dz_v / dy_c is the constant (R C)(2, 1); S's own slope enters through a secant
+// correction). Empty when the terrain is unknown, the line leaves the surface's domain, the step
+// does not converge (|residual| <= 1e-4 m within 30 steps), or the point's grid cell is invalid
+// (no data there: the spline is only an extrapolation) when require_valid_cell.
+std::optional<double> surface_camera_y_m(const terrain::TerrainEstimate& terrain, const CameraToVehicle& to_vehicle, double x_c_m,
+                                         double z_c_m, bool require_valid_cell = true);
+
+}  // namespace lpstereo::arm
