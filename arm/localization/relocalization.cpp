@@ -145,18 +145,33 @@ SectorRelocalization relocalize_sectors(const std::vector<KeyframeFeature>& curr
                      std::to_string(keyframe.features.size()) + " keyframe features, expected some of both (textureless view?)";
     return result;
   }
-  std::string last_failure;
+  // Every sector matched first (cheap), then the pose correction in decreasing order of matches,
+  // skipping a sector with fewer matches than the best rigid inliers so far: inliers <= matches, so
+  // it could neither win nor tie (an exact pruning: the result is the one of checking all 16).
+  std::array<std::vector<FeatureMatch>, kernels::kBriefSectors> matches;
+  std::array<int, kernels::kBriefSectors> order{};
   for (int sector = 0; sector < kernels::kBriefSectors; ++sector) {
-    const std::vector<FeatureMatch> matches = match_to_keyframe(pixels, descriptors[static_cast<size_t>(sector)], keyframe, parameters);
+    matches[static_cast<size_t>(sector)] = match_to_keyframe(pixels, descriptors[static_cast<size_t>(sector)], keyframe, parameters);
+    result.trials[static_cast<size_t>(sector)].matches = static_cast<int>(matches[static_cast<size_t>(sector)].size());
+    order[static_cast<size_t>(sector)] = sector;
+  }
+  std::stable_sort(order.begin(), order.end(), [&result](int a, int b) {
+    return result.trials[static_cast<size_t>(a)].matches > result.trials[static_cast<size_t>(b)].matches;
+  });
+  std::string last_failure = "no sector was checked";
+  for (const int sector : order) {
     SectorTrial& trial = result.trials[static_cast<size_t>(sector)];
-    trial.matches = static_cast<int>(matches.size());
-    PoseCorrection correction = correct_pose(current, keyframe, matches, parameters.pose);
+    if (result.ok && trial.matches < result.correction.rigid_inliers) continue;
+    trial.checked = true;
+    PoseCorrection correction = correct_pose(current, keyframe, matches[static_cast<size_t>(sector)], parameters.pose);
     if (!correction.ok) {
       last_failure = correction.failure;
       continue;
     }
     trial.rigid_inliers = correction.rigid_inliers;
-    if (!result.ok || correction.rigid_inliers > result.correction.rigid_inliers) {
+    const bool better = !result.ok || correction.rigid_inliers > result.correction.rigid_inliers ||
+                        (correction.rigid_inliers == result.correction.rigid_inliers && sector < result.sector);
+    if (better) {
       result.ok = true;
       result.sector = sector;
       result.correction = std::move(correction);

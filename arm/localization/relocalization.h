@@ -6,7 +6,10 @@
 //     degree yaw sector), each sector's descriptors matched to the keyframe (match_features of
 //     arm/odometry/stereo_odometry.h over the whole image: best Hamming distance, Lowe's ratio test),
 //     each set of matches through correct_pose (pose_correction.h: F-RANSAC then rigid RANSAC); the
-//     sector with the most rigid inliers wins (ties: the lower sector). The thesis chose the sector
+//     sector with the most rigid inliers wins (ties: the lower sector). The pose corrections run in
+//     decreasing order of matches and a sector with fewer matches than the best inliers so far is
+//     skipped (it cannot win: inliers <= matches), which leaves the result unchanged and saves the
+//     RANSAC runs of the sectors that only collect chance matches. The thesis chose the sector
 //     from the filter's yaw; after a reset the yaw is unknown, so all 16 are tried.
 //     Sector meaning (brief256.cpp): a keyframe described with sector k's pattern matches a current
 //     image rotated by (s - k) x 22.5 degrees (positive from image +x towards +y, clockwise on the
@@ -92,7 +95,8 @@ std::vector<FeatureMatch> match_to_keyframe(const std::vector<Eigen::Vector2f>& 
 
 struct SectorTrial {
   int matches = 0;
-  int rigid_inliers = 0;  // 0 when the pose correction failed
+  bool checked = false;   // the pose correction ran (skipped: fewer matches than the winner's inliers)
+  int rigid_inliers = 0;  // 0 when the pose correction failed or did not run
 };
 
 struct SectorRelocalization {

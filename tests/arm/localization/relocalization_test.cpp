@@ -99,6 +99,13 @@ TEST(Relocalization, SixteenSectorsFindTheYawOfARotatedGround) {
     EXPECT_LE(sector_error, 1) << "yaw " << yaw_deg << " deg: sector " << result.sector;
     EXPECT_LT(std::abs(wrap(result.sector_image_rotation_rad - yaw_deg * kDegree)), 22.5 * kDegree) << "yaw " << yaw_deg;
     EXPECT_LT(std::abs(wrap(result.measured_image_rotation_rad - yaw_deg * kDegree)), 22.5 * kDegree) << "yaw " << yaw_deg;
+    // Skipped sectors could not have won: fewer matches than the winner's inliers.
+    for (const SectorTrial& trial : result.trials) {
+      if (!trial.checked) {
+        EXPECT_LT(trial.matches, result.correction.rigid_inliers);
+      }
+    }
+    EXPECT_TRUE(result.trials[static_cast<size_t>(result.sector)].checked);
     // The winner has many more inliers than a sector half a turn away.
     const int opposite = (result.sector + 8) % 16;
     EXPECT_GT(result.trials[static_cast<size_t>(result.sector)].rigid_inliers,
