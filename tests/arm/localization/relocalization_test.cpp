@@ -24,19 +24,8 @@ io::StereoFlightOptions ground_options() {
   return options;
 }
 
-// The flight's left camera at rig position (x, y, height) and yaw (io/stereo_flight.h's axes).
 io::FlightState state_at(const io::StereoFlightOptions& options, double x_m, double y_m, double height_m, double yaw_rad) {
-  io::FlightState state;
-  state.rig_m = Eigen::Vector3d(x_m, y_m, height_m);
-  state.yaw_rad = yaw_rad;
-  Eigen::Matrix3d axes;
-  axes.col(0) = Eigen::Vector3d(std::cos(yaw_rad), std::sin(yaw_rad), 0);
-  axes.col(1) = Eigen::Vector3d(std::sin(yaw_rad), -std::cos(yaw_rad), 0);
-  axes.col(2) = Eigen::Vector3d(0, 0, -1);
-  state.left_camera.linear() = axes;
-  state.left_camera.translation() = state.rig_m - 0.5 * options.baseline_m * axes.col(0);
-  state.height_m = height_m;
-  return state;
+  return io::flight_state_at_pose(options, Eigen::Vector3d(x_m, y_m, height_m), yaw_rad);
 }
 
 struct ViewFeatures {
