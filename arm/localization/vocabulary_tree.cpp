@@ -384,6 +384,10 @@ VocabularyTree VocabularyTree::load(const std::string& path) {
            " exactly for leaves");
     }
   }
+  const auto leaves = std::count_if(tree.nodes_.begin(), tree.nodes_.end(), [](const Node& node) { return node.child_count == 0; });
+  if (static_cast<uint64_t>(leaves) != word_count) {
+    fail(std::to_string(leaves) + " leaves, expected one per word (" + std::to_string(word_count) + ")");
+  }
   tree.word_leaf_.resize(word_count);
   tree.idf_.resize(word_count);
   for (uint32_t w = 0; w < word_count; ++w) {

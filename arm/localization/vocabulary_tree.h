@@ -36,8 +36,9 @@
 //   trailer CRC-32 (crc32_ieee of keyframe_database.h) of every byte before it, u32
 // Reading checks, in the order the keyframe database uses, each failing with one line naming the
 // file, the expected and the actual value: the file opens, is at least header + trailer long, the
-// magic, the version, the checksum, then the sizes against the bytes left, the tree's links (every
-// child index inside the node array and after its parent, every word once), and that nothing trails.
+// magic, the version, the checksum, then the sizes against the bytes left (so nothing trails), the
+// tree's links (every child index inside the node array and after its parent, each node with one
+// parent, no node below depth L) and the words (one per leaf, each leaf's word pointing back to it).
 //
 // Counted ARM work of a query (BowDatabase::query, ArmWork of dag/arm_task.h), per descriptor and
 // per visited inverted-index entry, from the loops below:
@@ -48,8 +49,8 @@
 //     6 ops (tf x idf, normalise) and 12 bytes (its idf and the vector entry);
 //   - an inverted-index entry (keyframe u32, weight f64): 6 scalar ops (|q - w| - q - w, accumulate)
 //     and 12 bytes read plus 8 bytes of the keyframe's score read and written (16 bytes counted);
-//   - ranking: 8 scalar ops per keyframe with a non-zero score (partial sort, log2 N compares are
-//     folded into this constant for N <= 2^8 candidates per rank; an upper estimate, not a bound).
+//   - ranking: 8 scalar ops per keyframe that shares a word with the query (its score, the test
+//     against the current top N of the partial sort; an estimate of the average, not a bound).
 #pragma once
 
 #include <cstdint>

@@ -282,5 +282,27 @@ TEST_F(VocabularyFile, CorruptFilesFailWithOneLine) {
   expect_load_fails((directory_ / "missing.bin").string(), "cannot open");
 }
 
+// A well-formed checksum over a broken tree: the links are checked after the checksum.
+TEST_F(VocabularyFile, BrokenLinksUnderAValidChecksumFail) {
+  std::vector<uint8_t> bytes = read_bytes(path_);
+  const auto reseal = [](std::vector<uint8_t>& b) {
+    const size_t body = b.size() - 4;
+    const uint32_t crc = crc32_ieee(b.data(), body);
+    for (int i = 0; i < 4; ++i) b[body + static_cast<size_t>(i)] = static_cast<uint8_t>(crc >> (8 * i));
+  };
+  const std::string bad = (directory_ / "links.bin").string();
+  // Node 0 (the root, at byte 28): its first child pointing at itself.
+  std::fill(bytes.begin() + 28, bytes.begin() + 32, uint8_t{0});
+  reseal(bytes);
+  write_bytes(bad, bytes);
+  expect_load_fails(bad, "node 0 children 0 .. +");
+  // The node count one too high: the sizes no longer add up.
+  bytes = read_bytes(path_);
+  bytes[20] = static_cast<uint8_t>(bytes[20] + 1);
+  reseal(bytes);
+  write_bytes(bad, bytes);
+  expect_load_fails(bad, "bytes (at least 1 node)");
+}
+
 }  // namespace
 }  // namespace lpstereo::arm::localization
