@@ -16,7 +16,8 @@
 //     medians, their ratio, recall (the true keyframe first / among the top 5) of both, the counted
 //     ARM work of a query.
 // Timings: medians of manual runs printed first (with the ratio), then Google Benchmark's own runs.
-// About a minute or two on 2 cores (rendering the 1,300 frames dominates).
+// About 7.5 minutes on a 2-core host shared with other builds (load average 15); rendering the 1,200
+// frames (map, training set, queries) dominates. --sectors-only runs part (a) alone (seconds).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
