@@ -28,7 +28,7 @@ constexpr size_t kWordBytes = 4 + 8;
 constexpr uint64_t kDistanceOps = 24, kDistanceBytes = 32;
 constexpr uint64_t kCountWordOps = 4;
 constexpr uint64_t kWeightOps = 6, kWeightBytes = 12;
-constexpr uint64_t kPostingOps = 6, kPostingBytes = 16;
+constexpr uint64_t kPostingOps = 6, kPostingBytes = 12;
 constexpr uint64_t kRankOps = 8;
 
 int distance(const BriefDescriptor& a, const BriefDescriptor& b) { return kernels::brief_hamming_distance(a.data(), b.data()); }

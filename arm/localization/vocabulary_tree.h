@@ -48,7 +48,8 @@
 //   - building the query vector: 4 scalar ops per descriptor (count the word), then per distinct word
 //     6 ops (tf x idf, normalise) and 12 bytes (its idf and the vector entry);
 //   - an inverted-index entry (keyframe u32, weight f64): 6 scalar ops (|q - w| - q - w, accumulate)
-//     and 12 bytes read plus 8 bytes of the keyframe's score read and written (16 bytes counted);
+//     and its 12 bytes (the entries stream from DRAM; the per-keyframe score array, 8 bytes per
+//     keyframe, 8 kB for 1,000, stays in the cache and is not counted);
 //   - ranking: 8 scalar ops per keyframe that shares a word with the query (its score, the test
 //     against the current top N of the partial sort; an estimate of the average, not a bound).
 #pragma once
