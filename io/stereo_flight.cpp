@@ -198,6 +198,15 @@ FlightState flight_state_at(const StereoFlightOptions& options, const FlightPlan
   return state;
 }
 
+FlightState flight_state_at_pose(const StereoFlightOptions& options, const Eigen::Vector3d& rig_m, double yaw_rad) {
+  FlightState state;
+  state.rig_m = rig_m;
+  state.yaw_rad = yaw_rad;
+  state.left_camera = left_camera_pose(rig_m, yaw_rad, options.baseline_m);
+  state.height_m = state.left_camera.translation().z();
+  return state;
+}
+
 double flight_focal_px(const StereoFlightOptions& options) {
   return options.width / 2.0 / std::tan(options.hfov_deg * kPi / 360.0);
 }

@@ -92,6 +92,9 @@ struct FlightState {
 };
 
 FlightState flight_state_at(const StereoFlightOptions& options, const FlightPlan& plan, double time_s);
+// The state at a chosen pose (time 0): the rig centre at rig_m, the given yaw, level; for views
+// rendered away from the route (relocalization maps and tests).
+FlightState flight_state_at_pose(const StereoFlightOptions& options, const Eigen::Vector3d& rig_m, double yaw_rad);
 
 struct StereoFlightFrame {
   cv::Mat left, right;  // CV_8UC1

@@ -152,6 +152,19 @@ TEST(StereoFlight, CornerYawTurnsTheCameraAtEachWaypoint) {
   EXPECT_TRUE((start.left_camera.inverse() * end.left_camera).matrix().isIdentity(1e-9));
 }
 
+// A state at a chosen pose is the route's state at the same rig position and yaw.
+TEST(StereoFlight, StateAtAPoseMatchesTheRoutesState) {
+  StereoFlightOptions options = small_options();
+  options.yaw_mode = io::FlightYawMode::corners;
+  const io::FlightPlan plan = io::plan_flight(options);
+  const io::FlightState on_route = io::flight_state_at(options, plan, leg_named(plan, "turn at waypoint 2").end_s);
+  const io::FlightState at_pose = io::flight_state_at_pose(options, on_route.rig_m, on_route.yaw_rad);
+  EXPECT_TRUE(at_pose.left_camera.matrix().isApprox(on_route.left_camera.matrix(), 1e-12));
+  EXPECT_DOUBLE_EQ(at_pose.height_m, on_route.height_m);
+  EXPECT_EQ(at_pose.rig_m, on_route.rig_m);
+  EXPECT_EQ(at_pose.yaw_rad, on_route.yaw_rad);
+}
+
 TEST(StereoFlight, YawRotatesTheImageAboutItsCentre) {
   // A square image with the principal point at its centre: a quarter turn of the camera maps the
   // pixel grid (and the sub-pixel sample grid) onto itself, so the rendered image must be the other
