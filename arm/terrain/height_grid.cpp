@@ -29,6 +29,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "arm/localization/ransac_sampling.h"
 #include "arm/terrain/terrain_model.h"
 
 namespace lpstereo::arm::terrain {
@@ -37,11 +38,8 @@ namespace {
 
 constexpr int64_t kMaxCells = 4 * 1024 * 1024;  // a grid beyond this is a mistake in the spec (16 M cells of doubles)
 
-std::string number_text(double value) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.9g", value);
-  return text;
-}
+// The repository's number format for error messages (%.6g).
+using localization::format_number;
 
 int cells_over(double min_m, double max_m, double cell_m) {
   // Relative slack: 22 / 0.5 must give 44 cells, not 45 from rounding.
@@ -70,26 +68,26 @@ double TerrainGridSpec::cell_centre_y_m(int lateral_cell) const { return lateral
 
 void TerrainGridSpec::validate() const {
   const auto finite = [](const char* name, double value) {
-    if (!std::isfinite(value)) throw std::invalid_argument(std::string(name) + ": expected a finite value, got " + number_text(value));
+    if (!std::isfinite(value)) throw std::invalid_argument(std::string(name) + ": expected a finite value, got " + format_number(value));
   };
   finite("forward_min_m", forward_min_m);
   finite("forward_max_m", forward_max_m);
   finite("lateral_min_m", lateral_min_m);
   finite("lateral_max_m", lateral_max_m);
   finite("cell_m", cell_m);
-  if (!(cell_m > 0)) throw std::invalid_argument("cell_m: expected > 0, got " + number_text(cell_m));
+  if (!(cell_m > 0)) throw std::invalid_argument("cell_m: expected > 0, got " + format_number(cell_m));
   if (!(forward_max_m > forward_min_m)) {
-    throw std::invalid_argument("forward_max_m: expected > forward_min_m = " + number_text(forward_min_m) + ", got " +
-                                number_text(forward_max_m));
+    throw std::invalid_argument("forward_max_m: expected > forward_min_m = " + format_number(forward_min_m) + ", got " +
+                                format_number(forward_max_m));
   }
   if (!(lateral_max_m > lateral_min_m)) {
-    throw std::invalid_argument("lateral_max_m: expected > lateral_min_m = " + number_text(lateral_min_m) + ", got " +
-                                number_text(lateral_max_m));
+    throw std::invalid_argument("lateral_max_m: expected > lateral_min_m = " + format_number(lateral_min_m) + ", got " +
+                                format_number(lateral_max_m));
   }
   const double cells = std::ceil((forward_max_m - forward_min_m) / cell_m) * std::ceil((lateral_max_m - lateral_min_m) / cell_m);
   if (cells > static_cast<double>(kMaxCells)) {
     throw std::invalid_argument("cell_m: expected at most " + std::to_string(kMaxCells) + " cells over the area, got " +
-                                number_text(cells) + " with cell_m = " + number_text(cell_m));
+                                format_number(cells) + " with cell_m = " + format_number(cell_m));
   }
 }
 

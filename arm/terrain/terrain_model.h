@@ -10,7 +10,7 @@
 // Pipeline (issue 9 deliverables 1-4):
 //   points (vehicle frame) -> HeightGridAccumulator (2.5D sampling: per cell count, min, mean, sigma
 //   of z) -> HeightGrid (cell height Z = max(min z, mean z - sigma), empty cells filled from the mean
-//   of valid 8-neighbours, else invalid) -> fit_terrain (iterative re-weighted B-spline fit with
+//   of measured 8-neighbours, else invalid) -> fit_terrain (iterative re-weighted B-spline fit with
 //   equalisation) -> TerrainEstimate (surface, per-cell weights) -> compute_traversability (slope
 //   from the surface's derivatives, cost Tc = w_occ occupancy + w_slope |grad S|) and
 //   classify_points (height above the surface > obstacle threshold: obstacle candidates).
@@ -127,7 +127,9 @@ struct TerrainFitParameters {
   int degree_forward = 3, degree_lateral = 3;
   int control_forward = 25, control_lateral = 25;   // n_max: the final fit's control points
   int initial_control_forward = 5, initial_control_lateral = 5;  // the first iteration's
-  int max_iterations = 20;         // re-weighting iterations before the final fit (20: one control point per axis per iteration from 5 to 25, the thesis's schedule)
+  // Re-weighting iterations before the final fit; the control points grow from initial to n_max
+  // over them (20: one per axis per iteration from 5 to 25, the thesis's schedule).
+  int max_iterations = 20;
   double threshold_factor = 1.0;   // th(e) = threshold_factor * e, e the mean absolute error
   double alpha_initial = 1.0;      // alpha of the first iteration, growing by alpha_step per iteration
   double alpha_step = 1.0;
@@ -139,6 +141,10 @@ struct TerrainFitParameters {
   // Added by the implementation (arm/terrain/terrain_fit.cpp explains each):
   double maximum_weight = 1000.0;         // eq. 3.6 caps here (|dz| -> 0 would give an infinite weight)
   double equalisation_tolerance_m = 0.001; // samples less than this above the surface are not equalised
+  // Nor those less than this x th(e) above it (0: every sample above, as the thesis). 3 keeps the
+  // noise and the smooth bumps the coarse first surfaces cannot follow (hills, banks) from being
+  // shaved off (terrain_fit.cpp has the figures).
+  double equalisation_threshold_factor = 3.0;
   // Eq. 3.7: never_overshoot = Z -= dz W / (W + 1) (the thesis's prose: moved towards the surface,
   // never past it); as_printed = Z -= dz (1 + 1/W) (the formula as the text conversion prints it,
   // which puts the sample below the surface; kept to show the difference in bench/terrain_bench).

@@ -22,11 +22,11 @@
 //     occupancy, cost written).
 //   classify_points is counted by its caller: per point ~ 6 d (d + 1) + 2 (d0 + 1)(d1 + 1) + 8.
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
+#include "arm/localization/ransac_sampling.h"
 #include "arm/terrain/terrain_model.h"
 
 namespace lpstereo::arm::terrain {
@@ -35,15 +35,12 @@ namespace {
 
 double quiet_nan() { return std::numeric_limits<double>::quiet_NaN(); }
 
-std::string number_text(double value) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.9g", value);
-  return text;
-}
+// The repository's number format for error messages (%.6g).
+using localization::format_number;
 
 void check_obstacle_height(double obstacle_height_m) {
   if (!(obstacle_height_m > 0) || !std::isfinite(obstacle_height_m)) {
-    throw std::invalid_argument("obstacle_height_m: expected a finite value > 0, got " + number_text(obstacle_height_m));
+    throw std::invalid_argument("obstacle_height_m: expected a finite value > 0, got " + format_number(obstacle_height_m));
   }
 }
 
@@ -52,10 +49,10 @@ void check_obstacle_height(double obstacle_height_m) {
 TraversabilityMap compute_traversability(const TerrainEstimate& terrain, const HeightGrid& measured,
                                          const TraversabilityParameters& parameters) {
   if (!(parameters.occupancy_weight >= 0) || !std::isfinite(parameters.occupancy_weight)) {
-    throw std::invalid_argument("occupancy_weight: expected a finite value >= 0, got " + number_text(parameters.occupancy_weight));
+    throw std::invalid_argument("occupancy_weight: expected a finite value >= 0, got " + format_number(parameters.occupancy_weight));
   }
   if (!(parameters.slope_weight >= 0) || !std::isfinite(parameters.slope_weight)) {
-    throw std::invalid_argument("slope_weight: expected a finite value >= 0, got " + number_text(parameters.slope_weight));
+    throw std::invalid_argument("slope_weight: expected a finite value >= 0, got " + format_number(parameters.slope_weight));
   }
   check_obstacle_height(parameters.obstacle_height_m);
   const TerrainGridSpec& spec = measured.spec;

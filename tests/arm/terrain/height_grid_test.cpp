@@ -34,23 +34,25 @@ TEST(TerrainGridSpec, CellsAndCentres) {
   EXPECT_FALSE(spec.cell_of(1, std::numeric_limits<double>::quiet_NaN(), &i, &j));
 }
 
+void expect_spec_error(const TerrainGridSpec& spec, const std::string& name) {
+  try {
+    spec.validate();
+    ADD_FAILURE() << name << ": no throw";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()).rfind(name + ":", 0), 0u) << error.what();
+  }
+}
+
 TEST(TerrainGridSpec, ValidateNamesTheParameter) {
   TerrainGridSpec spec = small_spec();
   spec.cell_m = 0;
-  try {
-    spec.validate();
-    FAIL() << "no throw";
-  } catch (const std::invalid_argument& error) {
-    EXPECT_NE(std::string(error.what()).find("cell_m"), std::string::npos) << error.what();
-  }
+  expect_spec_error(spec, "cell_m");
   spec = small_spec();
   spec.forward_max_m = -1;
-  try {
-    spec.validate();
-    FAIL() << "no throw";
-  } catch (const std::invalid_argument& error) {
-    EXPECT_NE(std::string(error.what()).find("forward_max_m"), std::string::npos) << error.what();
-  }
+  expect_spec_error(spec, "forward_max_m");
+  spec = small_spec();
+  spec.lateral_max_m = -2;
+  expect_spec_error(spec, "lateral_max_m");
   spec = small_spec();
   spec.lateral_min_m = std::numeric_limits<double>::infinity();
   EXPECT_THROW(spec.validate(), std::invalid_argument);

@@ -49,7 +49,9 @@ TEST(Traversability, SlopeOfATiltedPlaneIsItsGradient) {
   const Eigen::Vector2d gradient = terrain.surface.gradient(3.3, 1.7);
   EXPECT_NEAR(gradient.x(), 0.1, 1e-6);
   EXPECT_NEAR(gradient.y(), -0.2, 1e-6);
-  EXPECT_GT(map.work.scalar_ops, 0u);
+  // traversability.cpp's model: 24 x 20 cells, 10 x 8 control points, degree 3.
+  EXPECT_EQ(map.work.scalar_ops, uint64_t(6 * 3 * 4 * 24 + 6 * 3 * 4 * 20) + 3u * (2 * 24 * 10 * 8 + 2 * 24 * 8 * 20) + 12u * 480);
+  EXPECT_EQ(map.work.memory_bytes, 12u * 480 + 8u * 80 + 24u * 480);
 }
 
 TEST(Traversability, CostIsEquation31OnAnOccupiedCell) {
