@@ -29,7 +29,7 @@
 // the whole evaluation on the exact points.
 //
 // Usage: terrain_synth_eval [--seeds N] [--census 5|9] [--bands] [--control N] [--initial-control N]
-//        [--tolerance-m T] [--alpha-initial A] [--threshold-factor F] [--alpha-step A]
+//        [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A] [--threshold-factor F] [--alpha-step A]
 //        [--iterations N] [--cell-m C] [--noise-sigma S]
 // Exit 0 when every scene meets both lines, 1 otherwise.
 #include <algorithm>
@@ -309,6 +309,7 @@ int main(int argc, char** argv) {
     if (a == "--seeds") settings.seeds = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--control") settings.fit.control_forward = settings.fit.control_lateral = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--initial-control") settings.fit.initial_control_forward = settings.fit.initial_control_lateral = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--equalisation-threshold-factor") settings.fit.equalisation_threshold_factor = number_argument(i, argc, argv);
     else if (a == "--tolerance-m") settings.fit.equalisation_tolerance_m = number_argument(i, argc, argv);
     else if (a == "--alpha-initial") settings.fit.alpha_initial = number_argument(i, argc, argv);
     else if (a == "--threshold-factor") settings.fit.threshold_factor = number_argument(i, argc, argv);
@@ -327,11 +328,11 @@ int main(int argc, char** argv) {
   const terrain::TerrainFitParameters& f = settings.fit;
   std::printf("terrain_synth_eval: 640x480, hfov 60 deg, baseline 0.30 m, camera 1.5 m, pitch 0.06 rad, noise %.1f, 4 rays/px; "
               "area %.0fx%.0f m, cell %.2f m; fit: degree %dx%d, control %dx%d (from %dx%d), %d iterations, threshold factor %.2f, "
-              "alpha %.2f + %.2f/iteration, equalisation tolerance %.3f m; obstacle threshold 0.20 m\n",
+              "alpha %.2f + %.2f/iteration, equalisation tolerance %.3f m and %.1f th; obstacle threshold 0.20 m\n",
               settings.noise_sigma, settings.grid.forward_max_m - settings.grid.forward_min_m,
               settings.grid.lateral_max_m - settings.grid.lateral_min_m, settings.grid.cell_m, f.degree_forward, f.degree_lateral,
               f.control_forward, f.control_lateral, f.initial_control_forward, f.initial_control_lateral, f.max_iterations,
-              f.threshold_factor, f.alpha_initial, f.alpha_step, f.equalisation_tolerance_m);
+              f.threshold_factor, f.alpha_initial, f.alpha_step, f.equalisation_tolerance_m, f.equalisation_threshold_factor);
   std::printf("%-26s %4s %10s %10s %9s %9s %11s %10s %7s %7s %9s %9s %8s %7s %9s %8s %8s %9s %6s\n", "scene", "seed", "rms<=20m", "rms<=34m", "bias<=20m",
               "grid<=20m", "points<=20", "exact<=20", "cells20", "cells34", "precision", "recall", "obstacle", "FP", "FP ground", "gnd>20cm", "mount", "fit", "lines");
   const SceneKind kinds[] = {{"hills", "hills", 0.0},
