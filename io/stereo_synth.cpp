@@ -12,6 +12,7 @@
 #include <fstream>
 #include <limits>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -60,34 +61,133 @@ const Vec kLight = normalized({-0.3, -0.85, -0.45});
 struct Camera {
   double focal_px, cx_px, cy_px;
   double cos_pitch, sin_pitch;
+  bool rolled = false;  // roll 0 keeps the pitch-only arithmetic (the same bits as before roll existed)
+  double cos_roll = 1, sin_roll = 0;
   // The road-frame direction of the ray through image point (u, v), scaled so its camera-frame z is
-  // 1: the hit parameter t is then the camera-frame depth Z.
+  // 1: the hit parameter t is then the camera-frame depth Z. Rz(roll) about the optical axis first
+  // (z stays 1), then Rx(pitch).
   Vec ray(double u, double v) const {
-    const double x = (u - cx_px) / focal_px, y = (v - cy_px) / focal_px;
+    double x = (u - cx_px) / focal_px, y = (v - cy_px) / focal_px;
+    if (rolled) {
+      const double rolled_x = x * cos_roll - y * sin_roll;
+      y = x * sin_roll + y * cos_roll;
+      x = rolled_x;
+    }
     return {x, y * cos_pitch + sin_pitch, -y * sin_pitch + cos_pitch};
   }
-  // Road frame -> camera frame (of a camera at road X = origin_x).
-  Vec to_camera(Vec p, double origin_x) const {
-    return {p.x - origin_x, p.y * cos_pitch - p.z * sin_pitch, p.y * sin_pitch + p.z * cos_pitch};
+  // Road frame -> camera frame (of a camera centred at road point `origin`).
+  Vec to_camera(Vec p, Vec origin) const {
+    const Vec c{p.x - origin.x, (p.y - origin.y) * cos_pitch - (p.z - origin.z) * sin_pitch,
+                (p.y - origin.y) * sin_pitch + (p.z - origin.z) * cos_pitch};
+    if (!rolled) return c;
+    return {c.x * cos_roll + c.y * sin_roll, -c.x * sin_roll + c.y * cos_roll, c.z};
+  }
+  // The centre of view 0 (left, the origin) or 1 (right: baseline_m along the camera's x axis).
+  Vec origin(int view, double baseline_m) const {
+    if (view == 0) return {0, 0, 0};
+    if (!rolled) return {baseline_m, 0, 0};
+    return {baseline_m * cos_roll, baseline_m * sin_roll * cos_pitch, -baseline_m * sin_roll * sin_pitch};
   }
 };
 
 struct Road {
   double height_m, slope_tan, slope_start_m, end_m;
+  const SynthGroundTruth* field = nullptr;  // the height field, or null: the flat or sloped road alone
+  double rate_bound = 0;                     // Lipschitz constant of the ground height: field + slope
+
   double y_at(double z) const { return z <= slope_start_m ? height_m : height_m - slope_tan * (z - slope_start_m); }
-  // Nearest hit of a ray from (ox, 0, 0) along d with the road surface before its end, or +inf.
-  double hit(Vec d) const {
+  // The ground's Y (down) under road point (x, z).
+  double ground_y(double x, double z) const { return field ? y_at(z) - field->elevation_m(x, z) : y_at(z); }
+
+  // Nearest hit of a ray from o along d with the flat or sloped road before its end, or +inf.
+  double plane_hit(Vec o, Vec d) const {
     double best = kInfinity;
     if (d.y > 0) {
-      const double t = height_m / d.y;
-      if (t * d.z <= slope_start_m && t * d.z > 0) best = t;
+      const double t = (height_m - o.y) / d.y;
+      if (o.z + t * d.z <= slope_start_m && o.z + t * d.z > 0) best = t;
     }
     const double denominator = d.y + slope_tan * d.z;
     if (denominator > 0) {
-      const double t = (height_m + slope_tan * slope_start_m) / denominator;
-      if (t * d.z > slope_start_m && t < best) best = t;
+      const double t = ((height_m + slope_tan * slope_start_m) - o.y - slope_tan * o.z) / denominator;
+      if (o.z + t * d.z > slope_start_m && t < best) best = t;
     }
-    return best * d.z <= end_m ? best : kInfinity;
+    return o.z + best * d.z <= end_m ? best : kInfinity;
+  }
+
+  // Nearest hit with the ground: the road's planes, or with a height field the first crossing of
+  // gap(t) = ground Y - ray Y (> 0 above the ground) from + to -.
+  double hit(Vec o, Vec d) const {
+    if (!field) return plane_hit(o, d);
+    // No crossing before the ray meets the road raised by the hills' and rough part's highest
+    // elevation, or enters a berm's strip: start at the first of these.
+    double t = 0;
+    Road raised = *this;
+    raised.field = nullptr;
+    raised.height_m = height_m - field->smooth_max_elevation_m();
+    if (raised.height_m - o.y > 0) {
+      t = raised.plane_hit(o, d);
+      for (const SynthGroundTruth::Strip& strip : field->strips()) {
+        if (strip.raise_m <= 0) continue;
+        if (o.x >= strip.x_min_m && o.x <= strip.x_max_m) t = 0;
+        else if (d.x != 0) {
+          const double enter = ((d.x > 0 ? strip.x_min_m : strip.x_max_m) - o.x) / d.x;
+          if (enter > 0) t = std::min(t, enter);
+        }
+      }
+      if (!std::isfinite(t)) return kInfinity;  // above every possible ground until the background
+    }
+    const double t_end = d.z > 0 ? (end_m - o.z) / d.z : 2 * end_m;
+    // gap changes along the ray at most this fast per unit t: |dY/dt| + L |d(x, z)/dt|, with L the
+    // smooth part's bound outside the strips, the whole field's within.
+    const double horizontal = std::hypot(d.x, d.z);
+    const double smooth_rate = std::abs(d.y) + (field->smooth_lipschitz() + std::abs(slope_tan)) * horizontal;
+    const double full_rate = std::abs(d.y) + rate_bound * horizontal;
+    auto gap = [&](double at) { return ground_y(o.x + at * d.x, o.z + at * d.z) - (o.y + at * d.y); };
+    auto touches_strip = [&](double from, double to) {
+      const double x0 = o.x + from * d.x, x1 = o.x + to * d.x;
+      for (const SynthGroundTruth::Strip& strip : field->strips()) {
+        if (std::max(x0, x1) >= strip.x_min_m && std::min(x0, x1) <= strip.x_max_m) return true;
+      }
+      return false;
+    };
+    double g = gap(t);
+    if (g <= 0) return t;
+    // Steps of gap / rate cannot pass a crossing; the floor (0.4 % of the depth, a few mm near the
+    // camera) keeps grazing rays from creeping; it can only skip a bump thinner than the floor along
+    // the ray, which these smooth fields (finest cell 0.375 m) do not have within the rendered range.
+    for (int step = 0; step < 20000 && t < t_end; ++step) {
+      const double floor = 0.004 * t + 0.002;
+      double t_next = t + std::max(g / smooth_rate, floor);
+      if (touches_strip(t, t_next)) t_next = t + std::max(g / full_rate, floor);
+      t_next = std::min(t_next, t_end);
+      const double g_next = gap(t_next);
+      if (g_next <= 0) return refine_crossing(gap, t, g, t_next, g_next);
+      t = t_next;
+      g = g_next;
+    }
+    return kInfinity;
+  }
+
+  // The crossing inside [lo, hi] (gap(lo) > 0 >= gap(hi)): Illinois regula falsi, to 1e-9 of the depth
+  // or a gap under a micrometre.
+  template <typename Gap>
+  static double refine_crossing(const Gap& gap, double lo, double g_lo, double hi, double g_hi) {
+    int side = 0;
+    for (int iteration = 0; iteration < 60 && hi - lo > 1e-9 * hi; ++iteration) {
+      const double t = (lo * g_hi - hi * g_lo) / (g_hi - g_lo);
+      const double g = gap(t);
+      if (std::abs(g) < 1e-6) return t;
+      if (g > 0) {
+        lo = t, g_lo = g;
+        if (side == 1) g_hi *= 0.5;
+        side = 1;
+      } else {
+        hi = t, g_hi = g;
+        if (side == -1) g_lo *= 0.5;
+        side = -1;
+      }
+    }
+    return 0.5 * (lo + hi);
   }
 };
 
@@ -127,16 +227,17 @@ bool solve_quadratic(double a, double b, double c, double& t0, double& t1) {
 }
 
 // A vertical surface of revolution about (x_m, z_m): radius r0 at the base, r1 at height h.
-void hit_round(const Placed& p, double ox, Vec d, double r0, double r1, double h, bool cap, ObjectHit& best) {
-  const double px = ox - p.object.x_m, pz = -p.object.z_m;
+void hit_round(const Placed& p, Vec o, Vec d, double r0, double r1, double h, bool cap, ObjectHit& best) {
+  const double px = o.x - p.object.x_m, pz = o.z - p.object.z_m;
+  const double base = p.base_y - o.y;  // the base, below the ray's origin
   const double k = (r0 - r1) / h;
-  // radius at the ray point: q = r0 - k (base_y - y) = q0 + q1 t (the ray starts at y = 0)
-  const double q0 = r0 - k * p.base_y, q1 = k * d.y;
+  // radius at the ray point: q = r0 - k (base - y) = q0 + q1 t (y measured from the origin)
+  const double q0 = r0 - k * base, q1 = k * d.y;
   double t0, t1;
   if (solve_quadratic(d.x * d.x + d.z * d.z - q1 * q1, 2 * (px * d.x + pz * d.z - q0 * q1), px * px + pz * pz - q0 * q0, t0, t1)) {
     for (double t : {t0, t1}) {
       if (!(t > 1e-6) || t >= best.t) continue;
-      const double height = p.base_y - t * d.y;
+      const double height = base - t * d.y;
       if (height < 0 || height > h || q0 + q1 * t < 0) continue;
       const double x = px + t * d.x, z = pz + t * d.z, q = q0 + q1 * t;
       best.t = t;
@@ -147,7 +248,7 @@ void hit_round(const Placed& p, double ox, Vec d, double r0, double r1, double h
     }
   }
   if (cap && d.y != 0) {  // the top disc
-    const double t = (p.base_y - h) / d.y;
+    const double t = (base - h) / d.y;
     if (t > 1e-6 && t < best.t) {
       const double x = px + t * d.x, z = pz + t * d.z;
       if (x * x + z * z <= r1 * r1) {
@@ -161,8 +262,8 @@ void hit_round(const Placed& p, double ox, Vec d, double r0, double r1, double h
   }
 }
 
-void hit_sphere(const Placed& p, double ox, Vec d, double radius, double centre_height, ObjectHit& best) {
-  const Vec o{ox - p.object.x_m, -(p.base_y - centre_height), -p.object.z_m};
+void hit_sphere(const Placed& p, Vec origin, Vec d, double radius, double centre_height, ObjectHit& best) {
+  const Vec o{origin.x - p.object.x_m, origin.y - (p.base_y - centre_height), origin.z - p.object.z_m};
   double t0, t1;
   if (!solve_quadratic(dot(d, d), 2 * dot(o, d), dot(o, o) - radius * radius, t0, t1)) return;
   const double t = t0 > 1e-6 ? t0 : t1;
@@ -172,14 +273,14 @@ void hit_sphere(const Placed& p, double ox, Vec d, double radius, double centre_
   best.t = t;
   best.normal = n;
   best.s = std::atan2(n.x, -n.z) * radius;
-  best.r = best.height = p.base_y - t * d.y;
+  best.r = best.height = (p.base_y - origin.y) - t * d.y;
 }
 
-void hit_box(const Placed& p, double ox, Vec d, ObjectHit& best) {
+void hit_box(const Placed& p, Vec o_ray, Vec d, ObjectHit& best) {
   const SynthObject& o = p.object;
   const double low[3] = {o.x_m - o.width_m / 2, p.base_y - o.height_m, o.z_m - o.length_m / 2};
   const double high[3] = {o.x_m + o.width_m / 2, p.base_y, o.z_m + o.length_m / 2};
-  const double origin[3] = {ox, 0, 0}, direction[3] = {d.x, d.y, d.z};
+  const double origin[3] = {o_ray.x, o_ray.y, o_ray.z}, direction[3] = {d.x, d.y, d.z};
   double t_near = -kInfinity, t_far = kInfinity;
   int axis = -1, sign = 0;
   for (int a = 0; a < 3; ++a) {
@@ -201,7 +302,7 @@ void hit_box(const Placed& p, double ox, Vec d, ObjectHit& best) {
     t_far = std::min(t_far, tb);
   }
   if (axis < 0 || t_near > t_far || !(t_near > 1e-6) || t_near >= best.t) return;
-  const double hit[3] = {ox + t_near * d.x, t_near * d.y, t_near * d.z};
+  const double hit[3] = {o_ray.x + t_near * d.x, o_ray.y + t_near * d.y, o_ray.z + t_near * d.z};
   best.t = t_near;
   best.normal = {axis == 0 ? double(sign) : 0, axis == 1 ? double(sign) : 0, axis == 2 ? double(sign) : 0};
   best.r = best.height = p.base_y - hit[1];
@@ -209,16 +310,16 @@ void hit_box(const Placed& p, double ox, Vec d, ObjectHit& best) {
   if (axis == 1) best.r = o.height_m + hit[2] - low[2];
 }
 
-void hit_object(const Placed& p, double ox, Vec d, ObjectHit& best) {
+void hit_object(const Placed& p, Vec o, Vec d, ObjectHit& best) {
   const double r = p.object.width_m / 2, h = p.object.height_m;
   switch (p.shape) {
-    case Shape::cone: hit_round(p, ox, d, r, p.top_radius_m, h, true, best); break;
-    case Shape::cylinder: hit_round(p, ox, d, r, r, h, true, best); break;
+    case Shape::cone: hit_round(p, o, d, r, p.top_radius_m, h, true, best); break;
+    case Shape::cylinder: hit_round(p, o, d, r, r, h, true, best); break;
     case Shape::capsule:
-      hit_round(p, ox, d, r, r, h - r, false, best);
-      hit_sphere(p, ox, d, r, h - r, best);
+      hit_round(p, o, d, r, r, h - r, false, best);
+      hit_sphere(p, o, d, r, h - r, best);
       break;
-    case Shape::box: hit_box(p, ox, d, best); break;
+    case Shape::box: hit_box(p, o, d, best); break;
   }
 }
 
@@ -253,8 +354,18 @@ class Renderer {
     camera_.cy_px = (options.height - 1) / 2.0;
     camera_.cos_pitch = std::cos(options.pitch_rad);
     camera_.sin_pitch = std::sin(options.pitch_rad);
+    if (options.roll_rad != 0) {
+      camera_.rolled = true;
+      camera_.cos_roll = std::cos(options.roll_rad);
+      camera_.sin_roll = std::sin(options.roll_rad);
+    }
     road_ = {options.camera_height_m, std::tan(options.slope_deg * kPi / 180.0), options.slope_start_m,
              options.background_distance_m};
+    if (options.ground.any()) {
+      field_.emplace(options);
+      road_.field = &*field_;
+      road_.rate_bound = field_->lipschitz() + std::abs(road_.slope_tan);
+    }
     SplitMix colours{uint64_t{options.seed} * 7777u + 5};
     for (size_t i = 0; i < options.objects.size(); ++i) place(options.objects[i], i, colours);
   }
@@ -264,7 +375,7 @@ class Renderer {
   const std::vector<Placed>& placed() const { return placed_; }
 
   Sample trace(int view, double u, double v, int pixel_u, int pixel_v) const {
-    const double ox = view == 0 ? 0.0 : options_.baseline_m;
+    const Vec o = camera_.origin(view, options_.baseline_m);
     const Vec d = camera_.ray(u, v);
     const double length = std::sqrt(dot(d, d));
     const double footprint_per_t = length / camera_.focal_px;  // metres per pixel per unit depth
@@ -277,17 +388,19 @@ class Renderer {
       const int* b = placed_[i].bbox[view];
       if (pixel_u < b[0] || pixel_u > b[2] || pixel_v < b[1] || pixel_v > b[3]) continue;
       const double before = object.t;
-      hit_object(placed_[i], ox, d, object);
+      hit_object(placed_[i], o, d, object);
       if (object.t < before) object_index = static_cast<int>(i);
     }
-    const double t_road = road_.hit(d);
+    const double t_road = road_.hit(o, d);
     double t_wall = kInfinity, wall_y = 0;
     if (d.z > 0) {
-      t_wall = road_.end_m / d.z;
-      wall_y = t_wall * d.y;
-      const double x = ox + t_wall * d.x;
+      t_wall = (road_.end_m - o.z) / d.z;
+      wall_y = o.y + t_wall * d.y;
+      const double x = o.x + t_wall * d.x;
       const double top = road_.y_at(road_.end_m) - (30 + 20 * value_noise(x / 80.0, 0.5, seed + 11));
-      if (wall_y < top || wall_y > road_.y_at(road_.end_m) + 1e-9) t_wall = kInfinity;
+      // With a height field the wall reaches down to the field's lowest point (a ditch runs under it).
+      const double bottom = road_.y_at(road_.end_m) + (field_ ? std::max(0.0, -field_->min_elevation_m()) : 0.0);
+      if (wall_y < top || wall_y > bottom + 1e-9) t_wall = kInfinity;
     }
 
     if (object_index >= 0 && object.t <= t_road && object.t <= t_wall) {
@@ -299,13 +412,13 @@ class Renderer {
       sample.depth = object.t;
       sample.id = object_index + 1;
     } else if (t_road < t_wall) {
-      const double x = ox + t_road * d.x, z = t_road * d.z;
-      const double grazing = std::max(std::abs(d.y) / length, 0.02);
+      const double x = o.x + t_road * d.x, z = o.z + t_road * d.z;
+      const double grazing = std::max(std::abs(field_ ? dot(ground_normal(x, z), d) : d.y) / length, 0.02);
       const double footprint = t_road * footprint_per_t / std::sqrt(grazing);
       sample.colour = road_albedo(x, z, footprint);
       sample.depth = t_road;
     } else if (t_wall < kInfinity) {
-      const double x = ox + t_wall * d.x;
+      const double x = o.x + t_wall * d.x;
       const double footprint = t_wall * footprint_per_t;
       sample.colour = Rgb{95, 105, 90} * (1.0 + texture(kWall, x, wall_y, seed + 101, footprint));
       sample.depth = t_wall;
@@ -318,6 +431,14 @@ class Renderer {
   }
 
  private:
+  // The unit normal of the height-field ground at (x, z), from central differences (1 cm).
+  Vec ground_normal(double x, double z) const {
+    const double step = 0.01;
+    const double dydx = (road_.ground_y(x + step, z) - road_.ground_y(x - step, z)) / (2 * step);
+    const double dydz = (road_.ground_y(x, z + step) - road_.ground_y(x, z - step)) / (2 * step);
+    return normalized({-dydx, 1, -dydz});
+  }
+
   Rgb road_albedo(double x, double z, double footprint) const {
     const double ax = std::abs(x);
     if (ax > 5.6) return Rgb{80, 105, 65} * (1.0 + texture(kVerge, x, z, options_.seed + 303, footprint));
@@ -347,18 +468,32 @@ class Renderer {
       case SynthClass::pedestrian: p.shape = Shape::capsule; p.colour = picked; p.second_colour = Rgb{55, 55, 95}; break;
       case SynthClass::car: p.shape = Shape::box; p.colour = second; break;
     }
+    if (field_) {
+      // Stand on the field: the top stays height_m above the ground under the base centre, the solid
+      // reaches down to the lowest ground under the footprint (sampled 9 x 9), so no gap shows.
+      const double centre_y = road_.ground_y(object.x_m, object.z_m);
+      const double half_x = object.width_m / 2, half_z = (p.shape == Shape::box ? object.length_m : object.width_m) / 2;
+      double lowest_y = centre_y;
+      for (int i = 0; i <= 8; ++i) {
+        for (int j = 0; j <= 8; ++j) {
+          lowest_y = std::max(lowest_y, road_.ground_y(object.x_m + half_x * (i / 4.0 - 1), object.z_m + half_z * (j / 4.0 - 1)));
+        }
+      }
+      p.base_y = lowest_y + 0.02;  // 2 cm into the ground against the sampling's gaps
+      p.object.height_m = object.height_m + (p.base_y - centre_y);
+    }
     // Conservative pixel bounds per view from the 8 corners of the object's bounding box; a corner
     // behind (or almost at) the camera leaves the whole image.
     for (int view = 0; view < 2; ++view) {
-      const double ox = view == 0 ? 0.0 : options_.baseline_m;
+      const Vec origin = camera_.origin(view, options_.baseline_m);
       const double half_x = object.width_m / 2 * 1.01 + 0.01;
       const double half_z = (p.shape == Shape::box ? object.length_m : object.width_m) / 2 * 1.01 + 0.01;
       double u0 = kInfinity, v0 = kInfinity, u1 = -kInfinity, v1 = -kInfinity;
       bool behind = false;
       for (int corner = 0; corner < 8; ++corner) {
-        const Vec road_point{object.x_m + ((corner & 1) ? half_x : -half_x), p.base_y - ((corner & 2) ? object.height_m * 1.01 + 0.01 : -0.01),
+        const Vec road_point{object.x_m + ((corner & 1) ? half_x : -half_x), p.base_y - ((corner & 2) ? p.object.height_m * 1.01 + 0.01 : -0.01),
                              object.z_m + ((corner & 4) ? half_z : -half_z)};
-        const Vec c = camera_.to_camera(road_point, ox);
+        const Vec c = camera_.to_camera(road_point, origin);
         if (c.z < 0.05) {
           behind = true;
           break;
@@ -381,10 +516,127 @@ class Renderer {
   const StereoSynthOptions& options_;
   Camera camera_{};
   Road road_{};
+  std::optional<SynthGroundTruth> field_;
   std::vector<Placed> placed_;
 };
 
 }  // namespace
+
+// ---- the height-field ground ----
+
+namespace {
+
+void validate_ground(const SynthGround& g) {
+  require(g.hills_amplitude_m >= 0 && g.hills_amplitude_m <= 5, "hills-amplitude-m", "[0, 5] metres", g.hills_amplitude_m);
+  require(g.hills_wavelength_m >= 2 && g.hills_wavelength_m <= 1000, "hills-wavelength-m", "[2, 1000] metres", g.hills_wavelength_m);
+  require(g.ditch_depth_m >= 0 && g.ditch_depth_m <= 5, "ditch-depth-m", "[0, 5] metres", g.ditch_depth_m);
+  require(g.ditch_width_m >= 0.2 && g.ditch_width_m <= 50, "ditch-width-m", "[0.2, 50] metres", g.ditch_width_m);
+  require(std::abs(g.ditch_x_m) <= 100, "ditch-x-m", "|x| <= 100 metres", g.ditch_x_m);
+  require(g.berm_height_m >= 0 && g.berm_height_m <= 5, "berm-height-m", "[0, 5] metres", g.berm_height_m);
+  require(g.berm_width_m >= 0.2 && g.berm_width_m <= 50, "berm-width-m", "[0.2, 50] metres", g.berm_width_m);
+  require(std::abs(g.berm_x_m) <= 100, "berm-x-m", "|x| <= 100 metres", g.berm_x_m);
+  require(g.rough_amplitude_m >= 0 && g.rough_amplitude_m <= 3, "rough-amplitude-m", "[0, 3] metres", g.rough_amplitude_m);
+  require(g.rough_wavelength_m >= 0.5 && g.rough_wavelength_m <= 1000, "rough-wavelength-m", "[0.5, 1000] metres", g.rough_wavelength_m);
+}
+
+constexpr int kRoughOctaves = 4;
+// The second swell of the hills runs obliquely (direction (0.6, 0.8) in X, Z) with a longer wavelength.
+constexpr double kObliqueX = 0.6, kObliqueZ = 0.8, kObliqueStretch = 1.3;
+
+}  // namespace
+
+SynthGround parse_synth_ground(const std::string& spec) {
+  const std::string expected = "ground: expected flat, or hills, ditch, ditch-u, berm, rough joined by '+' or ',', got '" + spec + "'";
+  SynthGround ground;
+  if (spec == "flat") return ground;
+  const SynthGround defaults;
+  size_t start = 0;
+  for (;;) {
+    const size_t end = spec.find_first_of("+,", start);
+    const std::string kind = spec.substr(start, end == std::string::npos ? std::string::npos : end - start);
+    if (kind == "hills") {
+      ground.hills_amplitude_m = 0.6;
+    } else if (kind == "ditch" || kind == "ditch-u") {
+      ground.ditch_depth_m = 0.6;
+      ground.ditch_u_shape = kind == "ditch-u";
+    } else if (kind == "berm") {
+      ground.berm_height_m = 0.8;
+    } else if (kind == "rough") {
+      ground.rough_amplitude_m = 0.25;
+    } else {
+      throw std::invalid_argument(expected);
+    }
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  return ground;
+}
+
+SynthGroundTruth::SynthGroundTruth(const StereoSynthOptions& options) : ground_(options.ground) {
+  validate_ground(ground_);
+  slope_tan_ = std::tan(options.slope_deg * kPi / 180.0);
+  slope_start_m_ = options.slope_start_m;
+  SplitMix random{uint64_t{options.seed} * 0x9E3779B97F4A7C15ull + 4242};
+  hills_phase_[0] = random.uniform(0.0, 2 * kPi);
+  hills_phase_[1] = random.uniform(0.0, 2 * kPi);
+  rough_seed_ = random.next();
+  origin_elevation_m_ = raw_elevation_m(0, 0);
+  // Bounds. Hills: each swell A/2 sin(2 pi s / lambda) has slope <= pi A / lambda. Ditch: V 2D/W, U
+  // (1 - u^2 over half-width W/2) 4D/W. Berm: H/2 (1 + cos(pi u)) over W/2: pi H / W. Rough: an
+  // octave of value noise (smoothstep slope <= 1.5, lattice in [-1, 1]) changes by <= 3 per cell
+  // along each axis, so |grad| <= 3 sqrt(2) a_k / cell_k.
+  const SynthGround& g = ground_;
+  double amplitude_sum = 0, slope_sum = 0;
+  for (int k = 0; k < kRoughOctaves; ++k) {
+    amplitude_sum += std::ldexp(1.0, -k);
+    slope_sum += std::ldexp(1.0, -k) * 3 * std::sqrt(2.0) / std::ldexp(g.rough_wavelength_m, -k);
+  }
+  smooth_lipschitz_ = kPi * g.hills_amplitude_m / g.hills_wavelength_m * (1 + 1 / kObliqueStretch) +
+                      g.rough_amplitude_m / amplitude_sum * slope_sum;
+  smooth_max_elevation_m_ = g.hills_amplitude_m + g.rough_amplitude_m - origin_elevation_m_;
+  const double ditch_lipschitz = (g.ditch_u_shape ? 4 : 2) * g.ditch_depth_m / g.ditch_width_m;
+  const double berm_lipschitz = kPi * g.berm_height_m / g.berm_width_m;
+  lipschitz_ = smooth_lipschitz_ + ditch_lipschitz + berm_lipschitz;
+  if (g.ditch_depth_m > 0) strips_.push_back({g.ditch_x_m - g.ditch_width_m / 2, g.ditch_x_m + g.ditch_width_m / 2, 0.0});
+  if (g.berm_height_m > 0) strips_.push_back({g.berm_x_m - g.berm_width_m / 2, g.berm_x_m + g.berm_width_m / 2, g.berm_height_m});
+  max_elevation_m_ = smooth_max_elevation_m_ + g.berm_height_m;
+  min_elevation_m_ = -g.hills_amplitude_m - g.ditch_depth_m - g.rough_amplitude_m - origin_elevation_m_;
+}
+
+double SynthGroundTruth::raw_elevation_m(double x, double z) const {
+  const SynthGround& g = ground_;
+  double e = 0;
+  if (g.hills_amplitude_m > 0) {
+    const double along = 2 * kPi * z / g.hills_wavelength_m + hills_phase_[0];
+    const double oblique = 2 * kPi * (kObliqueX * x + kObliqueZ * z) / (kObliqueStretch * g.hills_wavelength_m) + hills_phase_[1];
+    e += 0.5 * g.hills_amplitude_m * (std::sin(along) + std::sin(oblique));
+  }
+  if (g.ditch_depth_m > 0) {
+    const double u = std::abs(x - g.ditch_x_m) / (g.ditch_width_m / 2);
+    if (u < 1) e -= g.ditch_depth_m * (g.ditch_u_shape ? 1 - u * u : 1 - u);
+  }
+  if (g.berm_height_m > 0) {
+    const double u = std::abs(x - g.berm_x_m) / (g.berm_width_m / 2);
+    if (u < 1) e += g.berm_height_m * 0.5 * (1 + std::cos(kPi * u));
+  }
+  if (g.rough_amplitude_m > 0) {
+    double sum = 0, amplitude_sum = 0;
+    for (int k = 0; k < kRoughOctaves; ++k) {
+      const double cell = std::ldexp(g.rough_wavelength_m, -k), amplitude = std::ldexp(1.0, -k);
+      sum += amplitude * value_noise(x / cell, z / cell, rough_seed_ + 7919u * static_cast<uint64_t>(k));
+      amplitude_sum += amplitude;
+    }
+    e += g.rough_amplitude_m * sum / amplitude_sum;
+  }
+  return e;
+}
+
+double SynthGroundTruth::elevation_m(double x_m, double z_m) const { return raw_elevation_m(x_m, z_m) - origin_elevation_m_; }
+
+double SynthGroundTruth::height_m(double x_m, double z_m) const {
+  const double rise = z_m <= slope_start_m_ ? 0.0 : slope_tan_ * (z_m - slope_start_m_);
+  return rise + elevation_m(x_m, z_m);
+}
 
 const char* synth_class_name(SynthClass object_class) {
   switch (object_class) {
@@ -422,6 +674,8 @@ void validate_synth_options(const StereoSynthOptions& o) {
   require(o.baseline_m > 0 && o.baseline_m <= 10, "baseline-m", "(0, 10] metres", o.baseline_m);
   require(o.camera_height_m > 0 && o.camera_height_m <= 100, "camera-height-m", "(0, 100] metres", o.camera_height_m);
   require(std::abs(o.pitch_rad) < 0.5, "pitch", "|pitch| < 0.5 rad (28.6 degrees)", o.pitch_rad);
+  require(std::abs(o.roll_rad) < 0.5, "roll", "|roll| < 0.5 rad (28.6 degrees)", o.roll_rad);
+  validate_ground(o.ground);
   require(std::abs(o.slope_deg) <= 10, "slope-deg", "a gentle slope, |slope| <= 10 degrees", o.slope_deg);
   require(o.slope_start_m >= 0, "slope-start-m", ">= 0 metres", o.slope_start_m);
   require(o.background_distance_m > 10 && o.background_distance_m <= 100000, "background-distance-m", "(10, 100000] metres",
@@ -464,7 +718,7 @@ double synth_road_disparity_px(const StereoSynthOptions& options, double u_px, d
   StereoSynthOptions no_objects = options;
   no_objects.objects.clear();
   const Renderer renderer(no_objects);
-  const double t = renderer.road().hit(renderer.camera().ray(u_px, v_px));
+  const double t = renderer.road().hit(renderer.camera().origin(0, options.baseline_m), renderer.camera().ray(u_px, v_px));
   return std::isfinite(t) ? renderer.camera().focal_px * options.baseline_m / t : kInfinity;
 }
 
@@ -517,8 +771,10 @@ StereoSynthScene render_stereo_synth(const StereoSynthOptions& options, const st
     const Placed& p = renderer.placed()[i];
     SynthObjectTruth truth;
     truth.id = static_cast<int>(i) + 1;
-    truth.object = p.object;
-    const Vec c = renderer.camera().to_camera({p.object.x_m, p.base_y, p.object.z_m}, 0.0);
+    truth.object = options.objects[i];
+    // The base centre: on the ground under it (a height-field object's solid reaches lower).
+    const Vec c = renderer.camera().to_camera({p.object.x_m, renderer.road().ground_y(p.object.x_m, p.object.z_m), p.object.z_m},
+                                              renderer.camera().origin(0, options.baseline_m));
     truth.position_m[0] = c.x, truth.position_m[1] = c.y, truth.position_m[2] = c.z;
     truth.distance_m = c.z;
     truth.disparity_px = fb / c.z;
@@ -543,6 +799,39 @@ StereoSynthScene render_stereo_synth(const StereoSynthOptions& options, const st
   return scene;
 }
 
+namespace {
+
+// ground.json: the parameters and the true height sampled every 0.25 m (what a script compares with).
+nlohmann::json ground_json(const StereoSynthOptions& options) {
+  const SynthGroundTruth truth(options);
+  const SynthGround& g = options.ground;
+  nlohmann::json json;
+  json["frame"] = "road: x right, z forward from the left camera centre; height_m up from the plane camera_height_m below the camera";
+  json["camera_height_m"] = options.camera_height_m;
+  json["pitch_rad"] = options.pitch_rad;
+  json["roll_rad"] = options.roll_rad;
+  json["slope_deg"] = options.slope_deg;
+  json["slope_start_m"] = options.slope_start_m;
+  json["seed"] = options.seed;
+  json["hills"] = {{"amplitude_m", g.hills_amplitude_m}, {"wavelength_m", g.hills_wavelength_m}};
+  json["ditch"] = {{"depth_m", g.ditch_depth_m}, {"x_m", g.ditch_x_m}, {"width_m", g.ditch_width_m}, {"shape", g.ditch_u_shape ? "U" : "V"}};
+  json["berm"] = {{"height_m", g.berm_height_m}, {"x_m", g.berm_x_m}, {"width_m", g.berm_width_m}};
+  json["rough"] = {{"amplitude_m", g.rough_amplitude_m}, {"wavelength_m", g.rough_wavelength_m}};
+  nlohmann::json xs = nlohmann::json::array(), zs = nlohmann::json::array(), heights = nlohmann::json::array();
+  for (int j = 0; j <= 96; ++j) xs.push_back(-12 + 0.25 * j);
+  for (int i = 0; i <= 160; ++i) {
+    const double z = 0.25 * i;
+    zs.push_back(z);
+    nlohmann::json row = nlohmann::json::array();
+    for (int j = 0; j <= 96; ++j) row.push_back(std::round(truth.height_m(-12 + 0.25 * j, z) * 1e6) / 1e6);
+    heights.push_back(row);
+  }
+  json["grid"] = {{"x_m", xs}, {"z_m", zs}, {"height_m", heights}};
+  return json;
+}
+
+}  // namespace
+
 void write_stereo_synth(const std::string& directory, const StereoSynthScene& scene, const StereoSynthOptions& options) {
   synth_detail::write_folder_atomically(directory, [&](const std::filesystem::path& temporary) {
     write_png(temporary / "left.png", scene.left);
@@ -562,6 +851,7 @@ void write_stereo_synth(const std::string& directory, const StereoSynthScene& sc
     json["hfov_deg"] = options.hfov_deg;
     json["camera_height_m"] = options.camera_height_m;
     json["pitch_rad"] = options.pitch_rad;
+    json["roll_rad"] = options.roll_rad;
     json["slope_deg"] = options.slope_deg;
     json["slope_start_m"] = options.slope_start_m;
     json["background_distance_m"] = options.background_distance_m;
@@ -583,6 +873,7 @@ void write_stereo_synth(const std::string& directory, const StereoSynthScene& sc
       json["objects"].push_back(o);
     }
     write_text(temporary / "objects.json", json.dump(2) + "\n");
+    write_text(temporary / "ground.json", ground_json(options).dump(1) + "\n");
 
     write_opencv_yaml((temporary / "calib.yaml").string(), scene.calibration,
                       "lpstereo synth: rectified pinhole pair, baseline " + number(options.baseline_m) + " m");

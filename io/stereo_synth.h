@@ -5,9 +5,15 @@
 //
 // Geometry (DESIGN.md §4): camera frame x right, y down, z forward, metres. The "road frame" has its
 // origin at the left camera centre, X right, Y down (gravity), Z forward along the road; the camera
-// is pitched by pitch_rad about X (+ = looking down). The flat road is the plane Y = +camera_height_m;
-// with slope_deg != 0 it bends at slope_start_m into a plane rising (slope > 0) or falling ahead.
-// The right camera sits baseline_m to the right (road X = +B), same orientation: a rectified pair,
+// is rolled by roll_rad about its optical axis, then pitched by pitch_rad about X (+ = looking down):
+// camera-to-road rotation Rx(pitch) Rz(roll), the mount arm::CameraMount{roll_rad, pitch_rad} of
+// arm/point_cloud.h describes (+ roll = the right side down). The flat road is the plane Y =
+// +camera_height_m; with slope_deg != 0 it bends at slope_start_m into a plane rising (slope > 0) or
+// falling ahead. A height-field ground (SynthGround: hills, ditch, berm, rough) adds its elevation
+// e(X, Z) (up, e(0, 0) = 0) to that road: the ground is Y = road Y(Z) - e(X, Z), ray cast by marching
+// in steps bounded by the field's Lipschitz constant, then refined to the crossing.
+// The right camera sits baseline_m along the camera's x axis (road X = +B without roll), same
+// orientation: a rectified pair,
 // pinhole, square pixels, principal point at the image centre ((W - 1) / 2, (H - 1) / 2, pixel
 // centres at integers), focal length f = (W / 2) / tan(hfov / 2).
 //
@@ -35,7 +41,9 @@ enum class SynthClass { cone, can, box, tape_roll, bin, pedestrian, car };
 const char* synth_class_name(SynthClass object_class);
 
 // One object standing on the road. Shapes (all vertical, axis along road Y, standing on the road
-// surface under their base centre): cone = truncated cone (top diameter 0.15 x width), can, tape
+// surface under their base centre; on a height-field ground the solid reaches down to the lowest
+// ground under its footprint, so it stands on the field without a gap, its top at the ground under
+// the base centre + height_m): cone = truncated cone (top diameter 0.15 x width), can, tape
 // roll = cylinder (diameter = width_m), pedestrian = capsule (cylinder with a hemispherical top,
 // diameter = width_m), box, bin, car = axis-aligned box (width_m across X, length_m along Z).
 struct SynthObject {
@@ -50,6 +58,38 @@ struct SynthObject {
 // The standard test objects of the range test (issue 6): sizes in metres.
 SynthObject synth_object(SynthClass object_class, double x_m, double z_m);
 
+// The height-field ground (issue 9): any combination of the kinds below, each off when its amplitude
+// is 0 (all off: today's flat or sloped road, rendered bit for bit as before). Heights in metres, up.
+struct SynthGround {
+  // Rolling hills: two sinusoidal swells, one along the road, one oblique (phases from the seed);
+  // the elevation stays within +-hills_amplitude_m.
+  double hills_amplitude_m = 0;
+  double hills_wavelength_m = 35;
+  // A ditch along the road (parallel to Z) centred at lateral X = ditch_x_m: V profile (depth at the
+  // centre, 0 at +-width / 2), or U (parabolic) with ditch_u_shape.
+  double ditch_depth_m = 0;
+  double ditch_x_m = 6.5;
+  double ditch_width_m = 2.5;
+  bool ditch_u_shape = false;
+  // A berm: a raised ridge along the road centred at X = berm_x_m, raised-cosine profile of base
+  // width berm_width_m.
+  double berm_height_m = 0;
+  double berm_x_m = -7;
+  double berm_width_m = 3;
+  // Mining-like rough ground: 4 octaves of value noise (cells rough_wavelength_m / 2^k, amplitudes
+  // halving), scaled so the elevation stays within +-rough_amplitude_m.
+  double rough_amplitude_m = 0;
+  double rough_wavelength_m = 6;
+
+  bool any() const { return hills_amplitude_m > 0 || ditch_depth_m > 0 || berm_height_m > 0 || rough_amplitude_m > 0; }
+};
+
+// "flat", or kinds joined by '+' or ',': hills, ditch (V), ditch-u, berm, rough; each named kind gets
+// its default size (hills 0.6 m over 35 m, ditch 0.6 m deep 2.5 m wide at X = 6.5 m, berm 0.8 m
+// high 3 m wide at X = -7 m, rough 0.25 m over 6 m). Throws std::invalid_argument "ground: expected
+// ..., got '<spec>'" otherwise.
+SynthGround parse_synth_ground(const std::string& spec);
+
 struct StereoSynthOptions {
   int width = 1280;
   int height = 576;
@@ -57,6 +97,7 @@ struct StereoSynthOptions {
   double baseline_m = 0.30;      // > 0
   double camera_height_m = 1.5;  // above the road under the camera, > 0
   double pitch_rad = 0;          // + = looking down, |pitch| < 0.5
+  double roll_rad = 0;           // about the optical axis, + = the right side down, |roll| < 0.5
   double slope_deg = 0;          // road slope beyond slope_start_m (+ = uphill), |slope| <= 10
   double slope_start_m = 20;     // where the slope starts, road Z
   double background_distance_m = 400;  // the far background wall (road Z); the road ends there
@@ -67,6 +108,7 @@ struct StereoSynthOptions {
   bool colour = false;           // also render BGR views (left_colour, right_colour)
   uint32_t seed = 1;             // textures and noise (and random scenes, see random_synth_objects)
   int threads = 2;               // rows are shared between this many threads
+  SynthGround ground;            // height field on the road (default: none)
   std::vector<SynthObject> objects;
 };
 
@@ -109,11 +151,50 @@ StereoSynthScene render_stereo_synth(const StereoSynthOptions& options,
                                      const std::function<void(double)>& progress = {});
 
 // The exact ground-truth disparity of the road at a left-view pixel centre (ignoring objects),
-// +inf where the ray does not meet the road before the background: the analytic reference.
+// +inf where the ray does not meet the road before the background: the analytic reference (for a
+// height-field ground, the ray-marched crossing the renderer uses).
 double synth_road_disparity_px(const StereoSynthOptions& options, double u_px, double v_px);
+
+// The true ground: its height at road-frame (x_m, z_m), metres up from the plane camera_height_m
+// below the left camera (so 0 under the camera; the slope's rise beyond slope_start_m plus the
+// height field). In arm/point_cloud.h's vehicle frame with the camera at (0, 0, camera_height_m) and
+// no yaw, the ground is z_vehicle = height_m(x = -y_vehicle, z = x_vehicle).
+class SynthGroundTruth {
+ public:
+  explicit SynthGroundTruth(const StereoSynthOptions& options);  // validates options.ground
+  double height_m(double x_m, double z_m) const;
+  // The height field alone (no slope), and bounds: |gradient| <= lipschitz(), elevation within
+  // [min_elevation_m(), max_elevation_m()].
+  double elevation_m(double x_m, double z_m) const;
+  double lipschitz() const { return lipschitz_; }
+  double max_elevation_m() const { return max_elevation_m_; }
+  double min_elevation_m() const { return min_elevation_m_; }
+  // For ray marching: the ditch and the berm only act within a strip of X; outside every strip the
+  // field is the hills and the rough part alone, with these (smaller) bounds.
+  struct Strip {
+    double x_min_m, x_max_m;
+    double raise_m;  // the most the strip raises the ground (0 for a ditch)
+  };
+  const std::vector<Strip>& strips() const { return strips_; }
+  double smooth_lipschitz() const { return smooth_lipschitz_; }
+  double smooth_max_elevation_m() const { return smooth_max_elevation_m_; }
+
+ private:
+  double raw_elevation_m(double x_m, double z_m) const;
+  SynthGround ground_;
+  double slope_tan_ = 0, slope_start_m_ = 0;
+  double hills_phase_[2] = {0, 0};
+  uint64_t rough_seed_ = 0;
+  double origin_elevation_m_ = 0;
+  double lipschitz_ = 0, max_elevation_m_ = 0, min_elevation_m_ = 0;
+  std::vector<Strip> strips_;
+  double smooth_lipschitz_ = 0, smooth_max_elevation_m_ = 0;
+};
 
 // Writes left.png, right.png (grey; left_colour.png, right_colour.png too when rendered),
 // disparity.png (KITTI 16-bit, x 256, 0 = no ground truth), object_ids.png (16-bit), objects.json,
+// ground.json (the ground's parameters and its height sampled every 0.25 m over X in [-12, 12],
+// Z in [0, 40] m: {"x_m": [...], "z_m": [...], "height_m": [[...]]}, height_m[i][j] at z_m[i], x_m[j]),
 // calib.yaml (OpenCV, io::write_opencv_yaml) and calib_cam_to_cam.txt (KITTI P_rect_02/03,
 // S_rect_02) into `directory`: first into a temporary sibling folder, renamed to `directory` when
 // every file is written (an existing `directory` is replaced). Throws std::runtime_error naming the

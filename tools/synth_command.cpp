@@ -26,6 +26,26 @@ SynthCommand::SynthCommand(CLI::App& app) {
       command_->add_option("--camera-height-m", options_.camera_height_m, "camera height above the road, metres")->capture_default_str());
   road_only_.push_back(command_->add_option("--pitch-deg", pitch_deg_, "camera pitch, degrees (+ = looking down)")->capture_default_str());
   road_only_.push_back(
+      command_->add_option("--roll-deg", roll_deg_, "camera roll about the optical axis, degrees (+ = the right side down)")->capture_default_str());
+  road_only_.push_back(command_->add_option("--ground", ground_spec_,
+                                            "ground: flat, or a height field of hills, ditch (V), ditch-u, berm, rough joined by '+' "
+                                            "(e.g. hills+ditch+berm); ground.json holds its true height")
+                           ->capture_default_str());
+  using G = io::SynthGround;
+  const std::pair<const char*, double G::*> sizes[] = {
+      {"--hills-amplitude-m", &G::hills_amplitude_m}, {"--hills-wavelength-m", &G::hills_wavelength_m},
+      {"--ditch-depth-m", &G::ditch_depth_m},         {"--ditch-x-m", &G::ditch_x_m},
+      {"--ditch-width-m", &G::ditch_width_m},         {"--berm-height-m", &G::berm_height_m},
+      {"--berm-x-m", &G::berm_x_m},                   {"--berm-width-m", &G::berm_width_m},
+      {"--rough-amplitude-m", &G::rough_amplitude_m}, {"--rough-wavelength-m", &G::rough_wavelength_m}};
+  for (const auto& [name, member] : sizes) {
+    CLI::Option* option = command_->add_option(name, ground_sizes_given_.*member,
+                                               "ground size, metres (replaces the --ground kind's default; an amplitude, depth or "
+                                               "height alone adds that kind)");
+    road_only_.push_back(option);
+    ground_sizes_.emplace_back(option, member);
+  }
+  road_only_.push_back(
       command_->add_option("--slope-deg", options_.slope_deg, "road slope beyond --slope-start-m, degrees (+ = uphill)")->capture_default_str());
   road_only_.push_back(
       command_->add_option("--slope-start-m", options_.slope_start_m, "where the slope starts, metres ahead")->capture_default_str());
@@ -181,6 +201,18 @@ int SynthCommand::run() {
     throw CommandError(kExitUsage, "--pitch-deg: expected |pitch| < 28.6 degrees, got " + std::to_string(pitch_deg_));
   }
   options_.pitch_rad = pitch_deg_ * 3.14159265358979323846 / 180.0;
+  if (!(std::abs(roll_deg_) < 28.6)) {
+    throw CommandError(kExitUsage, "--roll-deg: expected |roll| < 28.6 degrees, got " + std::to_string(roll_deg_));
+  }
+  options_.roll_rad = roll_deg_ * 3.14159265358979323846 / 180.0;
+  try {
+    options_.ground = io::parse_synth_ground(ground_spec_);
+  } catch (const std::invalid_argument& error) {
+    throw CommandError(kExitUsage, std::string("--") + error.what());
+  }
+  for (const auto& [option, member] : ground_sizes_) {
+    if (option->count() > 0) options_.ground.*member = ground_sizes_given_.*member;
+  }
   if (lineup_option_->count() > 0) {
     if (!(lineup_m_ > 0 && lineup_m_ < options_.background_distance_m)) {
       throw CommandError(kExitUsage, "--lineup: expected a distance in (0, " + std::to_string(options_.background_distance_m) +
@@ -207,10 +239,10 @@ int SynthCommand::run() {
   }
   int visible = 0;
   for (const io::SynthObjectTruth& object : scene.objects) visible += object.visible_pixels > 0 ? 1 : 0;
-  std::printf("%dx%d, hfov %.1f deg (focal %.2f px), baseline %.3f m, camera height %.2f m, pitch %.2f deg, slope %.1f deg, "
-              "%zu objects (%d visible), %d samples/pixel, noise %.1f: rendered in %.2f s on %d threads -> %s\n",
+  std::printf("%dx%d, hfov %.1f deg (focal %.2f px), baseline %.3f m, camera height %.2f m, pitch %.2f deg, roll %.2f deg, "
+              "slope %.1f deg, ground %s, %zu objects (%d visible), %d samples/pixel, noise %.1f: rendered in %.2f s on %d threads -> %s\n",
               options_.width, options_.height, options_.hfov_deg, scene.focal_px, options_.baseline_m, options_.camera_height_m,
-              pitch_deg_, options_.slope_deg, scene.objects.size(), visible, options_.samples_per_axis * options_.samples_per_axis,
+              pitch_deg_, roll_deg_, options_.slope_deg, ground_spec_.c_str(), scene.objects.size(), visible, options_.samples_per_axis * options_.samples_per_axis,
               options_.noise_sigma, render_s, options_.threads, output_.c_str());
   return 0;
 }

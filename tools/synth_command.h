@@ -1,9 +1,10 @@
 // lpstereo synth -o DIR [--width W --height H --hfov-deg A --baseline-m B --camera-height-m H
-//     --pitch-deg P --slope-deg S --noise-sigma N --gain G --offset O --seed S --samples N --colour
+//     --pitch-deg P --roll-deg R --slope-deg S --ground flat|hills+ditch+berm+rough [--hills-amplitude-m ...]
+//     --noise-sigma N --gain G --offset O --seed S --samples N --colour
 //     --threads T] [--lineup DIST_M | --empty]
 // A rendered rectified stereo pair with exact ground truth into a folder (io/stereo_synth.h,
 // docs/synth.md): left.png, right.png, disparity.png (KITTI), object_ids.png, objects.json,
-// calib.yaml, calib_cam_to_cam.txt. The scene: random objects on the road (by --seed), the range-test
+// ground.json, calib.yaml, calib_cam_to_cam.txt. The scene: random objects on the road (by --seed), the range-test
 // row of objects at a distance (--lineup), or no objects (--empty).
 //
 // lpstereo synth --flight -o DIR [--frames N | --fps F] [--yaw none|corners:DEG[,DEG,DEG,DEG]|continuous:DEG_S]
@@ -37,6 +38,12 @@ class SynthCommand {
   std::string output_;
   io::StereoSynthOptions options_;
   double pitch_deg_ = 0;
+  double roll_deg_ = 0;
+  std::string ground_spec_ = "flat";
+  // --hills-amplitude-m ...: each option writes into its field of ground_sizes_given_ and, when
+  // given, replaces that field of the --ground kind's defaults.
+  std::vector<std::pair<CLI::Option*, double io::SynthGround::*>> ground_sizes_;
+  io::SynthGround ground_sizes_given_;
   double lineup_m_ = 0;
   bool empty_ = false;
   // --flight

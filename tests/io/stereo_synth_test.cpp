@@ -7,8 +7,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -195,21 +197,76 @@ TEST(StereoSynth, RightCameraGainAndOffset) {
   EXPECT_GT(checked, 1000);
 }
 
-TEST(StereoSynth, DeterministicBySeedAndThreadCount) {
-  StereoSynthOptions options = small_options();
-  options.objects = io::random_synth_objects(9);
-  options.noise_sigma = 2;
+// Renders with 1 and with 3 threads, expects the same bits (views and truth), returns the scene.
+io::StereoSynthScene render_expecting_the_same_bits_for_any_thread_count(StereoSynthOptions options) {
   options.threads = 1;
-  const io::StereoSynthScene one = io::render_stereo_synth(options);
+  io::StereoSynthScene one = io::render_stereo_synth(options);
   options.threads = 3;
   const io::StereoSynthScene three = io::render_stereo_synth(options);
   EXPECT_EQ(cv::norm(one.left, three.left, cv::NORM_INF), 0);
   EXPECT_EQ(cv::norm(one.right, three.right, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(one.disparity_px, three.disparity_px, cv::NORM_INF), 0);
+  return one;
+}
+
+TEST(StereoSynth, DeterministicBySeedAndThreadCount) {
+  StereoSynthOptions options = small_options();
+  options.objects = io::random_synth_objects(9);
+  options.noise_sigma = 2;
+  const io::StereoSynthScene one = render_expecting_the_same_bits_for_any_thread_count(options);
   options.seed = 10;
   const io::StereoSynthScene other = io::render_stereo_synth(options);
   EXPECT_GT(cv::norm(one.left, other.left, cv::NORM_L1), 0);
   EXPECT_NE(io::random_synth_objects(9).size() * 1000 + static_cast<size_t>(io::random_synth_objects(9)[0].z_m * 10),
             io::random_synth_objects(10).size() * 1000 + static_cast<size_t>(io::random_synth_objects(10)[0].z_m * 10));
+}
+
+// FNV-1a over both views, the object ids and the ground truth in KITTI's 1/256 px form (quantised so
+// a last-bit difference of a maths library cannot change it, only a real change of the rendering).
+uint64_t scene_checksum(const io::StereoSynthScene& scene) {
+  uint64_t hash = 1469598103934665603ull;
+  auto add = [&hash](const cv::Mat& image) {
+    for (int v = 0; v < image.rows; ++v) {
+      const auto* bytes = image.ptr<uint8_t>(v);
+      for (size_t i = 0; i < image.cols * image.elemSize(); ++i) hash = (hash ^ bytes[i]) * 1099511628211ull;
+    }
+  };
+  add(scene.left);
+  add(scene.right);
+  add(scene.object_ids);
+  cv::Mat truth_q8(scene.disparity_px.size(), CV_32SC1);
+  for (int v = 0; v < truth_q8.rows; ++v) {
+    for (int u = 0; u < truth_q8.cols; ++u) {
+      const float d = scene.disparity_px.at<float>(v, u);
+      truth_q8.at<int32_t>(v, u) = std::isfinite(d) ? static_cast<int32_t>(std::lround(d * 256.0)) : -1;
+    }
+  }
+  add(truth_q8);
+  return hash;
+}
+
+// The flat and sloped road with objects, pitch, noise and a right-camera gain, exactly as the
+// generator rendered them before the height-field ground and the roll angle were added: the pinned
+// value was computed by that older code (commit 4d8bfa9), so any change of the existing options'
+// output fails here.
+TEST(StereoSynth, ExistingOptionsRenderTheSameBitsAsBeforeTheHeightField) {
+  StereoSynthOptions options = small_options();
+  options.width = 192;
+  options.height = 96;
+  options.pitch_rad = 0.02;
+  options.slope_deg = 3;
+  options.slope_start_m = 14;
+  options.noise_sigma = 2;
+  options.right_gain = 1.05;
+  options.seed = 5;
+  options.objects = io::lineup_synth_objects(11);
+  options.objects.push_back(io::synth_object(io::SynthClass::car, 3.5, 24));
+  const uint64_t sloped = scene_checksum(io::render_stereo_synth(options));
+  options.slope_deg = 0;
+  options.objects = io::random_synth_objects(4);
+  const uint64_t flat = scene_checksum(io::render_stereo_synth(options));
+  EXPECT_EQ(sloped, 0x67c6c786ec497376ull) << std::hex << sloped;
+  EXPECT_EQ(flat, 0xcc9cfb446c18be32ull) << std::hex << flat;
 }
 
 TEST(StereoSynth, DisparityEngineRecoversTheGroundTruth) {
@@ -323,6 +380,253 @@ TEST(StereoSynth, UnwritableFolderLeavesNothing) {
     ++entries;
   }
   EXPECT_EQ(entries, 1);
+}
+
+
+// ---- the height-field ground and the roll angle (issue 9) ----
+
+// The road-frame direction of the left ray through pixel (u, v), camera depth 1: the camera is
+// rolled by `roll` about its optical axis, then pitched by `pitch` about X (the header's convention,
+// written out again here).
+struct TestRay {
+  double x, y, z;
+};
+TestRay left_ray(const io::StereoSynthScene& scene, const StereoSynthOptions& options, double u, double v) {
+  const double cx = (options.width - 1) / 2.0, cy = (options.height - 1) / 2.0;
+  const double a = (u - cx) / scene.focal_px, b = (v - cy) / scene.focal_px;
+  const double cr = std::cos(options.roll_rad), sr = std::sin(options.roll_rad);
+  const double x = a * cr - b * sr, y = a * sr + b * cr;
+  const double cp = std::cos(options.pitch_rad), sp = std::sin(options.pitch_rad);
+  return {x, y * cp + sp, -y * sp + cp};
+}
+
+// The first crossing of the ray with the ground Y = h - height(X, Z), by dense sampling (1 cm steps
+// in depth) and bisection: independent of the renderer's Lipschitz march. +inf when none before 80 m.
+double dense_ground_depth(const io::SynthGroundTruth& truth, double camera_height_m, TestRay d) {
+  auto above = [&](double t) { return camera_height_m - truth.height_m(t * d.x, t * d.z) - t * d.y; };
+  double previous = 0.0;
+  for (double t = 0.01; t * d.z < 80; t += 0.01) {
+    if (above(t) <= 0) {
+      double lo = previous, hi = t;
+      for (int i = 0; i < 60; ++i) (above(0.5 * (lo + hi)) > 0 ? lo : hi) = 0.5 * (lo + hi);
+      return 0.5 * (lo + hi);
+    }
+    previous = t;
+  }
+  return std::numeric_limits<double>::infinity();
+}
+
+StereoSynthOptions field_options() {
+  StereoSynthOptions options = small_options();
+  options.ground = io::parse_synth_ground("hills+ditch+berm+rough");
+  options.pitch_rad = 0.04;
+  options.roll_rad = 0.05;
+  options.seed = 6;
+  options.samples_per_axis = 1;  // the truth comes from the centre ray anyway; keeps the test quick
+  return options;
+}
+
+TEST(StereoSynthGround, KindsHaveTheirDocumentedShape) {
+  StereoSynthOptions options = small_options();
+  options.ground.ditch_depth_m = 0.5;
+  options.ground.ditch_x_m = 6;
+  options.ground.ditch_width_m = 2;
+  options.ground.berm_height_m = 0.7;
+  options.ground.berm_x_m = -7;
+  options.ground.berm_width_m = 3;
+  const io::SynthGroundTruth ditch_and_berm(options);
+  for (double z : {3.0, 17.0, 55.0}) {
+    EXPECT_NEAR(ditch_and_berm.height_m(0, z), 0, 1e-12);
+    EXPECT_NEAR(ditch_and_berm.height_m(6, z), -0.5, 1e-12);    // V: full depth at the centre,
+    EXPECT_NEAR(ditch_and_berm.height_m(6.5, z), -0.25, 1e-12);  // half at a quarter width,
+    EXPECT_NEAR(ditch_and_berm.height_m(7.2, z), 0, 1e-12);      // none beyond the edge
+    EXPECT_NEAR(ditch_and_berm.height_m(-7, z), 0.7, 1e-12);     // raised cosine: the crest,
+    EXPECT_NEAR(ditch_and_berm.height_m(-7.75, z), 0.35, 1e-12); // half way down its flank
+    EXPECT_NEAR(ditch_and_berm.height_m(-8.6, z), 0, 1e-12);
+  }
+  options.ground.ditch_u_shape = true;
+  EXPECT_NEAR(io::SynthGroundTruth(options).height_m(6.5, 9), -0.5 * (1 - 0.25), 1e-12);  // 1 - u^2 at u = 1/2
+
+  // Hills, rough and a slope: 0 under the camera, within the amplitudes, rising with the slope, and
+  // no steeper anywhere (finite differences on a grid) than the Lipschitz bound the march relies on.
+  options = small_options();
+  options.ground = io::parse_synth_ground("hills+rough");
+  options.slope_deg = 3;
+  options.slope_start_m = 20;
+  const io::SynthGroundTruth rolling(options);
+  EXPECT_NEAR(rolling.height_m(0, 0), 0, 1e-12);
+  double steepest = 0, lowest = 1e9, highest = -1e9;
+  for (double z = 0; z < 60; z += 0.05) {
+    for (double x = -12; x < 12; x += 0.05) {
+      const double e = rolling.elevation_m(x, z);
+      lowest = std::min(lowest, e), highest = std::max(highest, e);
+      steepest = std::max(steepest, std::hypot(rolling.elevation_m(x + 0.05, z) - e, rolling.elevation_m(x, z + 0.05) - e) / 0.05);
+      EXPECT_NEAR(rolling.height_m(x, z) - e, z > 20 ? std::tan(3 * kPi / 180) * (z - 20) : 0.0, 1e-9);
+    }
+  }
+  EXPECT_LE(highest, rolling.max_elevation_m());
+  EXPECT_GE(lowest, rolling.min_elevation_m());
+  EXPECT_GT(highest - lowest, 0.5);  // hills 0.6 + rough 0.25: a real relief, not a flat road
+  EXPECT_LT(steepest, rolling.lipschitz());
+  EXPECT_GT(steepest, 0.1);
+}
+
+TEST(StereoSynthGround, GroundDisparityIsTheHeightFieldCrossing) {
+  const StereoSynthOptions options = field_options();
+  const io::StereoSynthScene scene = io::render_stereo_synth(options);
+  const io::SynthGroundTruth truth(options);
+  int checked = 0;
+  for (int v = 84; v < 160; v += 5) {
+    for (int u = 5; u < 320; u += 23) {
+      const double depth = dense_ground_depth(truth, options.camera_height_m, left_ray(scene, options, u, v));
+      const float disparity = scene.disparity_px.at<float>(v, u);
+      ASSERT_TRUE(std::isfinite(depth)) << u << "," << v;
+      EXPECT_NEAR(disparity, scene.focal_px * options.baseline_m / depth, 1e-4 * disparity) << "pixel " << u << "," << v;
+      EXPECT_NEAR(io::synth_road_disparity_px(options, u, v), scene.focal_px * options.baseline_m / depth, 1e-4 * disparity);
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 16 * 14);
+}
+
+TEST(StereoSynthGround, ObjectsStandOnTheField) {
+  StereoSynthOptions options = small_options();
+  options.ground = io::parse_synth_ground("hills+rough");
+  options.ground.rough_amplitude_m = 0.4;
+  options.seed = 11;
+  options.objects = {io::synth_object(io::SynthClass::box, 0.8, 9), io::synth_object(io::SynthClass::bin, -1.5, 14)};
+  const io::StereoSynthScene scene = io::render_stereo_synth(options);
+  const io::SynthGroundTruth truth(options);
+  for (const io::SynthObjectTruth& object : scene.objects) {
+    const double ground = truth.height_m(object.object.x_m, object.object.z_m);
+    // The base centre in the camera frame (no pitch, no roll): y is the camera height minus the
+    // ground's height there, and the size is the one asked for.
+    EXPECT_NEAR(object.position_m[1], options.camera_height_m - ground, 1e-9) << io::synth_class_name(object.object.object_class);
+    EXPECT_EQ(object.object.height_m, options.objects[static_cast<size_t>(object.id - 1)].height_m);
+    ASSERT_GT(object.visible_pixels, 50);
+    // The object's top edge (the far edge of its top face, seen from above, at depth z + length / 2)
+    // is where a pinhole puts ground + height_m, within a pixel.
+    const double front_z = object.object.z_m - object.object.length_m / 2, back_z = object.object.z_m + object.object.length_m / 2;
+    const double top_y = options.camera_height_m - ground - object.object.height_m;
+    const double expected_top_v = (options.height - 1) / 2.0 + scene.focal_px * top_y / back_z;
+    EXPECT_NEAR(object.bbox_px[1], expected_top_v, 1.0) << io::synth_class_name(object.object.object_class);
+    // No gap under it: below the lowest object pixel of the centre column the ground is about as far
+    // as the object's front face (it is the ground the object stands on, not ground far behind)
+    const int u = static_cast<int>(std::lround((options.width - 1) / 2.0 + scene.focal_px * object.object.x_m / front_z));
+    int bottom = -1;
+    for (int v = 0; v < options.height; ++v) {
+      if (scene.object_ids.at<uint16_t>(v, u) == object.id) bottom = v;
+    }
+    ASSERT_GE(bottom, 0);
+    ASSERT_LT(bottom + 1, options.height);
+    EXPECT_EQ(scene.object_ids.at<uint16_t>(bottom + 1, u), 0);
+    // (On the ground one row down changes the disparity by about B / h = 0.2 px; ground seen behind a
+    // gap would be metres further, over a pixel less.)
+    EXPECT_NEAR(scene.disparity_px.at<float>(bottom + 1, u), scene.focal_px * options.baseline_m / front_z, 0.5)
+        << io::synth_class_name(object.object.object_class);
+  }
+}
+
+TEST(StereoSynthGround, RollRotatesTheHorizonByTheRollAngle) {
+  // On a flat road a line of constant depth is parallel to the horizon: find where the disparity
+  // crosses a fixed value in two columns and measure the angle of the line through both points.
+  for (double roll : {0.1, -0.07}) {
+    StereoSynthOptions options = small_options();
+    options.roll_rad = roll;
+    options.pitch_rad = 0.03;
+    const io::StereoSynthScene scene = io::render_stereo_synth(options);
+    const float level = 6.0f;
+    auto crossing_row = [&](int u) {
+      for (int v = options.height - 1; v > 0; --v) {
+        const float below = scene.disparity_px.at<float>(v, u), above = scene.disparity_px.at<float>(v - 1, u);
+        if (below >= level && above < level) return v - (below - level) / (below - above);
+      }
+      return -1.0f;
+    };
+    const int u0 = 40, u1 = 280;
+    const double v0 = crossing_row(u0), v1 = crossing_row(u1);
+    ASSERT_GT(v0, 0);
+    ASSERT_GT(v1, 0);
+    // + roll lowers the camera's right side: the scene turns the other way, the horizon rises at the right.
+    EXPECT_NEAR(std::atan2(v0 - v1, u1 - u0), roll, 0.005) << "roll " << roll;
+  }
+}
+
+TEST(StereoSynthGround, RolledFieldSceneIsTheSameForAnyThreadCountAndStereoConsistent) {
+  StereoSynthOptions options = field_options();
+  options.width = 160;
+  options.height = 80;
+  options.objects = io::random_synth_objects(2);
+  const io::StereoSynthScene one = render_expecting_the_same_bits_for_any_thread_count(options);
+  // With roll the right camera sits along the rolled x axis: the pair stays rectified, so a ground
+  // pixel's texture is found in the right view on the same row, d pixels to the left.
+  int compared = 0, close = 0;
+  for (int v = 50; v < 80; ++v) {
+    for (int u = 30; u < 150; ++u) {
+      const float d = one.disparity_px.at<float>(v, u);
+      if (!std::isfinite(d) || one.object_ids.at<uint16_t>(v, u) != 0) continue;
+      const int ur = static_cast<int>(std::lround(u - d));
+      if (ur < 0) continue;
+      ++compared;
+      close += std::abs(one.left.at<uint8_t>(v, u) - one.right.at<uint8_t>(v, ur)) <= 12 ? 1 : 0;
+    }
+  }
+  ASSERT_GT(compared, 1000);
+  EXPECT_GT(close, compared * 8 / 10) << close << " of " << compared;
+}
+
+TEST(StereoSynthGround, GroundJsonHoldsTheTrueHeight) {
+  lpstereo::testing::ScratchDirectory scratch("lpstereo_synth");
+  StereoSynthOptions options = field_options();
+  options.width = 32;
+  options.height = 16;
+  const io::StereoSynthScene scene = io::render_stereo_synth(options);
+  io::write_stereo_synth(scratch.path("scene"), scene, options);
+  std::ifstream file(scratch.path("scene") + "/ground.json");
+  const nlohmann::json json = nlohmann::json::parse(file);
+  const io::SynthGroundTruth truth(options);
+  const auto& grid = json.at("grid");
+  ASSERT_EQ(grid.at("x_m").size(), 97u);
+  ASSERT_EQ(grid.at("z_m").size(), 161u);
+  for (size_t i : {0u, 40u, 160u}) {
+    for (size_t j : {0u, 50u, 96u}) {
+      const double x = grid.at("x_m")[j], z = grid.at("z_m")[i];
+      EXPECT_NEAR(grid.at("height_m")[i][j].get<double>(), truth.height_m(x, z), 1e-6);
+    }
+  }
+  EXPECT_EQ(json.at("ditch").at("depth_m").get<double>(), 0.6);
+  EXPECT_EQ(json.at("roll_rad").get<double>(), 0.05);
+}
+
+TEST(StereoSynthGround, BadGroundAndRollAreRefusedByName) {
+  auto message = [](const StereoSynthOptions& options) {
+    try {
+      io::render_stereo_synth(options);
+    } catch (const std::invalid_argument& error) {
+      return std::string(error.what());
+    }
+    return std::string("no error");
+  };
+  StereoSynthOptions options = small_options();
+  options.roll_rad = 0.6;
+  EXPECT_NE(message(options).find("roll"), std::string::npos) << message(options);
+  options = small_options();
+  options.ground.hills_amplitude_m = -1;
+  EXPECT_NE(message(options).find("hills-amplitude-m"), std::string::npos) << message(options);
+  options = small_options();
+  options.ground.berm_height_m = 1;
+  options.ground.berm_width_m = 0;
+  EXPECT_NE(message(options).find("berm-width-m"), std::string::npos) << message(options);
+  try {
+    io::parse_synth_ground("hills+volcano");
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("ground"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("hills+volcano"), std::string::npos) << error.what();
+    EXPECT_EQ(std::string(error.what()).find('\n'), std::string::npos);
+  }
+  EXPECT_FALSE(io::parse_synth_ground("flat").any());
+  EXPECT_TRUE(io::parse_synth_ground("ditch-u").ditch_u_shape);
 }
 
 }  // namespace

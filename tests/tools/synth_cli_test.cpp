@@ -47,7 +47,7 @@ TEST_F(SynthCli, LineupFolderReadsBack) {
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.out.find("rendered in"), std::string::npos) << result.out;
   for (const char* name : {"left.png", "right.png", "left_colour.png", "right_colour.png", "disparity.png", "object_ids.png",
-                           "objects.json", "calib.yaml", "calib_cam_to_cam.txt"}) {
+                           "objects.json", "ground.json", "calib.yaml", "calib_cam_to_cam.txt"}) {
     EXPECT_TRUE(fs::is_regular_file(path("scene") + "/" + name)) << name;
   }
   std::ifstream file(path("scene") + "/objects.json");
@@ -89,6 +89,33 @@ TEST_F(SynthCli, BadValuesGiveOneLineAndExit2) {
   const Result hfov = run("synth -o " + path("bad") + " --hfov-deg 200");
   EXPECT_NE(hfov.err.find("hfov-deg"), std::string::npos) << hfov.err;
   EXPECT_NE(hfov.err.find("200"), std::string::npos) << hfov.err;
+}
+
+TEST_F(SynthCli, HeightFieldGroundWithRollWritesItsTruth) {
+  const Result result = run("synth -o " + path("field") + " --width 96 --height 48 --samples 1 --ground ditch-u+berm --berm-height-m 1.1 "
+                            "--hills-amplitude-m 0.3 --roll-deg 2");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("ditch-u+berm"), std::string::npos) << result.out;
+  std::ifstream file(path("field") + "/ground.json");
+  const nlohmann::json ground = nlohmann::json::parse(file);
+  EXPECT_EQ(ground["ditch"]["shape"], "U");
+  EXPECT_NEAR(ground["ditch"]["depth_m"].get<double>(), 0.6, 1e-12);       // the kind's default,
+  EXPECT_NEAR(ground["berm"]["height_m"].get<double>(), 1.1, 1e-12);       // replaced by its option,
+  EXPECT_NEAR(ground["hills"]["amplitude_m"].get<double>(), 0.3, 1e-12);   // or added by an option alone
+  EXPECT_NEAR(ground["roll_rad"].get<double>(), 2 * 3.14159265358979323846 / 180, 1e-12);
+}
+
+TEST_F(SynthCli, BadGroundOrRollGivesOneLineAndExit2) {
+  for (const std::string arguments : {"--ground volcano", "--ground hills+", "--roll-deg 40", "--ditch-width-m 0 --ground ditch",
+                                      "--rough-amplitude-m -1", "--flight --ground hills", "--flight --roll-deg 1"}) {
+    SCOPED_TRACE(arguments);
+    const Result result = run("synth -o " + path("bad") + " --width 64 --height 32 " + arguments);
+    EXPECT_EQ(result.exit_code, 2) << result.err;
+    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_FALSE(fs::exists(path("bad")));
+  }
+  EXPECT_NE(run("synth -o " + path("bad") + " --ground volcano").err.find("volcano"), std::string::npos);
+  EXPECT_NE(run("synth -o " + path("bad") + " --ditch-width-m 0 --ground ditch").err.find("ditch-width-m"), std::string::npos);
 }
 
 TEST_F(SynthCli, UnwritableFolderGivesOneLineAndExit1) {

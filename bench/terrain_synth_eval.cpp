@@ -1,0 +1,376 @@
+// terrain_synth_eval: issue 9's synthetic acceptance line, measured. An evaluation program, not a
+// test (it renders a dozen 640x480 scenes; the figures are printed, the lines checked at the end).
+//
+// For several seeds and ground kinds (hills; ditch + berm; mining-like rough; hills + rough with the
+// camera rolled), io::render_stereo_synth renders a 640x480 pair with obstacles standing on the
+// height field (io/stereo_synth.h); arm::DisparityEngine (the `lpstereo points` settings) gives the
+// disparity, arm::triangulate the camera-frame points, arm::CameraToVehicle with the synthetic
+// camera's known mount (roll, pitch, 0 yaw, centre camera_height_m above the ground under it) the
+// vehicle frame; then the 2.5D grid, fit_terrain and classify_points (arm/terrain/terrain_model.h).
+//
+// Per scene:
+//   RMS height error   S(x, y) - true ground height (io::SynthGroundTruth) at the centres of the cells
+//                      the surface covers and the left camera sees ground in (a cell is visible when
+//                      a ground pixel of the exact ground truth, object id 0, falls into it), within
+//                      20 m forward (the line: <= 5 cm) and over the whole 34 m area.
+//   obstacle points    a measured point is truly an obstacle when its pixel shows an object (object
+//                      id image) and the exact 3D point of that pixel is more than 20 cm above the true
+//                      ground; found when classify_points says obstacle. Precision and recall over the
+//                      measured points the surface covers (the line: both >= 95 %).
+// The mount is checked first on the exact ground truth: its ground pixels, through the same
+// triangulation formula and CameraToVehicle, must lie on SynthGroundTruth (max error: "mount").
+// Diagnostics beside the two lines, to tell the stereo's share from the fit's: "bias" (mean signed
+// surface error within 20 m), "grid" (the measured cells' own heights, max(min z, mean z - sigma),
+// against the truth), "points" (measured ground points' height above the true ground, RMS), "exact"
+// (the same grid and fit on the exact points of every pixel: the fit alone), "FP" and "FP ground"
+// (false obstacle points, and those on ground pixels), "gnd>20cm" (measured ground points more than
+// 20 cm above the true ground within 20 m: stereo errors no surface can hide). --bands prints the
+// surface's RMS per 5 m band for the left verge, the road and the right verge; --exact-points runs
+// the whole evaluation on the exact points.
+//
+// Usage: terrain_synth_eval [--seeds N] [--census 5|9] [--bands] [--control N] [--initial-control N]
+//        [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A] [--threshold-factor F] [--alpha-step A]
+//        [--iterations N] [--cell-m C] [--noise-sigma S]
+// Exit 0 when every scene meets both lines, 1 otherwise.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "arm/disparity_engine.h"
+#include "arm/point_cloud.h"
+#include "arm/terrain/terrain_model.h"
+#include "io/image_io.h"
+#include "io/stereo_synth.h"
+#include "kernels/disparity_to_points.h"
+
+namespace {
+
+using namespace lpstereo;
+namespace terrain = arm::terrain;
+
+struct SceneKind {
+  const char* name;
+  const char* ground;  // io::parse_synth_ground spec
+  double roll_deg;
+};
+
+struct Settings {
+  int seeds = 3;
+  bool bands = false;
+  bool exact_points = false;  // --exact-points: the exact points of every pixel instead of the stereo ones  // --bands: the surface's RMS error per 5 m band forward x road / beside it
+  double noise_sigma = 1.0;
+  int census_width = 5;  // the disparity engine's census window (5 or 9)
+  terrain::TerrainFitParameters fit;
+  terrain::TerrainGridSpec grid;  // 0..34 m forward, +-11 m lateral, 0.5 m cells (the thesis's area)
+};
+
+// Extra obstacles within the evaluated 34 m (the random scene spreads its objects to 80 m): boxes,
+// bins, pedestrians and a car, from a small LCG of the seed, kept clear of the random ones.
+std::vector<io::SynthObject> near_obstacles(uint32_t seed, const std::vector<io::SynthObject>& existing) {
+  uint64_t state = seed * 6364136223846793005ull + 1442695040888963407ull;
+  auto uniform = [&state](double low, double high) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return low + (high - low) * static_cast<double>(state >> 11) * (1.0 / 9007199254740992.0);
+  };
+  const io::SynthClass classes[] = {io::SynthClass::box, io::SynthClass::bin, io::SynthClass::pedestrian, io::SynthClass::car,
+                                    io::SynthClass::bin, io::SynthClass::pedestrian};
+  std::vector<io::SynthObject> objects = existing;
+  for (int attempt = 0, placed = 0; attempt < 200 && placed < 6; ++attempt) {
+    io::SynthObject o = io::synth_object(classes[placed], uniform(-5.0, 5.0), uniform(7.0, 30.0));
+    bool overlaps = false;
+    for (const io::SynthObject& other : objects) {
+      if (std::hypot(o.x_m - other.x_m, o.z_m - other.z_m) < 0.5 * (std::hypot(o.width_m, o.length_m) + std::hypot(other.width_m, other.length_m)) + 1.0) {
+        overlaps = true;
+      }
+    }
+    if (overlaps) continue;
+    objects.push_back(o);
+    ++placed;
+  }
+  return objects;
+}
+
+struct SceneResult {
+  bool known = false;
+  std::string reason;
+  double rms_20_m = NAN, rms_34_m = NAN;
+  double bias_20_m = NAN;       // mean signed error within 20 m (surface - truth)
+  double grid_rms_20_m = NAN;
+  double point_rms_20_m = NAN;
+  double exact_rms_20_m = NAN;  // the same grid and fit on the exact points (ground-truth disparity): the fit's own share  // measured ground points (object id 0): height above the true ground, within 20 m   // the grid's own cell heights (measured cells) against the truth, within 20 m
+  int cells_20 = 0, cells_34 = 0;
+  int64_t true_positive = 0, false_positive = 0, false_negative = 0, truly_obstacle = 0;
+  int64_t false_positive_ground_pixel = 0;   // of false_positive: the pixel shows the ground (object id 0)
+  int64_t ground_points_above_20_cm = 0;     // measured ground points more than 20 cm above the true ground
+  double mount_error_m = 0;
+  int iterations = 0;
+  double fit_ms = 0;
+};
+
+SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& settings) {
+  SceneResult result;
+  const io::StereoSynthScene scene = io::render_stereo_synth(options);
+  const io::SynthGroundTruth truth(options);
+  const int width = options.width, height = options.height;
+
+  arm::DisparityParameters disparity_parameters;
+  disparity_parameters.num_disparities = 80;
+  disparity_parameters.census_width = settings.census_width;
+  arm::DisparityEngine engine(width, height, disparity_parameters);
+  const Plane left = io::mat_to_plane(scene.left, BufferFormat{ElementType::u8});
+  const Plane right = io::mat_to_plane(scene.right, BufferFormat{ElementType::u8});
+  const Plane& disparity = engine.compute(left, right);
+  const double cx = (width - 1) / 2.0, cy = (height - 1) / 2.0;
+  const arm::TriangulationParameters triangulation{options.baseline_m, scene.focal_px, cx, cy, 0, disparity_parameters.num_disparities, 0};
+  const arm::CameraPoints points = arm::triangulate(disparity, triangulation);
+
+  arm::CameraMount mount;
+  mount.roll_rad = options.roll_rad;
+  mount.pitch_rad = options.pitch_rad;
+  mount.position_m = Eigen::Vector3d(0, 0, options.camera_height_m);
+  const arm::CameraToVehicle to_vehicle(mount);
+  auto ground_height = [&truth](const Eigen::Vector3d& vehicle) { return truth.height_m(-vehicle.y(), vehicle.x()); };
+  // The exact 3D point of pixel (u, v) from the ground-truth disparity (pinhole, d = f B / Z).
+  auto exact_point = [&](int u, int v) {
+    const double d = scene.disparity_px.at<float>(v, u);
+    const double z = scene.focal_px * options.baseline_m / d;
+    return to_vehicle.apply(Eigen::Vector3d((u - cx) * z / scene.focal_px, (v - cy) * z / scene.focal_px, z));
+  };
+
+  // Visible cells (exact ground pixels) and the mount check.
+  const terrain::TerrainGridSpec& spec = settings.grid;
+  Eigen::MatrixXi visible = Eigen::MatrixXi::Zero(spec.forward_cells(), spec.lateral_cells());
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      if (scene.object_ids.at<uint16_t>(v, u) != 0 || !std::isfinite(scene.disparity_px.at<float>(v, u))) continue;
+      const Eigen::Vector3d p = exact_point(u, v);
+      if (p.x() > 300) continue;  // the background wall
+      result.mount_error_m = std::max(result.mount_error_m, std::abs(p.z() - ground_height(p)));
+      int i = 0, j = 0;
+      if (spec.cell_of(p.x(), p.y(), &i, &j)) visible(i, j) = 1;
+    }
+  }
+
+  // Measured points in the vehicle frame, with their pixels.
+  std::vector<Eigen::Vector3d> measured;
+  std::vector<int> pixel_of;
+  terrain::HeightGridAccumulator accumulator(spec);
+  for (int v = 0; v < height; ++v) {
+    const auto* x_mm = points.x_mm.row<int32_t>(v);
+    const auto* y_mm = points.y_mm.row<int32_t>(v);
+    const auto* z_mm = points.z_mm.row<int32_t>(v);
+    for (int u = 0; u < width; ++u) {
+      if (settings.exact_points ? !std::isfinite(scene.disparity_px.at<float>(v, u)) : z_mm[u] == kernels::kNoPointMm) continue;
+      const Eigen::Vector3d p =
+          settings.exact_points ? exact_point(u, v) : to_vehicle.apply(Eigen::Vector3d(x_mm[u], y_mm[u], z_mm[u]) * 1e-3);
+      if (p.x() > 300) continue;  // the background wall
+      measured.push_back(p);
+      pixel_of.push_back(v * width + u);
+      accumulator.add_point(p);
+    }
+  }
+  const terrain::HeightGrid grid = accumulator.finish();
+  {
+    double sum = 0;
+    int64_t count = 0;
+    for (size_t k = 0; k < measured.size(); ++k) {
+      const int u = pixel_of[k] % width, v = pixel_of[k] / width;
+      if (scene.object_ids.at<uint16_t>(v, u) != 0 || measured[k].x() > 20 || !std::isfinite(scene.disparity_px.at<float>(v, u))) continue;
+      const double error = measured[k].z() - ground_height(measured[k]);
+      sum += error * error, ++count;
+      result.ground_points_above_20_cm += error > 0.2 ? 1 : 0;
+    }
+    result.point_rms_20_m = std::sqrt(sum / static_cast<double>(std::max<int64_t>(count, 1)));
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const terrain::TerrainEstimate estimate = terrain::fit_terrain(grid, settings.fit);
+  result.fit_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  result.known = estimate.known;
+  result.reason = estimate.reason;
+  result.iterations = estimate.iterations;
+  if (!estimate.known) return result;
+
+  // Diagnostic: the same pipeline on the exact points of every pixel (no stereo error).
+  {
+    terrain::HeightGridAccumulator exact_accumulator(spec);
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u < width; ++u) {
+        if (!std::isfinite(scene.disparity_px.at<float>(v, u))) continue;
+        const Eigen::Vector3d p = exact_point(u, v);
+        if (p.x() < 300) exact_accumulator.add_point(p);
+      }
+    }
+    const terrain::TerrainEstimate exact = terrain::fit_terrain(exact_accumulator.finish(), settings.fit);
+    double sum = 0;
+    int count = 0;
+    for (int i = 0; exact.known && i < spec.forward_cells(); ++i) {
+      for (int j = 0; j < spec.lateral_cells(); ++j) {
+        const double x = spec.cell_centre_x_m(i), y = spec.cell_centre_y_m(j);
+        const double error = exact.surface.height_m(x, y) - truth.height_m(-y, x);
+        if (!visible(i, j) || x > 20 || !std::isfinite(error)) continue;
+        sum += error * error, ++count;
+      }
+    }
+    result.exact_rms_20_m = std::sqrt(sum / std::max(count, 1));
+  }
+
+  double sum_20 = 0, sum_34 = 0, signed_20 = 0, grid_sum_20 = 0;
+  int grid_cells_20 = 0;
+  for (int i = 0; i < spec.forward_cells(); ++i) {
+    for (int j = 0; j < spec.lateral_cells(); ++j) {
+      if (!visible(i, j)) continue;
+      const double x = spec.cell_centre_x_m(i), y = spec.cell_centre_y_m(j);
+      const double surface = estimate.surface.height_m(x, y);
+      if (!std::isfinite(surface)) continue;
+      const double error = surface - truth.height_m(-y, x);
+      sum_34 += error * error;
+      ++result.cells_34;
+      if (x <= 20) {
+        sum_20 += error * error, signed_20 += error, ++result.cells_20;
+        if (grid.state(i, j) == terrain::kCellMeasured) {
+          const double grid_error = grid.height_m(i, j) - truth.height_m(-y, x);
+          grid_sum_20 += grid_error * grid_error, ++grid_cells_20;
+        }
+      }
+    }
+  }
+  result.rms_20_m = std::sqrt(sum_20 / std::max(result.cells_20, 1));
+  if (settings.bands) {
+    for (int band = 0; band < 7; ++band) {
+      std::printf("    %2d-%2d m:", 5 * band, 5 * band + 5);
+      for (int side = 0; side < 3; ++side) {
+        double sum = 0, bias = 0;
+        int count = 0;
+        for (int i = 0; i < spec.forward_cells(); ++i) {
+          for (int j = 0; j < spec.lateral_cells(); ++j) {
+            const double x = spec.cell_centre_x_m(i), y = spec.cell_centre_y_m(j);
+            const int cell_side = y > 5.6 ? 0 : (y < -5.6 ? 2 : 1);  // left verge, road, right verge
+            if (!visible(i, j) || x < 5 * band || x >= 5 * band + 5 || cell_side != side) continue;
+            const double error = estimate.surface.height_m(x, y) - truth.height_m(-y, x);
+            if (!std::isfinite(error)) continue;
+            sum += error * error, bias += error, ++count;
+          }
+        }
+        std::printf("  %s rms %5.1f cm bias %5.1f cm (%3d cells)", side == 0 ? "left " : (side == 1 ? "road " : "right"),
+                    100 * std::sqrt(sum / std::max(count, 1)), 100 * bias / std::max(count, 1), count);
+      }
+      std::printf("\n");
+    }
+  }
+  result.rms_34_m = std::sqrt(sum_34 / std::max(result.cells_34, 1));
+  result.bias_20_m = signed_20 / std::max(result.cells_20, 1);
+  result.grid_rms_20_m = std::sqrt(grid_sum_20 / std::max(grid_cells_20, 1));
+
+  const std::vector<terrain::PointClass> classes = terrain::classify_points(measured, estimate, 0.2);
+  for (size_t k = 0; k < measured.size(); ++k) {
+    if (classes[k] == terrain::PointClass::outside) continue;
+    const int u = pixel_of[k] % width, v = pixel_of[k] / width;
+    bool obstacle = false;
+    if (scene.object_ids.at<uint16_t>(v, u) != 0) {
+      const Eigen::Vector3d p = exact_point(u, v);
+      obstacle = p.z() - ground_height(p) > 0.2;
+    }
+    const bool found = classes[k] == terrain::PointClass::obstacle;
+    result.truly_obstacle += obstacle ? 1 : 0;
+    result.true_positive += obstacle && found ? 1 : 0;
+    result.false_positive += !obstacle && found ? 1 : 0;
+    result.false_positive_ground_pixel += !obstacle && found && scene.object_ids.at<uint16_t>(v, u) == 0 ? 1 : 0;
+    result.false_negative += obstacle && !found ? 1 : 0;
+  }
+  return result;
+}
+
+double number_argument(int& i, int argc, char** argv) {
+  if (i + 1 >= argc) {
+    std::fprintf(stderr, "%s: expected a value\n", argv[i]);
+    std::exit(2);
+  }
+  char* end = nullptr;
+  const double value = std::strtod(argv[++i], &end);
+  if (end == argv[i] || *end != 0) {
+    std::fprintf(stderr, "%s: expected a number, got '%s'\n", argv[i - 1], argv[i]);
+    std::exit(2);
+  }
+  return value;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Settings settings;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--seeds") settings.seeds = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--control") settings.fit.control_forward = settings.fit.control_lateral = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--initial-control") settings.fit.initial_control_forward = settings.fit.initial_control_lateral = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--equalisation-threshold-factor") settings.fit.equalisation_threshold_factor = number_argument(i, argc, argv);
+    else if (a == "--tolerance-m") settings.fit.equalisation_tolerance_m = number_argument(i, argc, argv);
+    else if (a == "--alpha-initial") settings.fit.alpha_initial = number_argument(i, argc, argv);
+    else if (a == "--threshold-factor") settings.fit.threshold_factor = number_argument(i, argc, argv);
+    else if (a == "--alpha-step") settings.fit.alpha_step = number_argument(i, argc, argv);
+    else if (a == "--iterations") settings.fit.max_iterations = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--cell-m") settings.grid.cell_m = number_argument(i, argc, argv);
+    else if (a == "--census") settings.census_width = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--exact-points") settings.exact_points = true;
+    else if (a == "--bands") settings.bands = true;
+    else if (a == "--noise-sigma") settings.noise_sigma = number_argument(i, argc, argv);
+    else {
+      std::fprintf(stderr, "%s: unknown option (see the header of bench/terrain_synth_eval.cpp)\n", argv[i]);
+      return 2;
+    }
+  }
+  const terrain::TerrainFitParameters& f = settings.fit;
+  std::printf("terrain_synth_eval: 640x480, hfov 60 deg, baseline 0.30 m, camera 1.5 m, pitch 0.06 rad, noise %.1f, 4 rays/px; "
+              "area %.0fx%.0f m, cell %.2f m; fit: degree %dx%d, control %dx%d (from %dx%d), %d iterations, threshold factor %.2f, "
+              "alpha %.2f + %.2f/iteration, equalisation tolerance %.3f m and %.1f th; obstacle threshold 0.20 m\n",
+              settings.noise_sigma, settings.grid.forward_max_m - settings.grid.forward_min_m,
+              settings.grid.lateral_max_m - settings.grid.lateral_min_m, settings.grid.cell_m, f.degree_forward, f.degree_lateral,
+              f.control_forward, f.control_lateral, f.initial_control_forward, f.initial_control_lateral, f.max_iterations,
+              f.threshold_factor, f.alpha_initial, f.alpha_step, f.equalisation_tolerance_m, f.equalisation_threshold_factor);
+  std::printf("%-26s %4s %10s %10s %9s %9s %11s %10s %7s %7s %9s %9s %8s %7s %9s %8s %8s %9s %6s\n", "scene", "seed", "rms<=20m", "rms<=34m", "bias<=20m",
+              "grid<=20m", "points<=20", "exact<=20", "cells20", "cells34", "precision", "recall", "obstacle", "FP", "FP ground", "gnd>20cm", "mount", "fit", "lines");
+  const SceneKind kinds[] = {{"hills", "hills", 0.0},
+                             {"ditch+berm", "ditch+berm", 0.0},
+                             {"rough", "rough", 0.0},
+                             {"hills+rough, roll 3 deg", "hills+rough", 3.0},
+                             {"ditch-u+berm, roll -2 deg", "ditch-u+berm", -2.0}};
+  int failed = 0, scenes = 0;
+  for (const SceneKind& kind : kinds) {
+    for (int seed = 1; seed <= settings.seeds; ++seed) {
+      io::StereoSynthOptions options;
+      options.width = 640;
+      options.height = 480;
+      options.pitch_rad = 0.06;
+      options.roll_rad = kind.roll_deg * 3.14159265358979323846 / 180;
+      options.ground = io::parse_synth_ground(kind.ground);
+      options.noise_sigma = settings.noise_sigma;
+      options.seed = static_cast<uint32_t>(seed);
+      options.objects = near_obstacles(static_cast<uint32_t>(seed), io::random_synth_objects(static_cast<uint32_t>(seed)));
+      const SceneResult r = evaluate(options, settings);
+      ++scenes;
+      if (!r.known) {
+        std::printf("%-26s %4d  unknown terrain: %s\n", kind.name, seed, r.reason.c_str());
+        ++failed;
+        continue;
+      }
+      const double precision = 100.0 * static_cast<double>(r.true_positive) / static_cast<double>(std::max<int64_t>(r.true_positive + r.false_positive, 1));
+      const double recall = 100.0 * static_cast<double>(r.true_positive) / static_cast<double>(std::max<int64_t>(r.truly_obstacle, 1));
+      const bool ok = r.rms_20_m <= 0.05 && precision >= 95 && recall >= 95;
+      failed += ok ? 0 : 1;
+      std::printf("%-26s %4d %8.1f cm %8.1f cm %7.1f cm %7.1f cm %8.1f cm %7.1f cm %7d %7d %8.1f %% %8.1f %% %8lld %7lld %9lld %8lld %6.0f um %6.1f ms %6s\n", kind.name, seed,
+                  100 * r.rms_20_m, 100 * r.rms_34_m, 100 * r.bias_20_m, 100 * r.grid_rms_20_m, 100 * r.point_rms_20_m, 100 * r.exact_rms_20_m, r.cells_20, r.cells_34, precision, recall, static_cast<long long>(r.truly_obstacle), static_cast<long long>(r.false_positive),
+                  static_cast<long long>(r.false_positive_ground_pixel), static_cast<long long>(r.ground_points_above_20_cm),
+                  1e6 * r.mount_error_m, r.fit_ms, ok ? "met" : "MISSED");
+      std::fflush(stdout);
+    }
+  }
+  std::printf("%d of %d scenes meet both lines (RMS <= 5 cm within 20 m; obstacle-point precision and recall >= 95 %%)\n",
+              scenes - failed, scenes);
+  return failed == 0 ? 0 : 1;
+}
