@@ -10,7 +10,7 @@
 // Pipeline (issue 9 deliverables 1-4):
 //   points (vehicle frame) -> HeightGridAccumulator (2.5D sampling: per cell count, min, mean, sigma
 //   of z) -> HeightGrid (cell height Z = max(min z, mean z - sigma), empty cells filled from the mean
-//   of valid 8-neighbours, else invalid) -> fit_terrain (iterative re-weighted B-spline fit with
+//   of measured 8-neighbours, else invalid) -> fit_terrain (iterative re-weighted B-spline fit with
 //   equalisation) -> TerrainEstimate (surface, per-cell weights) -> compute_traversability (slope
 //   from the surface's derivatives, cost Tc = w_occ occupancy + w_slope |grad S|) and
 //   classify_points (height above the surface > obstacle threshold: obstacle candidates).
@@ -76,10 +76,13 @@ class HeightGridAccumulator {
   ArmWork work() const;
 
  private:
+  void accumulate(int forward_cell, int lateral_cell, double z_m);
+
   TerrainGridSpec spec_;
   Eigen::MatrixXi count_;
   Eigen::MatrixXd sum_z_, sum_z2_, min_z_;
   int64_t accepted_ = 0, rejected_ = 0;
+  int64_t add_point_calls_ = 0, add_to_cell_calls_ = 0;  // for work()
 };
 
 // A tensor-product B-spline surface z = S(x, y) (deliverable 2): degrees, clamped uniform knot
@@ -98,16 +101,55 @@ struct BsplineSurface {
   Eigen::Vector2d gradient(double x_m, double y_m) const;
 };
 
+// B-spline basis helpers (arm/terrain/bspline_surface.cpp; Cox-de Boor, thesis eq. 3.4-3.5).
+// Clamped uniform knots: degree + 1 copies of each end, control_points - degree - 1 interior knots
+// evenly spaced. Throws std::invalid_argument unless control_points > degree >= 1 and min_m < max_m.
+std::vector<double> clamped_uniform_knots(int control_points, int degree, double min_m, double max_m);
+// The knot span s with knots[s] <= t < knots[s + 1] (the last non-empty span for t == the domain's
+// end; t is clamped into the domain). The non-zero basis functions at t are N_{s-degree..s}.
+int knot_span(const std::vector<double>& knots, int degree, double t);
+// The degree + 1 non-zero basis values N_{span-degree+r,degree}(t), r = 0..degree, and optionally
+// their first derivatives (same indexing; may be null), by the Cox-de Boor triangle.
+void basis_functions(const std::vector<double>& knots, int degree, int span, double t, double* values,
+                     double* derivatives);
+// One basis function N_{index,degree}(t) straight from the recursion (eq. 3.4, 3.5), with 0/0 = 0
+// and the right end of the domain belonging to the last span. Slow; for tests and checks.
+double basis_function_recursive(const std::vector<double>& knots, int index, int degree, double t);
+// Rows: the basis values (or with derivative = true their first derivatives) of each sample position,
+// dense (samples x control points; degree + 1 non-zeros per row).
+Eigen::MatrixXd basis_matrix(const std::vector<double>& knots, int degree, const std::vector<double>& samples,
+                             bool derivative = false);
+// The surface's heights at every cell centre of `spec` (forward_cells x lateral_cells), by the
+// tensor product: B0 (R o Q) B1^T / B0 R B1^T. Cells whose centre lies outside the domain are NaN.
+Eigen::MatrixXd surface_heights_at_cells(const BsplineSurface& surface, const TerrainGridSpec& spec);
+
 struct TerrainFitParameters {
   int degree_forward = 3, degree_lateral = 3;
   int control_forward = 25, control_lateral = 25;   // n_max: the final fit's control points
   int initial_control_forward = 5, initial_control_lateral = 5;  // the first iteration's
-  int max_iterations = 8;          // re-weighting iterations before the final fit
+  // Re-weighting iterations before the final fit; the control points grow from initial to n_max
+  // over them (20: one per axis per iteration from 5 to 25, the thesis's schedule).
+  int max_iterations = 20;
   double threshold_factor = 1.0;   // th(e) = threshold_factor * e, e the mean absolute error
   double alpha_initial = 1.0;      // alpha of the first iteration, growing by alpha_step per iteration
   double alpha_step = 1.0;
-  double regularisation = 1e-6;    // Tikhonov term on the control points (keeps empty spans solvable)
+  // Tikhonov term on the control points (keeps empty spans solvable), relative to the normal
+  // equations' mean diagonal; terrain_fit.cpp has the form. It biases an exact fit by about
+  // regularisation x the surface's slope x the area (1e-6 gave 2.6e-6 m on a quadratic): 1e-8.
+  double regularisation = 1e-8;
   int min_valid_cells = 16;        // fewer: unknown terrain
+  // Added by the implementation (arm/terrain/terrain_fit.cpp explains each):
+  double maximum_weight = 1000.0;         // eq. 3.6 caps here (|dz| -> 0 would give an infinite weight)
+  double equalisation_tolerance_m = 0.001; // samples less than this above the surface are not equalised
+  // Nor those less than this x th(e) above it (0: every sample above, as the thesis). 3 keeps the
+  // noise and the smooth bumps the coarse first surfaces cannot follow (hills, banks) from being
+  // shaved off (terrain_fit.cpp has the figures).
+  double equalisation_threshold_factor = 3.0;
+  // Eq. 3.7: never_overshoot = Z -= dz W / (W + 1) (the thesis's prose: moved towards the surface,
+  // never past it); as_printed = Z -= dz (1 + 1/W) (the formula as the text conversion prints it,
+  // which puts the sample below the surface; kept to show the difference in bench/terrain_bench).
+  enum class Equalisation : uint8_t { never_overshoot, as_printed };
+  Equalisation equalisation = Equalisation::never_overshoot;
 };
 
 struct TerrainEstimate {

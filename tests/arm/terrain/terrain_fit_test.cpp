@@ -1,0 +1,317 @@
+// The iterative re-weighted fit (arm/terrain/terrain_fit.cpp): exact fits of a plane and a quadratic,
+// equalisation never raising a sample, a box on flat ground kept out of the surface while a plain
+// least-squares fit is pulled up, every unknown-terrain case, and parameters out of range.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <random>
+
+#include "arm/terrain/terrain_model.h"
+
+namespace lpstereo::arm::terrain {
+namespace {
+
+// Every cell measured, height f(centre).
+HeightGrid grid_of(const TerrainGridSpec& spec, const std::function<double(double, double)>& height) {
+  HeightGrid grid;
+  grid.spec = spec;
+  const int m0 = spec.forward_cells(), m1 = spec.lateral_cells();
+  grid.height_m.resize(m0, m1);
+  grid.point_count = Eigen::MatrixXi::Constant(m0, m1, 1);
+  grid.state = Eigen::MatrixXi::Constant(m0, m1, kCellMeasured);
+  for (int i = 0; i < m0; ++i)
+    for (int j = 0; j < m1; ++j) grid.height_m(i, j) = height(spec.cell_centre_x_m(i), spec.cell_centre_y_m(j));
+  return grid;
+}
+
+TerrainGridSpec spec_of(double forward_m, double lateral_m, double cell_m) {
+  TerrainGridSpec spec;
+  spec.forward_min_m = 0, spec.forward_max_m = forward_m;
+  spec.lateral_min_m = -lateral_m / 2, spec.lateral_max_m = lateral_m / 2;
+  spec.cell_m = cell_m;
+  return spec;
+}
+
+TerrainFitParameters small_parameters(int degree, int controls) {
+  TerrainFitParameters parameters;
+  parameters.degree_forward = parameters.degree_lateral = degree;
+  parameters.control_forward = parameters.control_lateral = controls;
+  parameters.initial_control_forward = parameters.initial_control_lateral = degree + 1;
+  return parameters;
+}
+
+void expect_surface_matches(const TerrainEstimate& estimate, const std::function<double(double, double)>& truth, double tolerance) {
+  ASSERT_TRUE(estimate.known) << estimate.reason;
+  const BsplineSurface& surface = estimate.surface;
+  for (double x = surface.forward_min_m; x <= surface.forward_max_m; x += 0.173) {
+    for (double y = surface.lateral_min_m; y <= surface.lateral_max_m; y += 0.211) {
+      EXPECT_NEAR(surface.height_m(x, y), truth(x, y), tolerance) << x << " " << y;
+    }
+  }
+}
+
+TEST(TerrainFit, PlaneIsFittedExactly) {
+  const auto plane = [](double x, double y) { return 0.3 + 0.1 * x - 0.05 * y; };
+  const TerrainGridSpec spec = spec_of(10, 8, 0.5);
+  for (int degree : {2, 3}) {
+    const TerrainEstimate estimate = fit_terrain(grid_of(spec, plane), small_parameters(degree, 8));
+    expect_surface_matches(estimate, plane, 1e-6);
+    EXPECT_LT(estimate.mean_abs_error_m, 1e-6);
+    EXPECT_EQ(estimate.equalised_cells_last, 0);  // nothing to equalise: it stops after the first iteration
+    EXPECT_EQ(estimate.iterations, 1);
+  }
+}
+
+TEST(TerrainFit, QuadraticIsFittedExactlyWithDegreeTwoOrMore) {
+  const auto quadratic = [](double x, double y) { return 0.2 - 0.01 * x * x + 0.02 * x * y - 0.03 * y * y + 0.1 * x; };
+  const TerrainGridSpec spec = spec_of(12, 10, 0.5);
+  for (int degree : {2, 3, 4}) {
+    const TerrainEstimate estimate = fit_terrain(grid_of(spec, quadratic), small_parameters(degree, 9));
+    expect_surface_matches(estimate, quadratic, 1e-6);
+  }
+  // Degree 1 cannot represent it (the check above could fail).
+  const TerrainEstimate linear = fit_terrain(grid_of(spec, quadratic), small_parameters(1, 4));
+  ASSERT_TRUE(linear.known);
+  EXPECT_GT(linear.mean_abs_error_m, 1e-3);
+}
+
+// A flat ground with a box (width x width, height) centred at (11, 0) in a 22 x 22 m area, 0.5 m cells.
+HeightGrid box_grid(double width_m, double height_m) {
+  const TerrainGridSpec spec = spec_of(22, 22, 0.5);
+  return grid_of(spec, [&](double x, double y) {
+    return std::abs(x - 11.0) < width_m / 2 && std::abs(y) < width_m / 2 ? height_m : 0.0;
+  });
+}
+
+double max_abs_surface(const TerrainEstimate& estimate) {
+  const Eigen::MatrixXd heights = surface_heights_at_cells(estimate.surface, estimate.grid.spec);
+  return heights.cwiseAbs().maxCoeff();
+}
+
+TEST(TerrainFit, BoxOnFlatGroundStaysOutOfTheSurfaceWhilePlainLeastSquaresIsPulledUp) {
+  const HeightGrid grid = box_grid(2.0, 1.0);
+  const TerrainEstimate iterative = fit_terrain(grid, TerrainFitParameters{});
+  ASSERT_TRUE(iterative.known) << iterative.reason;
+  TerrainFitParameters plain_parameters;
+  plain_parameters.max_iterations = 0;  // the final fit only: unweighted least squares, no equalisation
+  const TerrainEstimate plain = fit_terrain(grid, plain_parameters);
+  ASSERT_TRUE(plain.known) << plain.reason;
+  // The plain 25 x 25 fit follows the 2 m box (4 x 4 cells) to well over half its height.
+  EXPECT_GT(max_abs_surface(plain), 0.5);
+  // The iterative fit stays within 10 % of the box's height (the acceptance for obstacles up to 2 m wide).
+  EXPECT_LT(max_abs_surface(iterative), 0.1);
+  EXPECT_GT(iterative.iterations, 1);
+}
+
+TEST(TerrainFit, EqualisationNeverRaisesASample) {
+  std::mt19937 random(3);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  HeightGrid grid = box_grid(3.0, 1.5);
+  for (Eigen::Index k = 0; k < grid.height_m.size(); ++k) grid.height_m.data()[k] += noise(random);
+  grid.state(3, 4) = kCellInvalid;
+  grid.height_m(3, 4) = std::numeric_limits<double>::quiet_NaN();
+  const TerrainEstimate estimate = fit_terrain(grid, TerrainFitParameters{});
+  ASSERT_TRUE(estimate.known) << estimate.reason;
+  int lowered = 0;
+  for (int i = 0; i < grid.height_m.rows(); ++i) {
+    for (int j = 0; j < grid.height_m.cols(); ++j) {
+      if (grid.state(i, j) == kCellInvalid) {
+        EXPECT_EQ(estimate.weights(i, j), 0.0);
+        continue;
+      }
+      EXPECT_LE(estimate.grid.height_m(i, j), grid.height_m(i, j)) << i << " " << j;
+      lowered += estimate.grid.height_m(i, j) < grid.height_m(i, j) ? 1 : 0;
+      EXPECT_GE(estimate.weights(i, j), 1.0);  // eq. 3.6: always >= 1
+    }
+  }
+  EXPECT_GT(lowered, 36);  // at least the box's 6 x 6 cells
+}
+
+// One equalisation against the first surface (the plain fit with the initial control points):
+// every sample more than max(tolerance, factor x mean |error|) above that surface moves towards it
+// but never past it (eq. 3.7 as read in terrain_fit.cpp), every other sample stays; for the thesis's
+// rule (factor 0: every sample above) and the default (3).
+TEST(TerrainFit, EqualisationNeverOvershootsTheSurface) {
+  const HeightGrid grid = box_grid(3.0, 1.5);
+  for (const double factor : {0.0, 3.0}) {
+    TerrainFitParameters first_surface_parameters;
+    first_surface_parameters.max_iterations = 0;
+    first_surface_parameters.control_forward = first_surface_parameters.control_lateral = 5;
+    first_surface_parameters.equalisation_threshold_factor = factor;
+    const TerrainEstimate first = fit_terrain(grid, first_surface_parameters);
+    ASSERT_TRUE(first.known);
+    const Eigen::MatrixXd surface = surface_heights_at_cells(first.surface, grid.spec);
+    const double mean_error = (grid.height_m - surface).cwiseAbs().mean();
+    const double limit = std::max(first_surface_parameters.equalisation_tolerance_m, factor * mean_error);
+    TerrainFitParameters one_iteration = first_surface_parameters;
+    one_iteration.max_iterations = 1;
+    const TerrainEstimate equalised = fit_terrain(grid, one_iteration);
+    ASSERT_TRUE(equalised.known);
+    int moved = 0;
+    for (int i = 0; i < grid.height_m.rows(); ++i) {
+      for (int j = 0; j < grid.height_m.cols(); ++j) {
+        const double before = grid.height_m(i, j), after = equalised.grid.height_m(i, j);
+        if (before - surface(i, j) <= limit) {
+          EXPECT_EQ(after, before) << factor << ": " << i << " " << j;
+        } else {
+          EXPECT_LT(after, before) << factor << ": " << i << " " << j;
+          EXPECT_GT(after, surface(i, j)) << factor << ": " << i << " " << j;
+          ++moved;
+        }
+      }
+    }
+    EXPECT_GE(moved, 36) << factor;  // at least the box's 6 x 6 cells
+    if (factor == 0) {
+      EXPECT_GT(moved, 100);  // and ground cells the coarse surface passes under
+    }
+  }
+}
+
+// The counted work of one plain fit against terrain_fit.cpp's model, term by term: 20 x 16 cells
+// (C = V = 320, every column has samples), degree 3 (d + 1 = 4), 8 x 6 control points.
+TEST(TerrainFit, PlainFitWorkFollowsTheDocumentedModel) {
+  TerrainFitParameters parameters = small_parameters(3, 8);
+  parameters.control_lateral = 6;
+  parameters.initial_control_lateral = 4;
+  parameters.max_iterations = 0;
+  const TerrainEstimate estimate = fit_terrain(grid_of(spec_of(10, 8, 0.5), [](double x, double) { return 0.1 * x; }), parameters);
+  ASSERT_TRUE(estimate.known);
+  const uint64_t checks = 8 * 320;                                  // the data checks
+  const uint64_t basis = 3 * 3 * 4 * 20 + 3 * 3 * 4 * 16;           // the basis triangles per axis
+  const uint64_t normal_x = (4 * 5 + 3 * 4) * 320;                  // step 1's normal equations
+  const uint64_t solve_x = 16 * (8 * 16 + 4 * 8 * 4 + 6 * 8);       // 16 columns: Cholesky, substitutions
+  const uint64_t step_y = 8 * ((4 * 5 + 3 * 4) * 16 + 6 * 16 + 4 * 6 * 4 + 6 * 6);  // 8 control rows
+  const uint64_t surface = 2 * 20 * 4 * 6 + 2 * 20 * 16 * 4;        // B0 Q, then (.) B1^T
+  const uint64_t final_error = 4 * 320;
+  EXPECT_EQ(estimate.work.scalar_ops, checks + basis + normal_x + solve_x + step_y + surface + final_error);
+  EXPECT_EQ(estimate.work.memory_bytes, 12u * 320 + 16u * 320 + 8u * 8 * 6);
+}
+
+TEST(TerrainFit, WorkIsCountedAndGrowsWithTheGrid) {
+  const TerrainEstimate small = fit_terrain(box_grid(2.0, 1.0), TerrainFitParameters{});
+  TerrainFitParameters parameters;
+  const HeightGrid grid = box_grid(2.0, 1.0);
+  const TerrainEstimate again = fit_terrain(grid, parameters);
+  EXPECT_GT(small.work.scalar_ops, 100000u);
+  EXPECT_EQ(small.work.scalar_ops, again.work.scalar_ops);  // deterministic
+  EXPECT_GE(small.work.memory_bytes, 12u * 44 * 44);
+}
+
+void expect_unknown(const TerrainEstimate& estimate, const std::string& word) {
+  EXPECT_FALSE(estimate.known);
+  EXPECT_FALSE(estimate.reason.empty());
+  EXPECT_EQ(estimate.reason.find('\n'), std::string::npos) << estimate.reason;
+  EXPECT_NE(estimate.reason.find(word), std::string::npos) << estimate.reason;
+  EXPECT_EQ(estimate.surface.control_z_m.size(), 0);
+}
+
+HeightGrid only_cells(const TerrainGridSpec& spec, const std::function<bool(int, int)>& keep) {
+  HeightGrid grid = grid_of(spec, [](double, double) { return 0.5; });
+  for (int i = 0; i < grid.state.rows(); ++i) {
+    for (int j = 0; j < grid.state.cols(); ++j) {
+      if (keep(i, j)) continue;
+      grid.state(i, j) = kCellInvalid;
+      grid.height_m(i, j) = std::numeric_limits<double>::quiet_NaN();
+      grid.point_count(i, j) = 0;
+    }
+  }
+  return grid;
+}
+
+TEST(TerrainFit, UnknownTerrainCases) {
+  const TerrainGridSpec spec = spec_of(10, 10, 0.5);  // 20 x 20 cells
+  const TerrainFitParameters parameters = small_parameters(3, 10);
+  // Too few valid cells.
+  expect_unknown(fit_terrain(only_cells(spec, [](int i, int j) { return i < 3 && j < 3; }), parameters), "9 valid cells");
+  // Nothing at all.
+  expect_unknown(fit_terrain(only_cells(spec, [](int, int) { return false; }), parameters), "0 valid cells");
+  // All cells on one line: a row, a column, a diagonal (a wall seen edge-on).
+  expect_unknown(fit_terrain(only_cells(spec, [](int i, int) { return i == 7; }), parameters), "one line");
+  expect_unknown(fit_terrain(only_cells(spec, [](int, int j) { return j == 2; }), parameters), "one line");
+  expect_unknown(fit_terrain(only_cells(spec, [](int i, int j) { return i == j; }), parameters), "one line");
+  // A singular system: three rows of samples for four initial control points along x, without regularisation.
+  TerrainFitParameters unregularised = parameters;
+  unregularised.regularisation = 0;
+  expect_unknown(fit_terrain(only_cells(spec, [](int i, int) { return i == 0 || i == 10 || i == 19; }), unregularised), "singular");
+  // The same grid is solvable with the Tikhonov term.
+  EXPECT_TRUE(fit_terrain(only_cells(spec, [](int i, int) { return i == 0 || i == 10 || i == 19; }), parameters).known);
+  // A non-finite height in a valid cell.
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    HeightGrid grid = grid_of(spec, [](double, double) { return 0.0; });
+    grid.height_m(4, 5) = bad;
+    expect_unknown(fit_terrain(grid, parameters), "cell (4, 5)");
+  }
+  // NaN and infinite points never reach the grid: only they were given, so nothing is valid.
+  HeightGridAccumulator accumulator(spec);
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 100; ++k) {
+    accumulator.add_point(Eigen::Vector3d(nan, 0, 0));
+    accumulator.add_point(Eigen::Vector3d(1, inf, 0));
+    accumulator.add_point(Eigen::Vector3d(1, 1, -inf));
+  }
+  EXPECT_EQ(accumulator.rejected(), 300);
+  expect_unknown(fit_terrain(accumulator.finish(), parameters), "0 valid cells");
+  // Points on a vertical wall crossing the area (x = 4 m, any height) fill one line of cells.
+  HeightGridAccumulator wall(spec);
+  for (double y = -5; y < 5; y += 0.05)
+    for (double z = 0; z < 3; z += 0.1) wall.add_point(Eigen::Vector3d(4.2, y, z));
+  HeightGrid wall_grid = wall.finish();
+  // The neighbour fill widens the line to three cells; only the measured line is the wall.
+  for (int i = 0; i < wall_grid.state.rows(); ++i) {
+    for (int j = 0; j < wall_grid.state.cols(); ++j) {
+      if (wall_grid.state(i, j) == kCellFilled) wall_grid.state(i, j) = kCellInvalid;
+    }
+  }
+  expect_unknown(fit_terrain(wall_grid, parameters), "one line");
+}
+
+void expect_parameter_error(const TerrainFitParameters& parameters, const std::string& name) {
+  const HeightGrid grid = grid_of(spec_of(10, 10, 0.5), [](double, double) { return 0.0; });
+  try {
+    fit_terrain(grid, parameters);
+    ADD_FAILURE() << name << ": no throw";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()).rfind(name + ":", 0), 0u) << error.what();
+    EXPECT_NE(std::string(error.what()).find("expected"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("got"), std::string::npos) << error.what();
+  }
+}
+
+TEST(TerrainFit, ParametersOutOfRangeThrowNamingTheParameter) {
+  const TerrainFitParameters base = small_parameters(3, 10);
+  const struct {
+    const char* name;
+    std::function<void(TerrainFitParameters&)> change;
+  } cases[] = {
+      {"degree_forward", [](TerrainFitParameters& p) { p.degree_forward = 0; }},
+      {"degree_lateral", [](TerrainFitParameters& p) { p.degree_lateral = 9; }},
+      {"control_forward", [](TerrainFitParameters& p) { p.control_forward = 3; }},
+      {"control_lateral", [](TerrainFitParameters& p) { p.control_lateral = 21; }},  // more than the 20 cells
+      {"initial_control_forward", [](TerrainFitParameters& p) { p.initial_control_forward = 11; }},
+      {"initial_control_lateral", [](TerrainFitParameters& p) { p.initial_control_lateral = 2; }},
+      {"max_iterations", [](TerrainFitParameters& p) { p.max_iterations = -1; }},
+      {"threshold_factor", [](TerrainFitParameters& p) { p.threshold_factor = 0; }},
+      {"alpha_initial", [](TerrainFitParameters& p) { p.alpha_initial = 0.5; }},
+      {"alpha_step", [](TerrainFitParameters& p) { p.alpha_step = -1; }},
+      {"regularisation", [](TerrainFitParameters& p) { p.regularisation = std::numeric_limits<double>::quiet_NaN(); }},
+      {"min_valid_cells", [](TerrainFitParameters& p) { p.min_valid_cells = 0; }},
+      {"maximum_weight", [](TerrainFitParameters& p) { p.maximum_weight = 1; }},
+      {"equalisation_tolerance_m", [](TerrainFitParameters& p) { p.equalisation_tolerance_m = -0.1; }},
+      {"equalisation_threshold_factor", [](TerrainFitParameters& p) { p.equalisation_threshold_factor = -1; }},
+  };
+  for (const auto& bad : cases) {
+    TerrainFitParameters parameters = base;
+    bad.change(parameters);
+    expect_parameter_error(parameters, bad.name);
+  }
+  // A grid whose matrices do not match its spec.
+  HeightGrid grid = grid_of(spec_of(10, 10, 0.5), [](double, double) { return 0.0; });
+  grid.spec.cell_m = 0.25;
+  EXPECT_THROW(fit_terrain(grid, base), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace lpstereo::arm::terrain
