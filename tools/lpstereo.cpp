@@ -13,6 +13,7 @@
 //   points, synth   point clouds (tools/points_command.h), synthetic scenes (tools/synth_command.h)
 //   obstacles   the obstacle detector on a rectified pair (tools/obstacles_command.h)
 //   odometry    stereo visual odometry over a rectified sequence, KITTI poses out (tools/odometry_command.h)
+//   obstacles3d 3D obstacles over a sequence: occupancy grids, stixels or tracked voxels (tools/obstacles3d_command.h)
 //   run         a graph on a stereo source (camera or recording), live status, outputs, recording
 //               (tools/run_command.h)
 //
@@ -50,6 +51,7 @@
 #include "tools/disparity_options.h"
 #include "tools/eval_command.h"
 #include "tools/geometry_commands.h"
+#include "tools/obstacles3d_command.h"
 #include "tools/obstacles_command.h"
 #include "tools/odometry_command.h"
 #include "tools/points_command.h"
@@ -631,6 +633,7 @@ int main(int argc, char** argv) {
   tools::PointsCommand points(app);  // points (tools/points_command.h)
   tools::ObstaclesCommand obstacles(app);  // obstacles (tools/obstacles_command.h)
   tools::OdometryCommand odometry(app);    // odometry (tools/odometry_command.h)
+  tools::Obstacles3dCommand obstacles3d(app);  // obstacles3d (tools/obstacles3d_command.h)
   tools::SynthCommand synth(app);    // synth (tools/synth_command.h)
   tools::RunCommand run(app);        // run (tools/run_command.h)
 
@@ -657,6 +660,7 @@ int main(int argc, char** argv) {
     if (points.selected()) return points.run();
     if (obstacles.selected()) return obstacles.run();
     if (odometry.selected()) return odometry.run();
+    if (obstacles3d.selected()) return obstacles3d.run();
     if (synth.selected()) return synth.run();
     if (run.selected()) return run.run();
   } catch (const CommandError& error) {
