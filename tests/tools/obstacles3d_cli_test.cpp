@@ -179,7 +179,9 @@ TEST_F(Obstacles3dCli, VoxelsReportAStaticTrackFromTheThirdFrame) {
     const nlohmann::json& line = lines[static_cast<size_t>(frame)];
     EXPECT_EQ(line.at("frame").get<int>(), frame);
     // Tracks are reported once they have been associated in acceptance_frames (3) frames.
-    if (frame < 2) EXPECT_TRUE(line.at("obstacles").empty()) << line.dump();
+    if (frame < 2) {
+      EXPECT_TRUE(line.at("obstacles").empty()) << line.dump();
+    }
     for (const nlohmann::json& obstacle : line.at("obstacles")) {
       expect_schema(obstacle);
       EXPECT_GE(obstacle.at("track_id").get<int>(), 1);
