@@ -3,7 +3,8 @@
 // per frame with every field of issue 10's schema, the lineup's box (0.40 x 0.43 x 0.30 m) reported
 // near its true position with its height above the road, the pictures per frame with --view; the grid
 // methods report no tracks, the voxel method a static track from the third frame (acceptance 3).
-// A single frame says on stderr that the camera is assumed static. An unknown method, a voxel size of
+// A single frame, and textureless frames (empty clouds, odometry failing), say on stderr that the
+// camera is assumed static; the empty clouds are in each frame's status. An unknown method, a voxel size of
 // 0 or below, and a missing first frame give one line, a non-zero exit and no output file.
 #include <gtest/gtest.h>
 
@@ -17,6 +18,7 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "tests/support/cli_runner.h"
@@ -210,6 +212,33 @@ TEST_F(Obstacles3dCli, ASingleFrameSaysTheCameraIsAssumedStatic) {
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.err.find("static camera assumed"), std::string::npos) << result.err;
   EXPECT_EQ(read_lines(output).size(), 1u);
+}
+
+TEST_F(Obstacles3dCli, TexturelessFramesGiveEmptyCloudsAndAStaticCamera) {
+  // Two uniform grey pairs: no disparity (no texture to match), so an empty cloud per frame, and no
+  // features for the odometry, so frame 1 has no ego-motion: stderr says the camera is assumed static.
+  const std::string folder = path("flat");
+  fs::create_directories(folder);
+  const cv::Mat grey(288, 640, CV_8UC1, cv::Scalar(128));
+  char name[32];
+  for (int frame = 0; frame < 2; ++frame) {
+    for (const char* view : {"left", "right"}) {
+      std::snprintf(name, sizeof name, "/%s_%06d.png", view, frame);
+      ASSERT_TRUE(cv::imwrite(folder + name, grey));
+    }
+  }
+  const std::string output = path("flat.jsonl");
+  const Result result = run("obstacles3d --left " + folder + "/left_%06d.png --right " + folder + "/right_%06d.png --calib " +
+                            sequence() + "/calib.yaml --method voxels -o " + output);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("static camera assumed"), std::string::npos) << result.err;
+  const std::vector<nlohmann::json> lines = read_lines(output);
+  ASSERT_EQ(lines.size(), 2u);
+  for (const nlohmann::json& line : lines) {
+    EXPECT_NE(line.at("status").get<std::string>().find("empty cloud"), std::string::npos) << line.dump();
+    EXPECT_TRUE(line.at("obstacles").empty());
+    EXPECT_FALSE(line.at("ego_motion").get<bool>());
+  }
 }
 
 void expect_one_line_failure(const Result& result, int exit_code, const std::string& words, const std::string& output) {
