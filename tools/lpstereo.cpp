@@ -16,6 +16,7 @@
 //   odometry    stereo visual odometry over a rectified sequence, KITTI poses out (tools/odometry_command.h)
 //   localize    keyframe localization of a downward stereo camera, KITTI poses + keyframe database out
 //               (tools/localize_command.h)
+//   obstacles3d 3D obstacles over a sequence: occupancy grids, stixels or tracked voxels (tools/obstacles3d_command.h)
 //   run         a graph on a stereo source (camera or recording), live status, outputs, recording
 //               (tools/run_command.h)
 //
@@ -54,6 +55,7 @@
 #include "tools/eval_command.h"
 #include "tools/geometry_commands.h"
 #include "tools/localize_command.h"
+#include "tools/obstacles3d_command.h"
 #include "tools/obstacles_command.h"
 #include "tools/odometry_command.h"
 #include "tools/points_command.h"
@@ -638,6 +640,7 @@ int main(int argc, char** argv) {
   tools::TerrainCommand terrain(app);      // terrain (tools/terrain_command.h)
   tools::OdometryCommand odometry(app);    // odometry (tools/odometry_command.h)
   tools::LocalizeCommand localize(app);    // localize (tools/localize_command.h)
+  tools::Obstacles3dCommand obstacles3d(app);  // obstacles3d (tools/obstacles3d_command.h)
   tools::SynthCommand synth(app);    // synth (tools/synth_command.h)
   tools::RunCommand run(app);        // run (tools/run_command.h)
 
@@ -666,6 +669,7 @@ int main(int argc, char** argv) {
     if (terrain.selected()) return terrain.run();
     if (odometry.selected()) return odometry.run();
     if (localize.selected()) return localize.run();
+    if (obstacles3d.selected()) return obstacles3d.run();
     if (synth.selected()) return synth.run();
     if (run.selected()) return run.run();
   } catch (const CommandError& error) {
