@@ -206,6 +206,28 @@ int SynthCommand::run_flight() {
   return 0;
 }
 
+void SynthCommand::apply_mount_and_ground(io::StereoSynthOptions& target, bool parse_ground) const {
+  // The library checks radians; the user gave degrees, so the message must speak degrees.
+  if (!(std::abs(pitch_deg_) < 28.6)) {
+    throw CommandError(kExitUsage, "--pitch-deg: expected |pitch| < 28.6 degrees, got " + std::to_string(pitch_deg_));
+  }
+  target.pitch_rad = pitch_deg_ * 3.14159265358979323846 / 180.0;
+  if (!(std::abs(roll_deg_) < 28.6)) {
+    throw CommandError(kExitUsage, "--roll-deg: expected |roll| < 28.6 degrees, got " + std::to_string(roll_deg_));
+  }
+  target.roll_rad = roll_deg_ * 3.14159265358979323846 / 180.0;
+  if (parse_ground) {
+    try {
+      target.ground = io::parse_synth_ground(ground_spec_);
+    } catch (const std::invalid_argument& error) {
+      throw CommandError(kExitUsage, std::string("--") + error.what());
+    }
+  }
+  for (const auto& [option, member] : ground_sizes_) {
+    if (option->count() > 0) target.ground.*member = ground_sizes_given_.*member;
+  }
+}
+
 int SynthCommand::run_sequence() {
   if (flight_) throw CommandError(kExitUsage, "--sequence: give it or --flight, not both");
   for (CLI::Option* option : flight_only_) {
@@ -231,20 +253,7 @@ int SynthCommand::run_sequence() {
   if (given("--hfov-deg")) b.hfov_deg = options_.hfov_deg;
   if (given("--baseline-m")) b.baseline_m = options_.baseline_m;
   if (given("--camera-height-m")) b.camera_height_m = options_.camera_height_m;
-  if (!(std::abs(pitch_deg_) < 28.6)) throw CommandError(kExitUsage, "--pitch-deg: expected |pitch| < 28.6 degrees, got " + std::to_string(pitch_deg_));
-  if (!(std::abs(roll_deg_) < 28.6)) throw CommandError(kExitUsage, "--roll-deg: expected |roll| < 28.6 degrees, got " + std::to_string(roll_deg_));
-  b.pitch_rad = pitch_deg_ * 3.14159265358979323846 / 180.0;
-  b.roll_rad = roll_deg_ * 3.14159265358979323846 / 180.0;
-  if (given("--ground")) {
-    try {
-      b.ground = io::parse_synth_ground(ground_spec_);
-    } catch (const std::invalid_argument& error) {
-      throw CommandError(kExitUsage, std::string("--") + error.what());
-    }
-  }
-  for (const auto& [option, member] : ground_sizes_) {
-    if (option->count() > 0) b.ground.*member = ground_sizes_given_.*member;
-  }
+  apply_mount_and_ground(b, given("--ground"));
   if (given("--slope-deg")) b.slope_deg = options_.slope_deg;
   if (given("--slope-start-m")) b.slope_start_m = options_.slope_start_m;
   b.noise_sigma = options_.noise_sigma;
@@ -290,23 +299,7 @@ int SynthCommand::run() {
   for (CLI::Option* option : flight_only_) {
     if (option->count() > 0) throw CommandError(kExitUsage, option->get_name() + ": a --flight option, not for the road scene");
   }
-  // The library checks radians; the user gave degrees, so the message must speak degrees.
-  if (!(std::abs(pitch_deg_) < 28.6)) {
-    throw CommandError(kExitUsage, "--pitch-deg: expected |pitch| < 28.6 degrees, got " + std::to_string(pitch_deg_));
-  }
-  options_.pitch_rad = pitch_deg_ * 3.14159265358979323846 / 180.0;
-  if (!(std::abs(roll_deg_) < 28.6)) {
-    throw CommandError(kExitUsage, "--roll-deg: expected |roll| < 28.6 degrees, got " + std::to_string(roll_deg_));
-  }
-  options_.roll_rad = roll_deg_ * 3.14159265358979323846 / 180.0;
-  try {
-    options_.ground = io::parse_synth_ground(ground_spec_);
-  } catch (const std::invalid_argument& error) {
-    throw CommandError(kExitUsage, std::string("--") + error.what());
-  }
-  for (const auto& [option, member] : ground_sizes_) {
-    if (option->count() > 0) options_.ground.*member = ground_sizes_given_.*member;
-  }
+  apply_mount_and_ground(options_, true);
   if (lineup_option_->count() > 0) {
     if (!(lineup_m_ > 0 && lineup_m_ < options_.background_distance_m)) {
       throw CommandError(kExitUsage, "--lineup: expected a distance in (0, " + std::to_string(options_.background_distance_m) +

@@ -40,6 +40,9 @@ class SynthCommand {
  private:
   int run_flight();
   int run_sequence();
+  // --pitch-deg, --roll-deg into target (one-line errors in degrees); --ground (when parse_ground) and
+  // the ground sizes given.
+  void apply_mount_and_ground(io::StereoSynthOptions& target, bool parse_ground) const;
 
   CLI::App* command_ = nullptr;
   CLI::Option* lineup_option_ = nullptr;

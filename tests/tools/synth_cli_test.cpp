@@ -37,6 +37,18 @@ class SynthCli : public ::testing::Test {
     }
     return count;
   }
+  // Each (arguments, the option the one-line message must name): exit 2, one line, no folder.
+  template <size_t N>
+  void expect_usage_errors(const std::pair<std::string, std::string> (&cases)[N]) {
+    for (const auto& [arguments, named] : cases) {
+      SCOPED_TRACE(arguments);
+      const Result result = run("synth -o " + path("bad") + " " + arguments);
+      EXPECT_EQ(result.exit_code, 2) << result.err;
+      EXPECT_EQ(lines(result.err), 1) << result.err;
+      EXPECT_NE(result.err.find(named), std::string::npos) << result.err;
+      EXPECT_FALSE(fs::exists(path("bad")));
+    }
+  }
   lpstereo::testing::ScratchDirectory scratch_{"lpstereo_synth_cli"};
 };
 
@@ -195,14 +207,7 @@ TEST_F(SynthCli, FlightBadOptionsGiveOneLineAndExit2) {
       {"--fps 10", "--fps"},
       {"--flight --frames 5 --fps 3", "--"},
   };
-  for (const auto& [arguments, named] : cases) {
-    SCOPED_TRACE(arguments);
-    const Result result = run("synth -o " + path("bad") + " " + arguments);
-    EXPECT_EQ(result.exit_code, 2) << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
-    EXPECT_NE(result.err.find(named), std::string::npos) << result.err;
-    EXPECT_FALSE(fs::exists(path("bad")));
-  }
+  expect_usage_errors(cases);
 }
 
 TEST_F(SynthCli, SequenceFolderReadsBack) {
@@ -244,14 +249,7 @@ TEST_F(SynthCli, SequenceBadOptionsGiveOneLineAndExit2) {
       {"--sequence urban --yaw none", "--yaw"},
       {"--camera-speed-mps 3", "--camera-speed-mps"},
   };
-  for (const auto& [arguments, named] : cases) {
-    SCOPED_TRACE(arguments);
-    const Result result = run("synth -o " + path("bad") + " " + arguments);
-    EXPECT_EQ(result.exit_code, 2) << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
-    EXPECT_NE(result.err.find(named), std::string::npos) << result.err;
-    EXPECT_FALSE(fs::exists(path("bad")));
-  }
+  expect_usage_errors(cases);
 }
 
 }  // namespace
