@@ -1020,6 +1020,8 @@ void write_stereo_synth(const std::string& directory, const StereoSynthScene& sc
       o["size_m"] = {{"w", t.object.width_m}, {"h", t.object.height_m}, {"l", t.object.length_m}};
       o["distance_m"] = t.distance_m;
       o["disparity_px"] = t.disparity_px;
+      o["min_height_m"] = t.min_height_m;
+      o["max_height_m"] = t.max_height_m;
       o["bbox_px"] = t.visible_pixels > 0 ? nlohmann::json{t.bbox_px[0], t.bbox_px[1], t.bbox_px[2], t.bbox_px[3]} : nlohmann::json();
       o["visible_pixels"] = t.visible_pixels;
       json["objects"].push_back(o);

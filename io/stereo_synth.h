@@ -224,7 +224,8 @@ class SynthGroundTruth {
 };
 
 // Writes left.png, right.png (grey; left_colour.png, right_colour.png too when rendered),
-// disparity.png (KITTI 16-bit, x 256, 0 = no ground truth), object_ids.png (16-bit), objects.json,
+// disparity.png (KITTI 16-bit, x 256, 0 = no ground truth), object_ids.png (16-bit), objects.json
+// (per object: position, size, distance, disparity, min/max_height_m, bbox, visible pixels),
 // ground.json (the ground's parameters and its height sampled every 0.25 m over X in [-12, 12],
 // Z in [0, 40] m: {"x_m": [...], "z_m": [...], "height_m": [[...]]}, height_m[i][j] at z_m[i], x_m[j]),
 // calib.yaml (OpenCV, io::write_opencv_yaml) and calib_cam_to_cam.txt (KITTI P_rect_02/03,
