@@ -73,10 +73,23 @@ struct Camera {
       y = x * sin_roll + y * cos_roll;
       x = rolled_x;
     }
-    return {x, y * cos_pitch + sin_pitch, -y * sin_pitch + cos_pitch};
+    const Vec d{x, y * cos_pitch + sin_pitch, -y * sin_pitch + cos_pitch};
+    return moved ? yawed(d) : d;
   }
+  // A camera moved on the road (StereoSynthOptions::camera_x_m ...): position and heading; not
+  // moved keeps the arithmetic above (the same bits as before the camera could move).
+  bool moved = false;
+  Vec position{};
+  double cos_yaw = 1, sin_yaw = 0;
+  // Turned by the heading about the road's vertical: forward (0, 0, 1) -> (sin yaw, 0, cos yaw).
+  Vec yawed(Vec a) const { return {a.x * cos_yaw + a.z * sin_yaw, a.y, -a.x * sin_yaw + a.z * cos_yaw}; }
+  Vec unyawed(Vec a) const { return {a.x * cos_yaw - a.z * sin_yaw, a.y, a.x * sin_yaw + a.z * cos_yaw}; }
   // Road frame -> camera frame (of a camera centred at road point `origin`).
   Vec to_camera(Vec p, Vec origin) const {
+    if (moved) {
+      p = unyawed({p.x - origin.x, p.y - origin.y, p.z - origin.z});
+      origin = {};
+    }
     const Vec c{p.x - origin.x, (p.y - origin.y) * cos_pitch - (p.z - origin.z) * sin_pitch,
                 (p.y - origin.y) * sin_pitch + (p.z - origin.z) * cos_pitch};
     if (!rolled) return c;
@@ -84,6 +97,12 @@ struct Camera {
   }
   // The centre of view 0 (left, the origin) or 1 (right: baseline_m along the camera's x axis).
   Vec origin(int view, double baseline_m) const {
+    if (moved) {
+      Camera fixed = *this;
+      fixed.moved = false;
+      const Vec offset = yawed(fixed.origin(view, baseline_m));
+      return {position.x + offset.x, position.y + offset.y, position.z + offset.z};
+    }
     if (view == 0) return {0, 0, 0};
     if (!rolled) return {baseline_m, 0, 0};
     return {baseline_m * cos_roll, baseline_m * sin_roll * cos_pitch, -baseline_m * sin_roll * sin_pitch};
@@ -191,12 +210,14 @@ struct Road {
   }
 };
 
-enum class Shape { cone, cylinder, capsule, box };
+enum class Shape { cone, cylinder, capsule, box, board_on_poles, hanging_sign, ball_on_post };
 
 struct Placed {
   SynthObject object;
   Shape shape = Shape::box;
   double base_y;  // road-frame Y of the base (the road surface under the base centre)
+  double centre_y;       // road-frame Y of the ground under the base centre (base_y without a height field)
+  double top_height_m;   // the object's height_m above centre_y (object.height_m grows on a height field)
   double top_radius_m;
   uint64_t seed;
   Rgb colour, second_colour;
@@ -209,6 +230,7 @@ struct ObjectHit {
   double s = 0;       // texture coordinates on the surface, metres: around / across,
   double r = 0;       // and up (continued across a top face, so the texture has no seam there)
   double height = 0;  // height above the base, metres (the class's colour bands)
+  int part = 0;       // floating objects: 0 = the board or ball, 1 = a post, arm or wire
 };
 
 bool solve_quadratic(double a, double b, double c, double& t0, double& t1) {
@@ -262,24 +284,25 @@ void hit_round(const Placed& p, Vec o, Vec d, double r0, double r1, double h, bo
   }
 }
 
-void hit_sphere(const Placed& p, Vec origin, Vec d, double radius, double centre_height, ObjectHit& best) {
+// A sphere of `radius` centred centre_height above p.base_y on the object's axis; only the upper half
+// unless `whole` (the capsule's lower half is inside its cylinder).
+void hit_sphere(const Placed& p, Vec origin, Vec d, double radius, double centre_height, ObjectHit& best, bool whole = false) {
   const Vec o{origin.x - p.object.x_m, origin.y - (p.base_y - centre_height), origin.z - p.object.z_m};
   double t0, t1;
   if (!solve_quadratic(dot(d, d), 2 * dot(o, d), dot(o, o) - radius * radius, t0, t1)) return;
   const double t = t0 > 1e-6 ? t0 : t1;
   if (!(t > 1e-6) || t >= best.t) return;
   const Vec n{(o.x + t * d.x) / radius, (o.y + t * d.y) / radius, (o.z + t * d.z) / radius};
-  if (n.y > 0) return;  // the lower half is inside the cylinder below
+  if (n.y > 0 && !whole) return;  // the lower half is inside the cylinder below
   best.t = t;
   best.normal = n;
   best.s = std::atan2(n.x, -n.z) * radius;
   best.r = best.height = (p.base_y - origin.y) - t * d.y;
 }
 
-void hit_box(const Placed& p, Vec o_ray, Vec d, ObjectHit& best) {
-  const SynthObject& o = p.object;
-  const double low[3] = {o.x_m - o.width_m / 2, p.base_y - o.height_m, o.z_m - o.length_m / 2};
-  const double high[3] = {o.x_m + o.width_m / 2, p.base_y, o.z_m + o.length_m / 2};
+// An axis-aligned box [low, high] (road frame); texture height measured up from base_y, continued
+// across the top face by top_height.
+void hit_aabb(const double low[3], const double high[3], double base_y, double top_height, Vec o_ray, Vec d, ObjectHit& best) {
   const double origin[3] = {o_ray.x, o_ray.y, o_ray.z}, direction[3] = {d.x, d.y, d.z};
   double t_near = -kInfinity, t_far = kInfinity;
   int axis = -1, sign = 0;
@@ -305,9 +328,65 @@ void hit_box(const Placed& p, Vec o_ray, Vec d, ObjectHit& best) {
   const double hit[3] = {o_ray.x + t_near * d.x, o_ray.y + t_near * d.y, o_ray.z + t_near * d.z};
   best.t = t_near;
   best.normal = {axis == 0 ? double(sign) : 0, axis == 1 ? double(sign) : 0, axis == 2 ? double(sign) : 0};
-  best.r = best.height = p.base_y - hit[1];
+  best.r = best.height = base_y - hit[1];
   best.s = axis == 0 ? hit[2] : hit[0];
-  if (axis == 1) best.r = o.height_m + hit[2] - low[2];
+  if (axis == 1) best.r = top_height + hit[2] - low[2];
+}
+
+void hit_box(const Placed& p, Vec o_ray, Vec d, ObjectHit& best) {
+  const SynthObject& o = p.object;
+  const double low[3] = {o.x_m - o.width_m / 2, p.base_y - o.height_m, o.z_m - o.length_m / 2};
+  const double high[3] = {o.x_m + o.width_m / 2, p.base_y, o.z_m + o.length_m / 2};
+  hit_aabb(low, high, p.base_y, o.height_m, o_ray, d, best);
+}
+
+// A part of a floating object: the box x in [x0, x1], z in [z0, z1] (road frame), from height h0 up
+// to h1 above the ground under the base centre (h0 < 0: from the base, down into a height field).
+void hit_part(const Placed& p, double x0, double x1, double h0, double h1, double z0, double z1, int part, Vec o, Vec d,
+              ObjectHit& best) {
+  const double low[3] = {x0, p.centre_y - h1, z0};
+  const double high[3] = {x1, h0 < 0 ? p.base_y : p.centre_y - h0, z1};
+  const double before = best.t;
+  hit_aabb(low, high, p.base_y, p.object.height_m, o, d, best);
+  if (best.t < before) best.part = part;
+}
+
+// The floating objects (SynthObject's comment): boards, posts, arm, wires, ball.
+constexpr double kBoardPost = 0.08, kSignArm = 0.10, kSignPost = 0.10, kSignPostGap = 0.5, kSignWire = 0.02,
+                 kSignHang = 0.35, kBallPost = 0.05;
+
+void hit_floating(const Placed& p, Vec o, Vec d, ObjectHit& best) {
+  const SynthObject& b = p.object;
+  const double x = b.x_m, z = b.z_m, w = b.width_m / 2, l = b.length_m / 2, top = p.top_height_m;
+  switch (p.shape) {
+    case Shape::board_on_poles:
+      hit_part(p, x - w, x + w, b.clearance_m, top, z - l, z + l, 0, o, d, best);
+      for (const double post_x : {x - w + kBoardPost / 2, x + w - kBoardPost / 2}) {
+        hit_part(p, post_x - kBoardPost / 2, post_x + kBoardPost / 2, -1, b.clearance_m, z - kBoardPost / 2, z + kBoardPost / 2, 1, o, d,
+                 best);
+      }
+      break;
+    case Shape::hanging_sign: {
+      hit_part(p, x - w, x + w, b.clearance_m, top - kSignHang, z - l, z + l, 0, o, d, best);
+      const double post_x = x + w + kSignPostGap;
+      hit_part(p, x - w, post_x + kSignPost / 2, top - kSignArm, top, z - kSignArm / 2, z + kSignArm / 2, 1, o, d, best);
+      hit_part(p, post_x - kSignPost / 2, post_x + kSignPost / 2, -1, top - kSignArm, z - kSignPost / 2, z + kSignPost / 2, 1, o, d, best);
+      for (const double wire_x : {x - w / 2, x + w / 2}) {
+        hit_part(p, wire_x - kSignWire / 2, wire_x + kSignWire / 2, top - kSignHang, top - kSignArm, z - kSignWire / 2, z + kSignWire / 2, 1,
+                 o, d, best);
+      }
+      break;
+    }
+    case Shape::ball_on_post: {
+      const double radius = b.width_m / 2, centre = top - radius;
+      const double before = best.t;
+      hit_sphere(p, o, d, radius, (p.base_y - p.centre_y) + centre, best, true);
+      if (best.t < before) best.part = 0;
+      hit_part(p, x - kBallPost / 2, x + kBallPost / 2, -1, centre, z - kBallPost / 2, z + kBallPost / 2, 1, o, d, best);
+      break;
+    }
+    default: break;
+  }
 }
 
 void hit_object(const Placed& p, Vec o, Vec d, ObjectHit& best) {
@@ -320,6 +399,9 @@ void hit_object(const Placed& p, Vec o, Vec d, ObjectHit& best) {
       hit_sphere(p, o, d, r, h - r, best);
       break;
     case Shape::box: hit_box(p, o, d, best); break;
+    case Shape::board_on_poles:
+    case Shape::hanging_sign:
+    case Shape::ball_on_post: hit_floating(p, o, d, best); break;
   }
 }
 
@@ -335,6 +417,9 @@ Rgb object_albedo(const Placed& p, const ObjectHit& hit, double footprint) {
       else if (hit.height < 0.85) base = p.second_colour;                             // legs
       break;
     case SynthClass::car: if (f > 0.6) base = {45, 50, 58}; break;                    // windows
+    case SynthClass::board_on_poles:
+    case SynthClass::hanging_sign:
+    case SynthClass::ball_on_post: if (hit.part == 1) base = {150, 150, 155}; break;  // galvanised supports
     default: break;
   }
   return base * (1.0 + texture(kObject, hit.s, hit.r, p.seed, footprint));
@@ -365,6 +450,14 @@ class Renderer {
       field_.emplace(options);
       road_.field = &*field_;
       road_.rate_bound = field_->lipschitz() + std::abs(road_.slope_tan);
+    }
+    if (options.camera_x_m != 0 || options.camera_z_m != 0 || options.camera_yaw_rad != 0) {
+      camera_.moved = true;
+      camera_.cos_yaw = std::cos(options.camera_yaw_rad);
+      camera_.sin_yaw = std::sin(options.camera_yaw_rad);
+      // camera_height_m above the ground under the camera (Y down: the ground's Y minus the height).
+      camera_.position = {options.camera_x_m, road_.ground_y(options.camera_x_m, options.camera_z_m) - options.camera_height_m,
+                          options.camera_z_m};
     }
     SplitMix colours{uint64_t{options.seed} * 7777u + 5};
     for (size_t i = 0; i < options.objects.size(); ++i) place(options.objects[i], i, colours);
@@ -454,6 +547,8 @@ class Renderer {
     Placed p;
     p.object = object;
     p.base_y = road_.y_at(object.z_m);
+    p.centre_y = p.base_y;
+    p.top_height_m = object.height_m;
     p.top_radius_m = object.width_m / 2 * 0.15;
     p.seed = uint64_t{options_.seed} * 1000003u + index * 7919u + 17u;
     const Rgb palette[] = {{200, 40, 40}, {40, 70, 160}, {230, 200, 60}, {60, 140, 70}, {220, 220, 225}, {30, 30, 35}, {150, 90, 160}};
@@ -467,11 +562,14 @@ class Renderer {
       case SynthClass::bin: p.shape = Shape::box; p.colour = {45, 95, 55}; break;
       case SynthClass::pedestrian: p.shape = Shape::capsule; p.colour = picked; p.second_colour = Rgb{55, 55, 95}; break;
       case SynthClass::car: p.shape = Shape::box; p.colour = second; break;
+      case SynthClass::board_on_poles: p.shape = Shape::board_on_poles; p.colour = picked; break;
+      case SynthClass::hanging_sign: p.shape = Shape::hanging_sign; p.colour = {30, 90, 170}; break;
+      case SynthClass::ball_on_post: p.shape = Shape::ball_on_post; p.colour = {230, 120, 30}; break;
     }
     if (field_) {
       // Stand on the field: the top stays height_m above the ground under the base centre, the solid
       // reaches down to the lowest ground under the footprint (sampled 9 x 9), so no gap shows.
-      const double centre_y = road_.ground_y(object.x_m, object.z_m);
+      const double centre_y = p.centre_y = road_.ground_y(object.x_m, object.z_m);
       const double half_x = object.width_m / 2, half_z = (p.shape == Shape::box ? object.length_m : object.width_m) / 2;
       double lowest_y = centre_y;
       for (int i = 0; i <= 8; ++i) {
@@ -484,9 +582,11 @@ class Renderer {
     }
     // Conservative pixel bounds per view from the 8 corners of the object's bounding box; a corner
     // behind (or almost at) the camera leaves the whole image.
+    // (The hanging sign's post stands beyond the board's right end.)
+    const double extra_x = object.object_class == SynthClass::hanging_sign ? kSignPostGap + kSignPost : 0.0;
     for (int view = 0; view < 2; ++view) {
       const Vec origin = camera_.origin(view, options_.baseline_m);
-      const double half_x = object.width_m / 2 * 1.01 + 0.01;
+      const double half_x = (object.width_m / 2 + extra_x) * 1.01 + 0.01;
       const double half_z = (p.shape == Shape::box ? object.length_m : object.width_m) / 2 * 1.01 + 0.01;
       double u0 = kInfinity, v0 = kInfinity, u1 = -kInfinity, v1 = -kInfinity;
       bool behind = false;
@@ -647,6 +747,9 @@ const char* synth_class_name(SynthClass object_class) {
     case SynthClass::bin: return "bin";
     case SynthClass::pedestrian: return "pedestrian";
     case SynthClass::car: return "car";
+    case SynthClass::board_on_poles: return "board_on_poles";
+    case SynthClass::hanging_sign: return "hanging_sign";
+    case SynthClass::ball_on_post: return "ball_on_post";
   }
   return "?";
 }
@@ -664,8 +767,41 @@ SynthObject synth_object(SynthClass object_class, double x_m, double z_m) {
     case SynthClass::bin: o.width_m = 0.58, o.height_m = 1.10, o.length_m = 0.74; break;
     case SynthClass::pedestrian: o.width_m = 0.50, o.height_m = 1.70, o.length_m = 0.50; break;
     case SynthClass::car: o.width_m = 1.80, o.height_m = 1.50, o.length_m = 4.50; break;
+    // A barrier board 0.7 m high with 0.9 m free under it; a 1.2 x 0.4 m sign hanging 1.9 m above
+    // the road (the board reaches 2.65 m, the arm 3 m); a 0.4 m ball 0.8 m above the road.
+    case SynthClass::board_on_poles: o.width_m = 2.0, o.height_m = 1.6, o.length_m = 0.06, o.clearance_m = 0.9; break;
+    case SynthClass::hanging_sign: o.width_m = 1.2, o.height_m = 3.0, o.length_m = 0.05, o.clearance_m = 1.9; break;
+    case SynthClass::ball_on_post: o.width_m = 0.4, o.height_m = 1.2, o.length_m = 0.4; break;
   }
   return o;
+}
+
+double synth_object_min_height_m(const SynthObject& object) {
+  switch (object.object_class) {
+    case SynthClass::board_on_poles:
+    case SynthClass::hanging_sign: return object.clearance_m;
+    case SynthClass::ball_on_post: return object.height_m - object.width_m;
+    default: return 0;
+  }
+}
+
+SynthCameraPose synth_camera_pose(const StereoSynthOptions& options) {
+  validate_synth_options(options);
+  StereoSynthOptions no_objects = options;
+  no_objects.objects.clear();
+  const Renderer renderer(no_objects);
+  const Camera& camera = renderer.camera();
+  SynthCameraPose pose{};
+  const Vec centre = camera.origin(0, options.baseline_m);
+  pose.centre_m[0] = centre.x, pose.centre_m[1] = centre.y, pose.centre_m[2] = centre.z;
+  // Column j: the road-frame direction of camera axis j, from to_camera (a rotation: its inverse is
+  // its transpose, so row j of to_camera's matrix).
+  const Vec axes[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (int i = 0; i < 3; ++i) {
+    const Vec c = camera.to_camera({centre.x + axes[i].x, centre.y + axes[i].y, centre.z + axes[i].z}, centre);
+    pose.rotation[i][0] = c.x, pose.rotation[i][1] = c.y, pose.rotation[i][2] = c.z;
+  }
+  return pose;
 }
 
 void validate_synth_options(const StereoSynthOptions& o) {
@@ -680,7 +816,21 @@ void validate_synth_options(const StereoSynthOptions& o) {
   require(o.slope_start_m >= 0, "slope-start-m", ">= 0 metres", o.slope_start_m);
   require(o.background_distance_m > 10 && o.background_distance_m <= 100000, "background-distance-m", "(10, 100000] metres",
           o.background_distance_m);
+  require(std::abs(o.camera_x_m) <= 1000, "camera-x-m", "|x| <= 1000 metres", o.camera_x_m);
+  require(o.camera_z_m >= -1000 && o.camera_z_m < o.background_distance_m - 10, "camera-z-m",
+          "[-1000, background distance - 10) metres", o.camera_z_m);
+  require(std::abs(o.camera_yaw_rad) <= kPi, "camera-yaw", "|yaw| <= pi rad", o.camera_yaw_rad);
   for (const SynthObject& object : o.objects) {
+    const std::string name = std::string("object ") + synth_class_name(object.object_class);
+    if (object.object_class == SynthClass::board_on_poles) {
+      require(object.clearance_m > 0 && object.clearance_m < object.height_m, name + " clearance", "(0, height) metres", object.clearance_m);
+      require(object.width_m > 2 * kBoardPost, name + " width", "> 0.16 metres (two posts)", object.width_m);
+    } else if (object.object_class == SynthClass::hanging_sign) {
+      require(object.clearance_m > 0 && object.clearance_m < object.height_m - kSignHang - 0.05, name + " clearance",
+              "(0, height - 0.4) metres (the board, then the wires and arm above it)", object.clearance_m);
+    } else if (object.object_class == SynthClass::ball_on_post) {
+      require(object.width_m < object.height_m, name + " width", "a diameter below the height (the ball's top)", object.width_m);
+    }
     require(object.width_m > 0 && object.height_m > 0 && object.length_m > 0, std::string("object ") + synth_class_name(object.object_class) + " size",
             "positive metres", std::min({object.width_m, object.height_m, object.length_m}));
     require(object.z_m > 0 && object.z_m < o.background_distance_m, std::string("object ") + synth_class_name(object.object_class) + " z",
@@ -778,6 +928,8 @@ StereoSynthScene render_stereo_synth(const StereoSynthOptions& options, const st
     truth.position_m[0] = c.x, truth.position_m[1] = c.y, truth.position_m[2] = c.z;
     truth.distance_m = c.z;
     truth.disparity_px = fb / c.z;
+    truth.min_height_m = synth_object_min_height_m(options.objects[i]);
+    truth.max_height_m = options.objects[i].height_m;
     scene.objects.push_back(truth);
   }
   for (int v = 0; v < height; ++v) {
@@ -868,6 +1020,8 @@ void write_stereo_synth(const std::string& directory, const StereoSynthScene& sc
       o["size_m"] = {{"w", t.object.width_m}, {"h", t.object.height_m}, {"l", t.object.length_m}};
       o["distance_m"] = t.distance_m;
       o["disparity_px"] = t.disparity_px;
+      o["min_height_m"] = t.min_height_m;
+      o["max_height_m"] = t.max_height_m;
       o["bbox_px"] = t.visible_pixels > 0 ? nlohmann::json{t.bbox_px[0], t.bbox_px[1], t.bbox_px[2], t.bbox_px[3]} : nlohmann::json();
       o["visible_pixels"] = t.visible_pixels;
       json["objects"].push_back(o);

@@ -35,9 +35,10 @@
 
 namespace lpstereo::io {
 
-enum class SynthClass { cone, can, box, tape_roll, bin, pedestrian, car };
+enum class SynthClass { cone, can, box, tape_roll, bin, pedestrian, car, board_on_poles, hanging_sign, ball_on_post };
 
-// "cone", "can", "box", "tape_roll", "bin", "pedestrian", "car".
+// "cone", "can", "box", "tape_roll", "bin", "pedestrian", "car", "board_on_poles", "hanging_sign",
+// "ball_on_post".
 const char* synth_class_name(SynthClass object_class);
 
 // One object standing on the road. Shapes (all vertical, axis along road Y, standing on the road
@@ -46,6 +47,13 @@ const char* synth_class_name(SynthClass object_class);
 // the base centre + height_m): cone = truncated cone (top diameter 0.15 x width), can, tape
 // roll = cylinder (diameter = width_m), pedestrian = capsule (cylinder with a hemispherical top,
 // diameter = width_m), box, bin, car = axis-aligned box (width_m across X, length_m along Z).
+// Floating and concave objects (free space under a part; heights above the ground under the base
+// centre): board_on_poles = a board width_m wide, length_m thick, from clearance_m up to height_m,
+// on two 8 cm square posts under its ends reaching the ground; hanging_sign = a board width_m wide
+// from clearance_m up to height_m - 0.35 m, hung by two 2 cm wires from a 10 cm arm at height_m that
+// reaches sideways to a 10 cm post 0.5 m beyond the board's right end (nothing under the board);
+// ball_on_post = a sphere of diameter width_m whose top is at height_m (lower edge height_m -
+// width_m; clearance_m is not used) on a 5 cm square post from the ground to its centre.
 struct SynthObject {
   SynthClass object_class = SynthClass::box;
   double x_m = 0;        // base centre, road frame: lateral (+ = right of the left camera)
@@ -53,7 +61,13 @@ struct SynthObject {
   double width_m = 0.4;  // across the road (diameter for round shapes)
   double height_m = 0.4;
   double length_m = 0.4;  // along the road (boxes; round shapes use width_m)
+  double clearance_m = 0;  // board_on_poles, hanging_sign: the board's lower edge above the ground
 };
+
+// The lowest and highest point of the object's main part above the ground under its base centre:
+// 0 and height_m for the standing classes; clearance_m (the ball: height_m - width_m) and height_m
+// for the floating ones (their posts and wires reach lower, down to the ground).
+double synth_object_min_height_m(const SynthObject& object);
 
 // The standard test objects of the range test (issue 6): sizes in metres.
 SynthObject synth_object(SynthClass object_class, double x_m, double z_m);
@@ -106,6 +120,13 @@ struct StereoSynthOptions {
   double right_gain = 1;         // the right camera's response: gain * value + offset, before noise
   double right_offset = 0;       // grey levels
   bool colour = false;           // also render BGR views (left_colour, right_colour)
+  // The camera's pose on the road (sequences move it through the fixed world): the left camera
+  // centre at road (camera_x_m, camera_z_m), camera_height_m above the ground under it, heading
+  // camera_yaw_rad (+ = turned right, towards +X) about the road's vertical, then pitch and roll as
+  // above. All 0: the camera at the road frame's origin, rendered bit for bit as before.
+  double camera_x_m = 0;
+  double camera_z_m = 0;
+  double camera_yaw_rad = 0;     // |yaw| <= pi
   uint32_t seed = 1;             // textures and noise (and random scenes, see random_synth_objects)
   int threads = 2;               // rows are shared between this many threads
   SynthGround ground;            // height field on the road (default: none)
@@ -129,6 +150,8 @@ struct SynthObjectTruth {
   double position_m[3] = {0, 0, 0};  // base centre in the LEFT CAMERA frame (x right, y down, z forward)
   double distance_m = 0;             // camera-frame depth z of the base centre
   double disparity_px = 0;           // f * B / distance_m
+  double min_height_m = 0;           // synth_object_min_height_m
+  double max_height_m = 0;           // height_m
   // The pixels that show the object (id image), inclusive [x0, y0, x1, y1]; visible_pixels = 0
   // (fully occluded or outside the view) leaves it {-1, -1, -1, -1}.
   int bbox_px[4] = {-1, -1, -1, -1};
@@ -144,6 +167,15 @@ struct StereoSynthScene {
   StereoCalibration calibration;      // the rectified pinhole pair (already_rectified)
   double focal_px = 0;
 };
+
+// The left camera's pose in the road frame: road point = rotation * camera point + centre_m
+// (rotation = Ry(yaw) Rx(pitch) Rz(roll), row-major; centre_m includes the camera's height over the
+// ground at its position).
+struct SynthCameraPose {
+  double rotation[3][3];
+  double centre_m[3];
+};
+SynthCameraPose synth_camera_pose(const StereoSynthOptions& options);
 
 // Renders the scene; `progress` (if set) is called with the fraction of rows done, from any thread,
 // one call at a time.
@@ -192,7 +224,8 @@ class SynthGroundTruth {
 };
 
 // Writes left.png, right.png (grey; left_colour.png, right_colour.png too when rendered),
-// disparity.png (KITTI 16-bit, x 256, 0 = no ground truth), object_ids.png (16-bit), objects.json,
+// disparity.png (KITTI 16-bit, x 256, 0 = no ground truth), object_ids.png (16-bit), objects.json
+// (per object: position, size, distance, disparity, min/max_height_m, bbox, visible pixels),
 // ground.json (the ground's parameters and its height sampled every 0.25 m over X in [-12, 12],
 // Z in [0, 40] m: {"x_m": [...], "z_m": [...], "height_m": [[...]]}, height_m[i][j] at z_m[i], x_m[j]),
 // calib.yaml (OpenCV, io::write_opencv_yaml) and calib_cam_to_cam.txt (KITTI P_rect_02/03,

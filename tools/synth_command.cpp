@@ -68,9 +68,9 @@ SynthCommand::SynthCommand(CLI::App& app) {
                      "a downward-looking drone flight instead of the road: take-off from a 1 m pad, a square through four "
                      "waypoints, return, landing (frames in DIR/left, DIR/right, poses.txt, ...)");
   io::StereoFlightOptions& f = flight_options_;
-  CLI::Option* frames = command_->add_option("--frames", f.frames, "--flight: this many frames over the whole flight");
+  CLI::Option* frames = command_->add_option("--frames", f.frames, "--flight: this many frames over the whole flight; --sequence: frames");
   flight_only_.push_back(frames);
-  flight_only_.push_back(command_->add_option("--fps", f.fps, "--flight: frame rate, frames per second")->capture_default_str()->excludes(frames));
+  flight_only_.push_back(command_->add_option("--fps", f.fps, "--flight, --sequence: frame rate, frames per second")->capture_default_str());
   flight_only_.push_back(command_->add_option("--yaw", yaw_spec_,
                                               "--flight: none, corners:DEG[,DEG,DEG,DEG] (turns at the waypoints, + = counter-"
                                               "clockwise seen from above) or continuous:DEG_PER_S")
@@ -88,6 +88,15 @@ SynthCommand::SynthCommand(CLI::App& app) {
       command_->add_option("--climb-speed-mps", f.climb_speed_mps, "--flight: peak speed of take-off and landing, m/s")->capture_default_str());
   flight_only_.push_back(command_->add_option("--focal-px", focal_px_, "--flight: focal length, px (instead of --hfov-deg)"));
   flight_only_.push_back(command_->add_flag("--disparity", flight_disparity_, "--flight: also write DIR/disparity/%06d.png (KITTI, exact)"));
+
+  // The road sequence (io/stereo_sequence.h).
+  command_->add_option("--sequence", sequence_,
+                       "a sequence driving through a preset scene with moving objects: urban (flat), country (hills), mining "
+                       "(rough, berm) or floating (a board on poles, a hanging sign, a ball on a post); frames in DIR/left, ...");
+  sequence_only_.push_back(
+      command_->add_option("--camera-speed-mps", camera_speed_mps_, "--sequence: camera speed, m/s (default: the preset's)"));
+  sequence_only_.push_back(
+      command_->add_option("--camera-yaw-rate-deg-s", camera_yaw_rate_deg_s_, "--sequence: camera yaw rate, degrees/s (+ = turning right)"));
 }
 
 namespace {
@@ -147,6 +156,12 @@ std::function<void(double)> progress_bar(const char* what) {
 
 int SynthCommand::run_flight() {
   io::StereoFlightOptions& f = flight_options_;
+  for (CLI::Option* option : sequence_only_) {
+    if (option->count() > 0) throw CommandError(kExitUsage, option->get_name() + ": a --sequence option, not for --flight");
+  }
+  if (command_->get_option("--fps")->count() > 0 && command_->get_option("--frames")->count() > 0) {
+    throw CommandError(kExitUsage, "--fps: give it or --frames for --flight, not both");
+  }
   for (CLI::Option* option : road_only_) {
     if (option->count() > 0) throw CommandError(kExitUsage, option->get_name() + ": a road-scene option, not for --flight");
   }
@@ -191,28 +206,100 @@ int SynthCommand::run_flight() {
   return 0;
 }
 
-int SynthCommand::run() {
-  if (flight_) return run_flight();
-  for (CLI::Option* option : flight_only_) {
-    if (option->count() > 0) throw CommandError(kExitUsage, option->get_name() + ": a --flight option, not for the road scene");
-  }
+void SynthCommand::apply_mount_and_ground(io::StereoSynthOptions& target, bool parse_ground) const {
   // The library checks radians; the user gave degrees, so the message must speak degrees.
   if (!(std::abs(pitch_deg_) < 28.6)) {
     throw CommandError(kExitUsage, "--pitch-deg: expected |pitch| < 28.6 degrees, got " + std::to_string(pitch_deg_));
   }
-  options_.pitch_rad = pitch_deg_ * 3.14159265358979323846 / 180.0;
+  target.pitch_rad = pitch_deg_ * 3.14159265358979323846 / 180.0;
   if (!(std::abs(roll_deg_) < 28.6)) {
     throw CommandError(kExitUsage, "--roll-deg: expected |roll| < 28.6 degrees, got " + std::to_string(roll_deg_));
   }
-  options_.roll_rad = roll_deg_ * 3.14159265358979323846 / 180.0;
+  target.roll_rad = roll_deg_ * 3.14159265358979323846 / 180.0;
+  if (parse_ground) {
+    try {
+      target.ground = io::parse_synth_ground(ground_spec_);
+    } catch (const std::invalid_argument& error) {
+      throw CommandError(kExitUsage, std::string("--") + error.what());
+    }
+  }
+  for (const auto& [option, member] : ground_sizes_) {
+    if (option->count() > 0) target.ground.*member = ground_sizes_given_.*member;
+  }
+}
+
+int SynthCommand::run_sequence() {
+  if (flight_) throw CommandError(kExitUsage, "--sequence: give it or --flight, not both");
+  for (CLI::Option* option : flight_only_) {
+    const std::string name = option->get_name();
+    if (option->count() > 0 && name != "--frames" && name != "--fps") {
+      throw CommandError(kExitUsage, name + ": a --flight option, not for --sequence");
+    }
+  }
+  for (CLI::Option* option : {lineup_option_, command_->get_option("--empty")}) {
+    if (option->count() > 0) throw CommandError(kExitUsage, option->get_name() + ": not for --sequence (the preset places the objects)");
+  }
+  io::StereoSequenceOptions sequence;
   try {
-    options_.ground = io::parse_synth_ground(ground_spec_);
+    sequence = io::preset_stereo_sequence(sequence_, options_.seed);
   } catch (const std::invalid_argument& error) {
     throw CommandError(kExitUsage, std::string("--") + error.what());
   }
-  for (const auto& [option, member] : ground_sizes_) {
-    if (option->count() > 0) options_.ground.*member = ground_sizes_given_.*member;
+  // The preset's scene with the user's camera and sensor.
+  io::StereoSynthOptions& b = sequence.base;
+  auto given = [this](const char* name) { return command_->get_option(name)->count() > 0; };
+  if (given("--width")) b.width = options_.width;
+  if (given("--height")) b.height = options_.height;
+  if (given("--hfov-deg")) b.hfov_deg = options_.hfov_deg;
+  if (given("--baseline-m")) b.baseline_m = options_.baseline_m;
+  if (given("--camera-height-m")) b.camera_height_m = options_.camera_height_m;
+  apply_mount_and_ground(b, given("--ground"));
+  if (given("--slope-deg")) b.slope_deg = options_.slope_deg;
+  if (given("--slope-start-m")) b.slope_start_m = options_.slope_start_m;
+  b.noise_sigma = options_.noise_sigma;
+  b.right_gain = options_.right_gain;
+  b.right_offset = options_.right_offset;
+  b.samples_per_axis = options_.samples_per_axis;
+  b.threads = options_.threads;
+  b.colour = options_.colour;
+  if (given("--frames")) sequence.frames = flight_options_.frames;
+  if (given("--fps")) sequence.fps = flight_options_.fps;
+  if (given("--camera-speed-mps")) sequence.camera_speed_mps = camera_speed_mps_;
+  sequence.yaw_rate_rad_s = camera_yaw_rate_deg_s_ * 3.14159265358979323846 / 180.0;
+  try {
+    io::validate_stereo_sequence(sequence);
+  } catch (const std::invalid_argument& error) {
+    std::string message = error.what();
+    if (message.rfind("yaw-rate", 0) == 0) {
+      message = "camera-yaw-rate-deg-s: expected |rate| <= 57.3 degrees/s, got " + std::to_string(camera_yaw_rate_deg_s_);
+    }
+    throw CommandError(kExitUsage, "--" + message);
   }
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    io::write_stereo_sequence(output_, sequence, progress_bar("rendering sequence"));
+  } catch (const std::exception& error) {
+    throw CommandError(kExitInput, error.what());
+  }
+  const double render_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("sequence %s: %dx%d, hfov %.1f deg, baseline %.3f m, %d frames at %.1f fps, camera %.1f m/s, %zu static and %zu moving "
+              "objects, %d samples/pixel, noise %.1f: rendered in %.2f s (%.1f ms per frame) on %d threads -> %s\n",
+              sequence_.c_str(), b.width, b.height, b.hfov_deg, b.baseline_m, sequence.frames, sequence.fps, sequence.camera_speed_mps,
+              b.objects.size(), sequence.moving.size(), b.samples_per_axis * b.samples_per_axis, b.noise_sigma, render_s,
+              1000 * render_s / sequence.frames, b.threads, output_.c_str());
+  return 0;
+}
+
+int SynthCommand::run() {
+  if (command_->get_option("--sequence")->count() > 0) return run_sequence();
+  if (flight_) return run_flight();
+  for (CLI::Option* option : sequence_only_) {
+    if (option->count() > 0) throw CommandError(kExitUsage, option->get_name() + ": a --sequence option, not for the road scene");
+  }
+  for (CLI::Option* option : flight_only_) {
+    if (option->count() > 0) throw CommandError(kExitUsage, option->get_name() + ": a --flight option, not for the road scene");
+  }
+  apply_mount_and_ground(options_, true);
   if (lineup_option_->count() > 0) {
     if (!(lineup_m_ > 0 && lineup_m_ < options_.background_distance_m)) {
       throw CommandError(kExitUsage, "--lineup: expected a distance in (0, " + std::to_string(options_.background_distance_m) +

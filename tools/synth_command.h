@@ -12,6 +12,12 @@
 //     --width --height --hfov-deg --baseline-m --noise-sigma --gain --offset --seed --samples --threads)
 // A downward-looking drone flight (io/stereo_flight.h): left/ and right/ frames, poses.txt (KITTI),
 // times.txt, heights.txt, calib.txt (KITTI odometry P0 P1), calib.yaml, flight.json.
+//
+// lpstereo synth --sequence urban|country|mining|floating -o DIR [--frames N] [--fps F]
+//     [--camera-speed-mps V] [--camera-yaw-rate-deg-s R] [--colour] (+ the camera and sensor options;
+//     --ground replaces the preset's ground)
+// A sequence driving through a preset scene with moving objects (io/stereo_sequence.h): left/,
+// right/, disparity/, object_ids/ frames, poses.txt (KITTI), truth.jsonl, calib files.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -20,6 +26,7 @@
 #include <vector>
 
 #include "io/stereo_flight.h"
+#include "io/stereo_sequence.h"
 #include "io/stereo_synth.h"
 
 namespace lpstereo::tools {
@@ -32,6 +39,10 @@ class SynthCommand {
 
  private:
   int run_flight();
+  int run_sequence();
+  // --pitch-deg, --roll-deg into target (one-line errors in degrees); --ground (when parse_ground) and
+  // the ground sizes given.
+  void apply_mount_and_ground(io::StereoSynthOptions& target, bool parse_ground) const;
 
   CLI::App* command_ = nullptr;
   CLI::Option* lineup_option_ = nullptr;
@@ -53,6 +64,11 @@ class SynthCommand {
   double focal_px_ = 0;  // 0: from --hfov-deg
   bool flight_disparity_ = false;
   std::vector<CLI::Option*> road_only_, flight_only_;
+  // --sequence
+  std::string sequence_;
+  double camera_speed_mps_ = 0;
+  double camera_yaw_rate_deg_s_ = 0;
+  std::vector<CLI::Option*> sequence_only_;
 };
 
 }  // namespace lpstereo::tools

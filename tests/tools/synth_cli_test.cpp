@@ -37,6 +37,18 @@ class SynthCli : public ::testing::Test {
     }
     return count;
   }
+  // Each (arguments, the option the one-line message must name): exit 2, one line, no folder.
+  template <size_t N>
+  void expect_usage_errors(const std::pair<std::string, std::string> (&cases)[N]) {
+    for (const auto& [arguments, named] : cases) {
+      SCOPED_TRACE(arguments);
+      const Result result = run("synth -o " + path("bad") + " " + arguments);
+      EXPECT_EQ(result.exit_code, 2) << result.err;
+      EXPECT_EQ(lines(result.err), 1) << result.err;
+      EXPECT_NE(result.err.find(named), std::string::npos) << result.err;
+      EXPECT_FALSE(fs::exists(path("bad")));
+    }
+  }
   lpstereo::testing::ScratchDirectory scratch_{"lpstereo_synth_cli"};
 };
 
@@ -195,14 +207,49 @@ TEST_F(SynthCli, FlightBadOptionsGiveOneLineAndExit2) {
       {"--fps 10", "--fps"},
       {"--flight --frames 5 --fps 3", "--"},
   };
-  for (const auto& [arguments, named] : cases) {
-    SCOPED_TRACE(arguments);
-    const Result result = run("synth -o " + path("bad") + " " + arguments);
-    EXPECT_EQ(result.exit_code, 2) << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
-    EXPECT_NE(result.err.find(named), std::string::npos) << result.err;
-    EXPECT_FALSE(fs::exists(path("bad")));
+  expect_usage_errors(cases);
+}
+
+TEST_F(SynthCli, SequenceFolderReadsBack) {
+  const Result result = run("synth --sequence floating --frames 3 --fps 5 --camera-speed-mps 4 --seed 2 --width 96 --height 64 "
+                            "--samples 1 --colour -o " + path("sequence"));
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("ms per frame"), std::string::npos) << result.out;
+  for (const char* name : {"left/000002.png", "right/000002.png", "left_colour/000000.png", "right_colour/000001.png",
+                           "disparity/000002.png", "object_ids/000002.png", "poses.txt", "truth.jsonl", "calib.yaml",
+                           "calib_cam_to_cam.txt", "sequence.json"}) {
+    EXPECT_TRUE(fs::is_regular_file(path("sequence") + "/" + name)) << name;
   }
+  const std::vector<Eigen::Isometry3d> poses = lpstereo::io::read_kitti_poses(path("sequence") + "/poses.txt");
+  ASSERT_EQ(poses.size(), 3u);
+  // 4 m/s at 5 fps: 0.8 m forward a frame (no yaw: along the camera's level z).
+  EXPECT_NEAR(poses[2].translation().norm(), 1.6, 1e-6);
+  std::ifstream file(path("sequence") + "/truth.jsonl");
+  std::string line;
+  int frames = 0;
+  bool floating = false;
+  while (std::getline(file, line)) {
+    const nlohmann::json json = nlohmann::json::parse(line);
+    EXPECT_EQ(json["frame"].get<int>(), frames++);
+    for (const auto& object : json["objects"]) floating = floating || object["class"] == "hanging_sign";
+  }
+  EXPECT_EQ(frames, 3);
+  EXPECT_TRUE(floating);
+}
+
+TEST_F(SynthCli, SequenceBadOptionsGiveOneLineAndExit2) {
+  const std::pair<std::string, std::string> cases[] = {
+      {"--sequence harbour", "--sequence"},
+      {"--sequence urban --fps 0", "--fps"},
+      {"--sequence urban --frames 0", "--frames"},
+      {"--sequence urban --camera-speed-mps 100", "--camera-speed-mps"},
+      {"--sequence urban --camera-yaw-rate-deg-s 90", "--camera-yaw-rate-deg-s"},
+      {"--sequence urban --lineup 10", "--lineup"},
+      {"--sequence urban --flight", "--sequence"},
+      {"--sequence urban --yaw none", "--yaw"},
+      {"--camera-speed-mps 3", "--camera-speed-mps"},
+  };
+  expect_usage_errors(cases);
 }
 
 }  // namespace
