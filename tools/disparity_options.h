@@ -1,5 +1,5 @@
 // The disparity engine's command-line options, shared by the commands that run the engine
-// (`lpstereo disparity`, `lpstereo obstacles`): one definition of --min-disp, --num-disp, --paths,
+// (`lpstereo disparity`, `obstacles`, `terrain`, `obstacles3d`): one definition of --min-disp, --num-disp, --paths,
 // --p1, --p2, --census, --subpixel, --lr-check, --uniqueness, --median, --speckle-size,
 // --speckle-range and --multires, and one translation into arm::DisparityParameters with the checks.
 #pragma once
@@ -10,6 +10,8 @@
 #include <string>
 
 #include "arm/disparity_engine.h"
+#include "arm/point_cloud.h"
+#include "io/rectification.h"
 
 namespace lpstereo::tools {
 
@@ -45,5 +47,14 @@ void add_disparity_engine_options(CLI::App& command, DisparityEngineOptions& opt
 // The engine's parameters for an image `width` px wide; --num-disp defaults to
 // default_num_disparities. Throws CommandError (one line naming the flag, expected and actual).
 arm::DisparityParameters disparity_parameters(const DisparityEngineOptions& options, int width, int default_num_disparities);
+
+// The disparity_to_points parameters of a rectified pinhole pair matched with [min, min + num)
+// disparities: the rectified focal length, baseline and left principal point, and the principal
+// points' difference as the disparity offset (0 unless the file gives the views different cx).
+inline arm::TriangulationParameters triangulation_parameters(const io::RectifiedGeometry& geometry, int min_disparity,
+                                                             int num_disparities) {
+  return {geometry.baseline_m, geometry.focal_px, geometry.cx_left_px, geometry.cy_px, min_disparity, num_disparities,
+          geometry.cx_right_px - geometry.cx_left_px};
+}
 
 }  // namespace lpstereo::tools

@@ -255,13 +255,8 @@ int Obstacles3dCommand::run() const {
   const arm::DisparityParameters disparity_parameters =
       tools::disparity_parameters(engine_options_, width, arm::DisparityParameters{}.num_disparities);
   arm::DisparityEngine engine(width, height, disparity_parameters, {}, threads_);
-  const arm::TriangulationParameters triangulation{geometry.baseline_m,
-                                                   geometry.focal_px,
-                                                   geometry.cx_left_px,
-                                                   geometry.cy_px,
-                                                   disparity_parameters.min_disparity,
-                                                   disparity_parameters.num_disparities,
-                                                   geometry.cx_right_px - geometry.cx_left_px};
+  const arm::TriangulationParameters triangulation =
+      triangulation_parameters(geometry, disparity_parameters.min_disparity, disparity_parameters.num_disparities);
   const arm::CameraToVehicle to_vehicle(mount);
   Eigen::Isometry3d vehicle_from_camera = Eigen::Isometry3d::Identity();
   vehicle_from_camera.linear() = to_vehicle.rotation();

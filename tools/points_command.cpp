@@ -11,6 +11,7 @@
 #include "arm/point_cloud.h"
 #include "io/image_io.h"
 #include "io/rectification.h"
+#include "tools/disparity_options.h"
 #include "tools/command_error.h"
 #include "tools/rectified_pair.h"
 
@@ -48,8 +49,7 @@ int PointsCommand::run() const {
   parameters.num_disparities = num_disparities_;
   arm::DisparityEngine engine(left.width(), left.height(), parameters);
   const Plane& disparity = engine.compute(left, right);
-  arm::TriangulationParameters triangulation{geometry.baseline_m, geometry.focal_px, geometry.cx_left_px, geometry.cy_px,
-                                             min_disparity_,      num_disparities_,   geometry.cx_right_px - geometry.cx_left_px};
+  const arm::TriangulationParameters triangulation = triangulation_parameters(geometry, min_disparity_, num_disparities_);
   const arm::CameraPoints points = arm::triangulate(disparity, triangulation);
 
   // Colours: the left file decoded as colour (a grey file gives equal channels), BGR to RGB.

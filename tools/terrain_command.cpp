@@ -161,13 +161,8 @@ int TerrainCommand::run() const {
   arm::DisparityEngine engine(left.width(), left.height(), disparity_parameters, {}, threads_);
   const auto started = std::chrono::steady_clock::now();
   const Plane& disparity = engine.compute(left, pair.right);
-  const arm::TriangulationParameters triangulation{geometry.baseline_m,
-                                                   geometry.focal_px,
-                                                   geometry.cx_left_px,
-                                                   geometry.cy_px,
-                                                   disparity_parameters.min_disparity,
-                                                   disparity_parameters.num_disparities,
-                                                   geometry.cx_right_px - geometry.cx_left_px};
+  const arm::TriangulationParameters triangulation =
+      triangulation_parameters(geometry, disparity_parameters.min_disparity, disparity_parameters.num_disparities);
   const arm::CameraPoints points = arm::triangulate(disparity, triangulation);
   const auto disparity_done = std::chrono::steady_clock::now();
 
