@@ -41,4 +41,11 @@ inline Result run(const std::string& arguments) {
   return result;
 }
 
+// The command-line tests' common scene: `lpstereo synth` of the range-test lineup at 15 m, 640x288,
+// hfov 60 deg, baseline 0.30 m, camera 1.5 m high, noise 1, written to `folder`.
+inline Result render_lineup_15m(const std::string& folder) {
+  return run("synth -o " + folder +
+             " --width 640 --height 288 --hfov-deg 60 --baseline-m 0.30 --camera-height-m 1.5 --noise-sigma 1 --lineup 15");
+}
+
 }  // namespace lpstereo::testing

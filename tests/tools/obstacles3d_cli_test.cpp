@@ -53,9 +53,7 @@ class Obstacles3dCli : public ::testing::Test {
     static std::string folder;
     if (folder.empty()) {
       const std::string render = scratch.path("render");
-      const Result result = run("synth -o " + render +
-                                " --width 640 --height 288 --hfov-deg 60 --baseline-m 0.30 --camera-height-m 1.5 "
-                                "--noise-sigma 1 --lineup 15");
+      const Result result = lpstereo::testing::render_lineup_15m(render);
       EXPECT_EQ(result.exit_code, 0) << result.err;
       folder = scratch.path("seq");
       fs::create_directories(folder);

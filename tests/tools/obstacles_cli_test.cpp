@@ -63,9 +63,7 @@ class ObstaclesCli : public ::testing::Test {
     static std::string folder;
     if (folder.empty() || !fs::exists(folder)) {
       folder = path("lineup");
-      const Result result = run("synth -o " + folder +
-                                " --width 640 --height 288 --hfov-deg 60 --baseline-m 0.30 --camera-height-m 1.5 "
-                                "--noise-sigma 1 --lineup 15");
+      const Result result = lpstereo::testing::render_lineup_15m(folder);
       EXPECT_EQ(result.exit_code, 0) << result.err;
     }
     return folder;
