@@ -45,10 +45,10 @@
 #include <vector>
 
 #include <Eigen/Geometry>
-#include <opencv2/imgproc.hpp>
 
 #include "arm/disparity_engine.h"
 #include "arm/obstacles3d/augmented_stixels.h"
+#include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/obstacles3d/obstacle_tracking.h"
 #include "arm/obstacles3d/occupancy_grid.h"
 #include "arm/obstacles3d/voxel_clustering.h"
@@ -63,11 +63,9 @@ namespace {
 
 using namespace lpstereo;
 namespace o3 = arm::obstacles3d;
-namespace terrain = arm::terrain;
 
 constexpr int kMethods = 5;
 const char* const kMethodNames[kMethods] = {"polar", "cartesian", "coldisp", "stixels", "voxels"};
-constexpr double kObstacleHeightM = 0.2;  // the command's --obstacle-height-m default
 
 struct Settings {
   int frames = 30;
@@ -124,45 +122,6 @@ Eigen::Isometry3d camera_previous_from_current(const io::SynthCameraPose& previo
   motion.linear() = r_previous.transpose() * r_current;
   motion.translation() = r_previous.transpose() * (c_current - c_previous);
   return motion;
-}
-
-// The obstacle candidates of one frame: the command's steps (tools/obstacles3d_command.cpp).
-std::vector<o3::ObstaclePoint> candidate_points(const Plane& disparity_q4, int16_t invalid_q4, const arm::CameraPoints& camera,
-                                                const cv::Mat& bgr, const arm::CameraToVehicle& to_vehicle) {
-  std::vector<o3::ObstaclePoint> all, candidates;
-  std::vector<Eigen::Vector3d> vehicle_points;
-  for (int v = 0; v < disparity_q4.height(); ++v) {
-    for (int u = 0; u < disparity_q4.width(); ++u) {
-      const int32_t x_mm = camera.x_mm.at<int32_t>(u, v);
-      const int16_t d_q4 = disparity_q4.at<int16_t>(u, v);
-      if (x_mm == kernels::kNoPointMm || d_q4 == invalid_q4 || d_q4 <= 0) continue;
-      o3::ObstaclePoint point;
-      point.camera_m = Eigen::Vector3f(static_cast<float>(x_mm) * 1e-3f, static_cast<float>(camera.y_mm.at<int32_t>(u, v)) * 1e-3f,
-                                       static_cast<float>(camera.z_mm.at<int32_t>(u, v)) * 1e-3f);
-      const Eigen::Vector3d vehicle = to_vehicle.apply(point.camera_m.cast<double>());
-      point.vehicle_m = vehicle.cast<float>();
-      point.disparity_px = static_cast<float>(d_q4) / 16.0f;
-      point.u_px = static_cast<uint16_t>(u);
-      point.v_px = static_cast<uint16_t>(v);
-      const cv::Vec3b pixel = bgr.at<cv::Vec3b>(v, u);
-      point.rgb = {pixel[2], pixel[1], pixel[0]};
-      all.push_back(point);
-      vehicle_points.push_back(vehicle);
-    }
-  }
-  if (all.empty()) return candidates;
-  terrain::HeightGridAccumulator accumulator{terrain::TerrainGridSpec{}};
-  for (const Eigen::Vector3d& point : vehicle_points) accumulator.add_point(point);
-  const terrain::TerrainEstimate fit = terrain::fit_terrain(accumulator.finish(), terrain::TerrainFitParameters{});
-  if (!fit.known) return candidates;
-  const std::vector<terrain::PointClass> classes = terrain::classify_points(vehicle_points, fit, kObstacleHeightM);
-  for (size_t i = 0; i < all.size(); ++i) {
-    if (classes[i] != terrain::PointClass::obstacle) continue;
-    o3::ObstaclePoint point = all[i];
-    point.height_above_ground_m = static_cast<float>(vehicle_points[i].z() - fit.surface.height_m(vehicle_points[i].x(), vehicle_points[i].y()));
-    candidates.push_back(point);
-  }
-  return candidates;
 }
 
 struct Gate {
@@ -257,6 +216,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   mount.pitch_rad = base.pitch_rad;
   mount.position_m = Eigen::Vector3d(0, 0, base.camera_height_m);
   const arm::CameraToVehicle to_vehicle(mount);
+  const o3::CandidateParameters candidate_parameters;  // the command's defaults (--obstacle-height-m 0.2)
   Eigen::Isometry3d vehicle_from_camera = Eigen::Isometry3d::Identity();
   vehicle_from_camera.linear() = to_vehicle.rotation();
   vehicle_from_camera.translation() = to_vehicle.translation_m();
@@ -300,9 +260,9 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     const Plane right = io::mat_to_plane(frame.scene.right, BufferFormat{ElementType::u8});
     const Plane& disparity = engine.compute(left, right);
     const arm::CameraPoints camera = arm::triangulate(disparity, triangulation);
-    cv::Mat bgr;
-    cv::cvtColor(frame.scene.left, bgr, cv::COLOR_GRAY2BGR);
-    const std::vector<o3::ObstaclePoint> candidates = candidate_points(disparity, engine.invalid_disparity_q4(), camera, bgr, to_vehicle);
+    const std::vector<o3::ObstaclePoint> candidates =
+        o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, left, o3::ColourView{}, to_vehicle, candidate_parameters)
+            .points;
     o3::EgoMotion ego_motion;
     if (n > 0) {
       ego_motion.available = true;

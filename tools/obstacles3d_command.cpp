@@ -15,6 +15,7 @@
 
 #include "arm/disparity_engine.h"
 #include "arm/obstacles3d/augmented_stixels.h"
+#include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/obstacles3d/obstacle_tracking.h"
 #include "arm/obstacles3d/occupancy_grid.h"
 #include "arm/obstacles3d/voxel_clustering.h"
@@ -40,72 +41,6 @@ namespace {
 namespace o3 = arm::obstacles3d;
 
 constexpr double kVoxelMinM = 0.05, kVoxelMaxM = 0.5;  // VoxelMapParameters' range (issue 10)
-
-// The frame's obstacle candidates (header comment, steps 1-3) and what the terrain said about them.
-struct CandidatePoints {
-  std::vector<o3::ObstaclePoint> points;
-  int64_t cloud_points = 0;     // valid disparities triangulated
-  int64_t outside_area = 0;     // not covered by the terrain area (no height above ground)
-  bool terrain_known = false;
-  std::string terrain_note;
-};
-
-CandidatePoints candidate_points(const Plane& disparity_q4, int16_t invalid_q4, const arm::CameraPoints& camera,
-                                 const cv::Mat& bgr, const arm::CameraToVehicle& to_vehicle, double obstacle_height_m) {
-  CandidatePoints result;
-  std::vector<Eigen::Vector3d> vehicle_points;
-  std::vector<o3::ObstaclePoint> all;
-  for (int v = 0; v < disparity_q4.height(); ++v) {
-    for (int u = 0; u < disparity_q4.width(); ++u) {
-      const int32_t x_mm = camera.x_mm.at<int32_t>(u, v);
-      const int16_t d_q4 = disparity_q4.at<int16_t>(u, v);
-      if (x_mm == kernels::kNoPointMm || d_q4 == invalid_q4 || d_q4 <= 0) continue;
-      o3::ObstaclePoint point;
-      point.camera_m = Eigen::Vector3f(static_cast<float>(x_mm) * 1e-3f, static_cast<float>(camera.y_mm.at<int32_t>(u, v)) * 1e-3f,
-                                       static_cast<float>(camera.z_mm.at<int32_t>(u, v)) * 1e-3f);
-      const Eigen::Vector3d vehicle = to_vehicle.apply(point.camera_m.cast<double>());
-      point.vehicle_m = vehicle.cast<float>();
-      point.disparity_px = static_cast<float>(d_q4) / 16.0f;
-      point.u_px = static_cast<uint16_t>(u);
-      point.v_px = static_cast<uint16_t>(v);
-      const cv::Vec3b pixel = bgr.at<cv::Vec3b>(v, u);
-      point.rgb = {pixel[2], pixel[1], pixel[0]};
-      all.push_back(point);
-      vehicle_points.push_back(vehicle);
-    }
-  }
-  result.cloud_points = static_cast<int64_t>(all.size());
-  if (all.empty()) {
-    result.terrain_note = "empty cloud (no valid disparity)";
-    return result;
-  }
-  const arm::terrain::TerrainGridSpec spec;  // x 0..34 m forward, y -11..11 m, 0.5 m cells
-  arm::terrain::HeightGridAccumulator accumulator(spec);
-  for (const Eigen::Vector3d& point : vehicle_points) accumulator.add_point(point);
-  const arm::terrain::TerrainEstimate terrain = arm::terrain::fit_terrain(accumulator.finish(), arm::terrain::TerrainFitParameters{});
-  if (!terrain.known) {
-    result.terrain_note = "terrain unknown (" + terrain.reason + "): no obstacle candidates";
-    result.outside_area = result.cloud_points;
-    return result;
-  }
-  result.terrain_known = true;
-  const std::vector<arm::terrain::PointClass> classes = arm::terrain::classify_points(vehicle_points, terrain, obstacle_height_m);
-  for (size_t i = 0; i < all.size(); ++i) {
-    if (classes[i] == arm::terrain::PointClass::outside) {
-      ++result.outside_area;
-    } else if (classes[i] == arm::terrain::PointClass::obstacle) {
-      o3::ObstaclePoint point = all[i];
-      point.height_above_ground_m =
-          static_cast<float>(vehicle_points[i].z() - terrain.surface.height_m(vehicle_points[i].x(), vehicle_points[i].y()));
-      result.points.push_back(point);
-    }
-  }
-  char note[160];
-  std::snprintf(note, sizeof note, "terrain: %lld points, %zu obstacle candidates, %lld outside the terrain area",
-                static_cast<long long>(result.cloud_points), result.points.size(), static_cast<long long>(result.outside_area));
-  result.terrain_note = note;
-  return result;
-}
 
 nlohmann::json vector_json(const Eigen::Vector3d& value) { return nlohmann::json{value.x(), value.y(), value.z()}; }
 
@@ -258,6 +193,8 @@ int Obstacles3dCommand::run() const {
   const arm::TriangulationParameters triangulation =
       triangulation_parameters(geometry, disparity_parameters.min_disparity, disparity_parameters.num_disparities);
   const arm::CameraToVehicle to_vehicle(mount);
+  o3::CandidateParameters candidate_parameters;
+  candidate_parameters.obstacle_height_m = obstacle_height_m_;
   Eigen::Isometry3d vehicle_from_camera = Eigen::Isometry3d::Identity();
   vehicle_from_camera.linear() = to_vehicle.rotation();
   vehicle_from_camera.translation() = to_vehicle.translation_m();
@@ -330,8 +267,9 @@ int Obstacles3dCommand::run() const {
     const auto started = std::chrono::steady_clock::now();
     const Plane& disparity = engine.compute(pair.frame.left, pair.frame.right);
     const arm::CameraPoints camera = arm::triangulate(disparity, triangulation);
-    const CandidatePoints candidates =
-        candidate_points(disparity, engine.invalid_disparity_q4(), camera, bgr, to_vehicle, obstacle_height_m_);
+    const o3::CandidatePoints candidates = o3::extract_obstacle_candidates(
+        disparity, engine.invalid_disparity_q4(), camera, pair.frame.left, o3::ColourView{bgr.data, bgr.step, true}, to_vehicle,
+        candidate_parameters);
 
     // Ego-motion: the odometry's camera increment (t -> t-1) in the vehicle frame, V E_c V^-1.
     const arm::StereoOdometryFrame motion = odometry.process(pair.frame.left, pair.frame.right);
@@ -381,7 +319,7 @@ int Obstacles3dCommand::run() const {
                                  : i == 0              ? "first frame: no ego-motion"
                                                        : "no ego-motion: static camera assumed";
     const nlohmann::json line = {{"frame", index},
-                                 {"status", candidates.terrain_note + "; " + ego_note + "; " + method_status},
+                                 {"status", candidates.note + "; " + ego_note + "; " + method_status},
                                  {"ego_motion", ego_motion.available},
                                  {"obstacles", obstacle_lines}};
     lines += line.dump() + "\n";
