@@ -5,11 +5,16 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+
+#include <gtest/gtest.h>
+
+#include "tests/support/scratch_directory.h"
 
 namespace lpstereo::testing {
 
@@ -41,11 +46,33 @@ inline Result run(const std::string& arguments) {
   return result;
 }
 
+// Lines in a command's output or a written text file (newline characters).
+inline int count_lines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
+
 // The command-line tests' common scene: `lpstereo synth` of the range-test lineup at 15 m, 640x288,
 // hfov 60 deg, baseline 0.30 m, camera 1.5 m high, noise 1, written to `folder`.
 inline Result render_lineup_15m(const std::string& folder) {
   return run("synth -o " + folder +
              " --width 640 --height 288 --hfov-deg 60 --baseline-m 0.30 --camera-height-m 1.5 --noise-sigma 1 --lineup 15");
 }
+
+// A fixture for the tests that run commands on the lineup: a scratch folder, and the lineup rendered
+// once per test binary (again if an earlier test's scratch folder, which held it, is gone).
+class LineupCliTest : public ::testing::Test {
+ protected:
+  explicit LineupCliTest(const std::string& scratch_name) : scratch_(scratch_name) {}
+  std::string path(const std::string& name) const { return scratch_.path(name); }
+  // A 640x288 lineup at 15 m (hfov 60 deg, baseline 0.30 m, camera 1.5 m high, noise 1).
+  const std::string& lineup() {
+    static std::string folder;
+    if (folder.empty() || !std::filesystem::exists(folder)) {
+      folder = path("lineup");
+      const Result result = render_lineup_15m(folder);
+      EXPECT_EQ(result.exit_code, 0) << result.err;
+    }
+    return folder;
+  }
+  ScratchDirectory scratch_;
+};
 
 }  // namespace lpstereo::testing

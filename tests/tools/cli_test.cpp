@@ -25,9 +25,8 @@ using namespace lpstereo;
 namespace fs = std::filesystem;
 
 using lpstereo::testing::Result;
+using lpstereo::testing::count_lines;
 using lpstereo::testing::run;
-
-int lines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
 
 class Cli : public ::testing::Test {
  protected:
@@ -81,7 +80,7 @@ TEST_F(Cli, ProfileWritesReportTraceAndSummary) {
 TEST_F(Cli, EnforceExitsThreeWithOneLineWhenOverBudget) {
   const Result result = run("profile --graph rectify-census --width 640 --height 288 --fps 10000 --enforce");
   EXPECT_EQ(result.exit_code, 3);
-  EXPECT_EQ(lines(result.err), 1) << result.err;
+  EXPECT_EQ(count_lines(result.err), 1) << result.err;
   EXPECT_EQ(result.err.rfind("lpstereo: over budget: graph 'rectify-census' on cv1-class at 640x288: frame time ", 0), 0u)
       << result.err;
   // A graph marked as not meant to fit is reported, not enforced.
@@ -105,7 +104,7 @@ TEST_F(Cli, ProfileReportsAGraphThatDoesNotFitTheSram) {
   EXPECT_FALSE(json["fits_budget"].get<bool>());
   const Result enforced = run(command + " --enforce");
   EXPECT_EQ(enforced.exit_code, 3);
-  EXPECT_EQ(lines(enforced.err), 1) << enforced.err;
+  EXPECT_EQ(count_lines(enforced.err), 1) << enforced.err;
   EXPECT_EQ(enforced.err.rfind("lpstereo: over budget: graph 'disparity' on tda4vm-c7x at 1280x96: does not fit the SRAM: ", 0),
             0u)
       << enforced.err;
@@ -221,7 +220,7 @@ TEST_F(Cli, BadInputGetsOneClearLineAndANonZeroExit) {
       EXPECT_FALSE(fs::exists(path(bad.must_not_exist))) << bad.name;
     }
     if (bad.exit_code == 0) continue;
-    EXPECT_EQ(lines(result.err), 1) << bad.name << ": " << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << bad.name << ": " << result.err;
     EXPECT_EQ(result.err.rfind(bad.error_start, 0), 0u) << bad.name << ": " << result.err;
   }
   // A size mismatch between the views.
@@ -229,7 +228,7 @@ TEST_F(Cli, BadInputGetsOneClearLineAndANonZeroExit) {
   const Result mismatch = run("disparity " + left + " " + path("pair2/right.png") + " -o " + path("o5.png") + " --right-out " +
                               path("r5.png"));
   EXPECT_EQ(mismatch.exit_code, 1);
-  EXPECT_EQ(lines(mismatch.err), 1) << mismatch.err;
+  EXPECT_EQ(count_lines(mismatch.err), 1) << mismatch.err;
   EXPECT_EQ(mismatch.err, "lpstereo: image sizes differ: left " + left + " is 64x48, right " + path("pair2/right.png") +
                               " is 80x48\n");
   EXPECT_FALSE(fs::exists(path("o5.png")));
@@ -312,7 +311,7 @@ TEST_F(Cli, DisparityMatcherOptionsReachTheEngine) {
            {"--speckle-size -1", "lpstereo: --speckle-size: Value -1 not in range"}}) {
     const Result bad = run("disparity " + pair + " -o " + path("bad.s16") + " " + options);
     EXPECT_EQ(bad.exit_code, 2) << options << ": " << bad.err;
-    EXPECT_EQ(lines(bad.err), 1) << bad.err;
+    EXPECT_EQ(count_lines(bad.err), 1) << bad.err;
     EXPECT_EQ(bad.err.rfind(error_start, 0), 0u) << bad.err;
     EXPECT_FALSE(fs::exists(path("bad.s16")));
   }

@@ -20,6 +20,7 @@ namespace {
 using namespace lpstereo;
 namespace fs = std::filesystem;
 using lpstereo::testing::Result;
+using lpstereo::testing::count_lines;
 using lpstereo::testing::run;
 
 // Frame i at z = i m (1 m per frame, straight ahead), positions scaled by `scale`.
@@ -32,8 +33,6 @@ std::vector<Eigen::Isometry3d> straight_drive(int frames, double scale = 1.0) {
   }
   return poses;
 }
-
-int lines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
 
 // Pixels within 40 grey levels (each channel) of a BGR colour.
 int pixels_near(const cv::Mat& image, const cv::Vec3b& colour) {
@@ -139,7 +138,7 @@ TEST_F(EvalOdometryCli, BadInputIsOneLineAndNoOutput) {
     const Result result = run(c.arguments + " --json " + path("r.json") + " --plot " + path("plot.png"));
     EXPECT_EQ(result.exit_code, c.exit_code) << c.name << ": " << result.err;
     EXPECT_EQ(result.err.rfind(c.message, 0), 0u) << c.name << ": " << result.err;
-    EXPECT_EQ(lines(result.err), 1) << c.name << ": " << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << c.name << ": " << result.err;
     EXPECT_FALSE(fs::exists(path("r.json"))) << c.name;
     EXPECT_FALSE(fs::exists(path("plot.png"))) << c.name;
   }

@@ -27,6 +27,7 @@ namespace {
 using namespace lpstereo;
 namespace fs = std::filesystem;
 using lpstereo::testing::Result;
+using lpstereo::testing::count_lines;
 using lpstereo::testing::run;
 
 class GeometryCli : public ::testing::Test {
@@ -34,8 +35,6 @@ class GeometryCli : public ::testing::Test {
   std::string path(const std::string& name) const { return scratch_.path(name); }
   lpstereo::testing::ScratchDirectory scratch_{"lpstereo_geometry_cli"};
 };
-
-int lines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
 
 // Smooth random texture (blurred noise plus a few shapes): features for AKAZE, gradients for remap.
 cv::Mat texture(int width, int height, uint32_t seed) {
@@ -113,7 +112,7 @@ TEST_F(GeometryCli, RectifyRefusesBadInputWithOneLineAndWritesNothing) {
        }) {
     const Result result = run("rectify " + bad.arguments + " -o " + path("out"));
     EXPECT_EQ(result.exit_code, 1) << bad.arguments;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << result.err;
     EXPECT_NE(result.err.find(bad.needle), std::string::npos) << result.err;
     EXPECT_FALSE(fs::exists(path("out/left.png"))) << bad.arguments;
     EXPECT_FALSE(fs::exists(path("out/right.png"))) << bad.arguments;
@@ -227,7 +226,7 @@ TEST_F(GeometryCli, RectifyLatLongRefusesBadInputWithOneLine) {
        }) {
     const Result result = run("rectify " + bad.arguments + " -o " + path("out"));
     EXPECT_EQ(result.exit_code, bad.exit_code) << bad.arguments << "\n" << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << result.err;
     EXPECT_NE(result.err.find(bad.needle), std::string::npos) << result.err;
     EXPECT_FALSE(fs::exists(path("out/left.png"))) << bad.arguments;
   }
@@ -303,7 +302,7 @@ TEST_F(GeometryCli, DisparityRefusesACalibrationThatDoesNotFitTheImages) {
        }) {
     const Result result = run("disparity " + pair + " -o " + path("d.png") + " --right-out " + path("r.png") + bad.options);
     EXPECT_EQ(result.exit_code, bad.exit_code) << bad.options << ": " << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << result.err;
     if (bad.error.back() == '\n') {
       EXPECT_EQ(result.err, bad.error);
     } else {
@@ -339,7 +338,7 @@ TEST_F(GeometryCli, CheckRectificationMeasuresVerticalOffsets) {
   ASSERT_TRUE(cv::imwrite(path("flat.png"), cv::Mat(100, 100, CV_8UC1, cv::Scalar(90))));
   const Result flat = run("check-rectification " + path("flat.png") + " " + path("flat.png"));
   EXPECT_EQ(flat.exit_code, 1);
-  EXPECT_EQ(lines(flat.err), 1) << flat.err;
+  EXPECT_EQ(count_lines(flat.err), 1) << flat.err;
   EXPECT_NE(flat.err.find("too few matched features"), std::string::npos) << flat.err;
 }
 
@@ -449,7 +448,7 @@ TEST_F(GeometryCli, CalibrateRecoversFocalAndBaselineFromRenderedChessboards) {
   std::ofstream(path("few.txt")) << "left0.png right0.png\nleft12.png right12.png\n";
   const Result few = run("calibrate --board 9x6 --square-m 0.03 " + path("few.txt") + " -o " + path("x.yaml"));
   EXPECT_EQ(few.exit_code, 1);
-  EXPECT_EQ(lines(few.err), 1) << few.err;
+  EXPECT_EQ(count_lines(few.err), 1) << few.err;
   EXPECT_NE(few.err.find("found in both views of 1 of 2 pairs"), std::string::npos) << few.err;
   std::ofstream(path("odd.txt")) << "left0.png\n";
   EXPECT_EQ(run("calibrate --board 9x6 --square-m 0.03 " + path("odd.txt") + " -o " + path("x.yaml")).exit_code, 1);

@@ -21,13 +21,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using testing::Result;
+using testing::count_lines;
 using testing::run;
-
-int lines(const std::string& text) {
-  int count = 0;
-  for (char c : text) count += c == '\n' ? 1 : 0;
-  return count;
-}
 
 class LocalizeCli : public ::testing::Test {
  protected:
@@ -102,7 +97,7 @@ TEST_F(LocalizeCli, BadInputGivesOneLineAndNoFile) {
   const std::string output = path("trajectory.txt");
   const auto expect_refused = [&](const Result& result, int exit_code, const std::string& needle) {
     EXPECT_EQ(result.exit_code, exit_code) << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << result.err;
     EXPECT_NE(result.err.find(needle), std::string::npos) << result.err;
     EXPECT_FALSE(fs::exists(output));
   };

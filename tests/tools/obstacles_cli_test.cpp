@@ -25,12 +25,15 @@
 
 #include "io/synthetic_scene.h"
 #include "tests/support/cli_runner.h"
+#include "tests/support/json_file.h"
 #include "tests/support/scratch_directory.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 using lpstereo::testing::Result;
+using lpstereo::testing::count_lines;
+using lpstereo::testing::read_json_file;
 using lpstereo::testing::run;
 
 // Sequence mode's velocity check (SequenceTracksTheApproachingLineup). The tracker's filter
@@ -48,26 +51,9 @@ constexpr double kDistanceOffsetM = 0.5;  // |mean(measured - true distance)| ov
 constexpr double kDistanceSpreadM = 0.1;  // |(measured - true) - that mean| in every frame
 constexpr double kVelocityToleranceMps = 1.0;
 
-int lines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
-
-nlohmann::json read_json(const std::string& file) {
-  std::ifstream stream(file);
-  return nlohmann::json::parse(stream);
-}
-
-class ObstaclesCli : public ::testing::Test {
+class ObstaclesCli : public lpstereo::testing::LineupCliTest {
  protected:
-  std::string path(const std::string& name) const { return scratch_.path(name); }
-  // A 640x288 lineup at 15 m (hfov 60 deg, baseline 0.30 m, camera 1.5 m high, noise 1), rendered once.
-  const std::string& lineup() {
-    static std::string folder;
-    if (folder.empty() || !fs::exists(folder)) {
-      folder = path("lineup");
-      const Result result = lpstereo::testing::render_lineup_15m(folder);
-      EXPECT_EQ(result.exit_code, 0) << result.err;
-    }
-    return folder;
-  }
+  ObstaclesCli() : LineupCliTest("lpstereo_obstacles_cli") {}
   // The lineup at 20, 19, 18 and 17 m as a sequence: frame i is the render at 20 - i m, copied to
   // seq/left_00000i.png and seq/right_00000i.png; rendered once. lineup()'s settings at 1280x576, not
   // 640x288: at 640 px the bin and the pedestrian (1.2 m apart, 33 px at 20 m) merge into one
@@ -98,7 +84,6 @@ class ObstaclesCli : public ::testing::Test {
     return folder;
   }
   static constexpr int kSequenceFrames = 4;
-  lpstereo::testing::ScratchDirectory scratch_{"lpstereo_obstacles_cli"};
 };
 
 // A Middlebury calib.txt for a rectified pair: focal 700 px, baseline 120 mm.
@@ -123,7 +108,7 @@ TEST_F(ObstaclesCli, LineupGivesTheRoadAndTheObjectsAtTheirDistance) {
                             " --grid " + path("grid.png") + " --mask " + path("mask.png") + " --vdisp " + path("vdisp.png"));
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.out.find("obstacles; road: camera height"), std::string::npos) << result.out;
-  const nlohmann::json json = read_json(output);
+  const nlohmann::json json = read_json_file(output);
   EXPECT_EQ(json.at("width"), 640);
   EXPECT_EQ(json.at("height"), 288);
   const nlohmann::json& road = json.at("road");
@@ -155,7 +140,7 @@ TEST_F(ObstaclesCli, LineupGivesTheRoadAndTheObjectsAtTheirDistance) {
   }
   // The match: bounding boxes overlap (2 px tolerance) and the distance within 10 % + 0.5 m.
   // At 640 px the tape roll (0.07 m: 3 rows at 15 m) is below what this resolution resolves.
-  const nlohmann::json truth = read_json(scene + "/objects.json").at("objects");
+  const nlohmann::json truth = read_json_file(scene + "/objects.json").at("objects");
   for (const nlohmann::json& object : truth) {
     const std::string name = object.at("class");
     if (name == "tape_roll") continue;
@@ -182,7 +167,7 @@ TEST_F(ObstaclesCli, LineupGivesTheRoadAndTheObjectsAtTheirDistance) {
 void expect_no_road(const Result& result, const std::string& output) {
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.out.find("no road found"), std::string::npos) << result.out;
-  const nlohmann::json json = read_json(output);
+  const nlohmann::json json = read_json_file(output);
   EXPECT_FALSE(json.at("road").at("valid").get<bool>());
   EXPECT_EQ(json.at("road").at("confidence"), 0);
   EXPECT_FALSE(json.at("road").contains("slope_px_per_row"));  // never a made-up road
@@ -245,17 +230,17 @@ TEST_F(ObstaclesCli, BadInputGivesOneLineAndNoFile) {
   // A missing image.
   Result result = run("obstacles " + path("missing.png") + " " + scene + "/right.png --calib " + scene + "/calib.yaml -o " + output);
   EXPECT_EQ(result.exit_code, 1);
-  EXPECT_EQ(lines(result.err), 1) << result.err;
+  EXPECT_EQ(count_lines(result.err), 1) << result.err;
   EXPECT_NE(result.err.find("missing.png"), std::string::npos) << result.err;
   // A missing calibration.
   result = run("obstacles " + pair + " --calib " + path("missing.yaml") + " -o " + output);
   EXPECT_EQ(result.exit_code, 1);
-  EXPECT_EQ(lines(result.err), 1) << result.err;
+  EXPECT_EQ(count_lines(result.err), 1) << result.err;
   // A calibration without a baseline.
   write_middlebury(path("no_baseline.txt"), 640, 288, "0");
   result = run("obstacles " + pair + " --calib " + path("no_baseline.txt") + " -o " + output);
   EXPECT_EQ(result.exit_code, 1);
-  EXPECT_EQ(lines(result.err), 1) << result.err;
+  EXPECT_EQ(count_lines(result.err), 1) << result.err;
   EXPECT_NE(result.err.find("baseline"), std::string::npos) << result.err;
   // Views of different sizes.
   const cv::Mat small(100, 100, CV_8UC1, cv::Scalar(0));
@@ -266,7 +251,7 @@ TEST_F(ObstaclesCli, BadInputGivesOneLineAndNoFile) {
   // Bad usage.
   result = run("obstacles " + pair + " --calib " + scene + "/calib.yaml -o " + output + " --num-disp 0");
   EXPECT_EQ(result.exit_code, 2);
-  EXPECT_EQ(lines(result.err), 1) << result.err;
+  EXPECT_EQ(count_lines(result.err), 1) << result.err;
   result = run("obstacles " + pair + " -o " + output);
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_FALSE(fs::exists(output));
@@ -306,7 +291,7 @@ TEST_F(ObstaclesCli, SequenceTracksTheApproachingLineup) {
   EXPECT_EQ(result.err, "");  // no progress bar when stderr is not a terminal
   std::ifstream stream(output);
   const std::string text((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
-  ASSERT_EQ(lines(text), kSequenceFrames) << text;
+  ASSERT_EQ(count_lines(text), kSequenceFrames) << text;
   const std::vector<nlohmann::json> frames = read_json_lines(output);
   ASSERT_EQ(frames.size(), static_cast<size_t>(kSequenceFrames));
   std::map<std::string, int> first_track_id;           // per object class, the track id of frame 0
@@ -328,7 +313,7 @@ TEST_F(ObstaclesCli, SequenceTracksTheApproachingLineup) {
         EXPECT_EQ(obstacle.at("velocity_mps")[2].get<double>(), 0.0);  // fewer than 3 measurements: none yet
       }
     }
-    const nlohmann::json truth = read_json(folder + "/objects_" + std::to_string(i) + ".json").at("objects");
+    const nlohmann::json truth = read_json_file(folder + "/objects_" + std::to_string(i) + ".json").at("objects");
     for (const nlohmann::json& object : truth) {
       const std::string name = object.at("class");
       if (name != "bin" && name != "pedestrian") continue;  // the larger objects, found in every frame
@@ -385,7 +370,7 @@ TEST_F(ObstaclesCli, SequenceBadInputGivesOneLineAndNoFile) {
   const std::string patterns = " --left '" + folder + "/left_%06d.png' --right '" + folder + "/right_%06d.png'";
   const auto expect_refused = [&](const Result& result, int exit_code, const std::string& needle) {
     EXPECT_EQ(result.exit_code, exit_code) << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << result.err;
     EXPECT_NE(result.err.find(needle), std::string::npos) << result.err;
     EXPECT_FALSE(fs::exists(output));
   };

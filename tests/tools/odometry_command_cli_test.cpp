@@ -24,14 +24,9 @@ namespace {
 
 namespace fs = std::filesystem;
 using testing::Result;
+using testing::count_lines;
 using testing::run;
 namespace room = testing::moving_room;
-
-int lines(const std::string& text) {
-  int count = 0;
-  for (char c : text) count += c == '\n' ? 1 : 0;
-  return count;
-}
 
 class OdometryCli : public ::testing::Test {
  protected:
@@ -99,7 +94,7 @@ TEST_F(OdometryCli, BadInputGivesOneLineAndNoFile) {
   const std::string calib = " --calib " + folder + "/calib.txt";
   const auto expect_refused = [&](const Result& result, int exit_code, const std::string& needle) {
     EXPECT_EQ(result.exit_code, exit_code) << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << result.err;
     EXPECT_NE(result.err.find(needle), std::string::npos) << result.err;
     EXPECT_FALSE(fs::exists(output));
   };

@@ -22,6 +22,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using lpstereo::testing::Result;
+using lpstereo::testing::count_lines;
 using lpstereo::testing::run;
 
 class PointsCli : public ::testing::Test {
@@ -29,8 +30,6 @@ class PointsCli : public ::testing::Test {
   std::string path(const std::string& name) const { return scratch_.path(name); }
   lpstereo::testing::ScratchDirectory scratch_{"lpstereo_points_cli"};
 };
-
-int lines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
 
 constexpr int kWidth = 192, kHeight = 128;
 
@@ -128,19 +127,19 @@ TEST_F(PointsCli, BadInputGivesOneLineAndNoFile) {
        }) {
     const Result result = run("points " + bad.arguments + " -o " + path("cloud.ply"));
     EXPECT_EQ(result.exit_code, 1) << bad.arguments;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << result.err;
     EXPECT_NE(result.err.find(bad.needle), std::string::npos) << result.err;
     EXPECT_FALSE(fs::exists(path("cloud.ply"))) << bad.arguments;
   }
   // A folder that does not exist: the write fails, nothing is left.
   const Result unwritable = run("points " + pair + " --calib " + path("calib.txt") + " -o " + path("no/cloud.ply"));
   EXPECT_EQ(unwritable.exit_code, 1);
-  EXPECT_EQ(lines(unwritable.err), 1) << unwritable.err;
+  EXPECT_EQ(count_lines(unwritable.err), 1) << unwritable.err;
   EXPECT_FALSE(fs::exists(path("no")));
   // --calib is required; angles without a position are refused.
   const Result no_calibration = run("points " + pair + " -o " + path("cloud.ply"));
   EXPECT_EQ(no_calibration.exit_code, 2);
-  EXPECT_EQ(lines(no_calibration.err), 1) << no_calibration.err;
+  EXPECT_EQ(count_lines(no_calibration.err), 1) << no_calibration.err;
   const Result angles_only = run("points " + pair + " --calib " + path("calib.txt") + " -o " + path("cloud.ply") + " --pitch-rad 0.1");
   EXPECT_EQ(angles_only.exit_code, 2);
   EXPECT_NE(angles_only.err.find("--position-m"), std::string::npos) << angles_only.err;
@@ -153,7 +152,7 @@ TEST_F(PointsCli, BadInputGivesOneLineAndNoFile) {
   EXPECT_EQ(no_range.err.rfind("lpstereo: --num-disp: expected a positive number, got 0", 0), 0u) << no_range.err;
   const Result too_wide = run(calibrated + " --min-disp 100 --num-disp 120");
   EXPECT_EQ(too_wide.exit_code, 1) << too_wide.err;
-  EXPECT_EQ(lines(too_wide.err), 1) << too_wide.err;
+  EXPECT_EQ(count_lines(too_wide.err), 1) << too_wide.err;
   EXPECT_NE(too_wide.err.find("--min-disp + --num-disp: expected at most"), std::string::npos) << too_wide.err;
   EXPECT_FALSE(fs::exists(path("cloud.ply")));
 }

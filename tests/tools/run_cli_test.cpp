@@ -44,12 +44,11 @@ namespace {
 namespace fs = std::filesystem;
 using lpstereo::Plane;
 using lpstereo::testing::Result;
+using lpstereo::testing::count_lines;
 using lpstereo::testing::run;
 
 constexpr int kFrames = 3;
 constexpr const char* kEngine = " --num-disp 48 --threads 2";
-
-int lines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
 
 std::string last_line(const std::string& text) {
   const std::string trimmed = text.substr(0, text.find_last_not_of('\n') + 1);
@@ -115,7 +114,7 @@ TEST_F(RunCli, DisparityGraphMatchesTheDisparityCommand) {
   EXPECT_NE(result.out.find("cv1-class "), std::string::npos) << result.out;
   EXPECT_NE(result.out.find("ms/frame (budget 100.0 ms at 10 fps: "), std::string::npos) << result.out;  // 10 Hz: a recording's rate
   // Not a terminal: one status line per frame (--status-every 1), each with every figure.
-  ASSERT_EQ(lines(result.err), kFrames) << result.err;
+  ASSERT_EQ(count_lines(result.err), kFrames) << result.err;
   std::istringstream status(result.err);
   for (int frame = 1; frame <= kFrames; ++frame) {
     std::string line;
@@ -235,7 +234,7 @@ TEST_F(RunCli, SigtermStopsARealtimeReplayWithACompleteRecording) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   const auto recorded_pairs = [&] {
     std::ifstream timestamps(recording + "/timestamps.txt");
-    return lines(std::string(std::istreambuf_iterator<char>(timestamps), {})) - 1;
+    return count_lines(std::string(std::istreambuf_iterator<char>(timestamps), {})) - 1;
   };
   while (recorded_pairs() < 1 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ASSERT_GE(recorded_pairs(), 1) << "no pair recorded in 60 s";
@@ -280,7 +279,7 @@ TEST_F(RunCli, BadInputGivesOneLineAndANonZeroExit) {
 
   const auto expect_refused = [](const Result& result, int exit_code, const std::string& needle) {
     EXPECT_EQ(result.exit_code, exit_code) << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << result.err;
     EXPECT_NE(result.err.find(needle), std::string::npos) << result.err;
   };
   expect_refused(run("run --source " + files(path("nothing")) + calib()), 1, "000000.png not found");
@@ -298,7 +297,7 @@ TEST_F(RunCli, BadInputGivesOneLineAndANonZeroExit) {
   // A view missing mid-sequence: frame 0 is processed (and summarised on stdout), then one line and exit 1.
   const Result gap_result = run("run --source " + files(gap) + calib() + kEngine);
   EXPECT_EQ(gap_result.exit_code, 1) << gap_result.err;
-  EXPECT_EQ(lines(gap_result.err), 1) << gap_result.err;
+  EXPECT_EQ(count_lines(gap_result.err), 1) << gap_result.err;
   EXPECT_NE(last_line(gap_result.err).find("right/000001.png is missing"), std::string::npos) << gap_result.err;
   EXPECT_NE(gap_result.out.find("1 pairs processed (failed)"), std::string::npos) << gap_result.out;
 }

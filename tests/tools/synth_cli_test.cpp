@@ -22,9 +22,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using lpstereo::testing::Result;
+using lpstereo::testing::count_lines;
 using lpstereo::testing::run;
-
-int lines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
 
 class SynthCli : public ::testing::Test {
  protected:
@@ -44,7 +43,7 @@ class SynthCli : public ::testing::Test {
       SCOPED_TRACE(arguments);
       const Result result = run("synth -o " + path("bad") + " " + arguments);
       EXPECT_EQ(result.exit_code, 2) << result.err;
-      EXPECT_EQ(lines(result.err), 1) << result.err;
+      EXPECT_EQ(count_lines(result.err), 1) << result.err;
       EXPECT_NE(result.err.find(named), std::string::npos) << result.err;
       EXPECT_FALSE(fs::exists(path("bad")));
     }
@@ -95,7 +94,7 @@ TEST_F(SynthCli, BadValuesGiveOneLineAndExit2) {
     SCOPED_TRACE(arguments);
     const Result result = run("synth -o " + path("bad") + " " + arguments);
     EXPECT_EQ(result.exit_code, 2) << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << result.err;
     EXPECT_FALSE(fs::exists(path("bad")));
   }
   const Result hfov = run("synth -o " + path("bad") + " --hfov-deg 200");
@@ -123,7 +122,7 @@ TEST_F(SynthCli, BadGroundOrRollGivesOneLineAndExit2) {
     SCOPED_TRACE(arguments);
     const Result result = run("synth -o " + path("bad") + " --width 64 --height 32 " + arguments);
     EXPECT_EQ(result.exit_code, 2) << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << result.err;
     EXPECT_FALSE(fs::exists(path("bad")));
   }
   EXPECT_NE(run("synth -o " + path("bad") + " --ground volcano").err.find("volcano"), std::string::npos);
@@ -134,7 +133,7 @@ TEST_F(SynthCli, UnwritableFolderGivesOneLineAndExit1) {
   std::ofstream(path("file")) << "not a folder";
   const Result result = run("synth --width 64 --height 32 -o " + path("file") + "/scene");
   EXPECT_EQ(result.exit_code, 1) << result.err;
-  EXPECT_EQ(lines(result.err), 1) << result.err;
+  EXPECT_EQ(count_lines(result.err), 1) << result.err;
   EXPECT_NE(result.err.find(path("file")), std::string::npos) << result.err;
   EXPECT_EQ(entries(), 1);  // only the file itself: no temporary folder left
 }
@@ -187,7 +186,7 @@ TEST_F(SynthCli, FlightIntoAnUnwritableFolderGivesOneLineAndExit1) {
   std::ofstream(path("file")) << "not a folder";
   const Result result = run("synth --flight --frames 2 --width 16 --height 16 -o " + path("file") + "/flight");
   EXPECT_EQ(result.exit_code, 1) << result.err;
-  EXPECT_EQ(lines(result.err), 1) << result.err;
+  EXPECT_EQ(count_lines(result.err), 1) << result.err;
   EXPECT_NE(result.err.find(path("file")), std::string::npos) << result.err;
   EXPECT_EQ(entries(), 1);  // no temporary folder left
 }

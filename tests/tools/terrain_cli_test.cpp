@@ -19,6 +19,7 @@
 
 #include "io/synthetic_scene.h"
 #include "tests/support/cli_runner.h"
+#include "tests/support/json_file.h"
 #include "tests/support/ply_reader.h"
 #include "tests/support/scratch_directory.h"
 
@@ -26,29 +27,13 @@ namespace {
 
 namespace fs = std::filesystem;
 using lpstereo::testing::Result;
+using lpstereo::testing::count_lines;
+using lpstereo::testing::read_json_file;
 using lpstereo::testing::run;
 
-int lines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
-
-nlohmann::json read_json(const std::string& file) {
-  std::ifstream stream(file);
-  return nlohmann::json::parse(stream);
-}
-
-class TerrainCli : public ::testing::Test {
+class TerrainCli : public lpstereo::testing::LineupCliTest {
  protected:
-  std::string path(const std::string& name) const { return scratch_.path(name); }
-  // A 640x288 lineup at 15 m (hfov 60 deg, baseline 0.30 m, camera 1.5 m high, noise 1), rendered once.
-  const std::string& lineup() {
-    static std::string folder;
-    if (folder.empty() || !fs::exists(folder)) {
-      folder = path("lineup");
-      const Result result = lpstereo::testing::render_lineup_15m(folder);
-      EXPECT_EQ(result.exit_code, 0) << result.err;
-    }
-    return folder;
-  }
-  lpstereo::testing::ScratchDirectory scratch_{"lpstereo_terrain_cli"};
+  TerrainCli() : LineupCliTest("lpstereo_terrain_cli") {}
 };
 
 // A Middlebury calib.txt for a rectified pair: focal 700 px, baseline 120 mm.
@@ -127,7 +112,7 @@ TEST_F(TerrainCli, LineupGivesAKnownFlatTerrainWithEveryPartOfTheJson) {
                             " --points " + path("points.ply"));
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.out.find("terrain known"), std::string::npos) << result.out;
-  const nlohmann::json json = read_json(output);
+  const nlohmann::json json = read_json_file(output);
   EXPECT_EQ(json.at("width"), 640);
   EXPECT_EQ(json.at("mount").at("source"), "given");
   expect_known_schema(json, 12, 10, 3, 48, 32);
@@ -161,7 +146,7 @@ TEST_F(TerrainCli, EstimatedMountFindsTheCameraHeight) {
   const Result result = run("terrain " + scene + "/left.png " + scene + "/right.png --calib " + scene + "/calib.yaml -o " + output +
                             " --num-disp 48 --threads 2 --area-m 24x16 --control 12x10");
   ASSERT_EQ(result.exit_code, 0) << result.err;
-  const nlohmann::json json = read_json(output);
+  const nlohmann::json json = read_json_file(output);
   EXPECT_EQ(json.at("mount").at("source"), "estimated");
   EXPECT_NEAR(json.at("mount").at("camera_height_m").get<double>(), 1.5, 0.1);
   EXPECT_NEAR(json.at("mount").at("pitch_rad").get<double>(), 0.0, 0.03);
@@ -172,10 +157,10 @@ TEST_F(TerrainCli, EstimatedMountFindsTheCameraHeight) {
 // Bad input data: the JSON is written with "known": false and the reason; stderr holds that one line.
 void expect_unknown(const Result& result, const std::string& output, const std::string& reason_part) {
   EXPECT_EQ(result.exit_code, 4) << result.err;
-  EXPECT_EQ(lines(result.err), 1) << result.err;
+  EXPECT_EQ(count_lines(result.err), 1) << result.err;
   EXPECT_NE(result.err.find("terrain unknown"), std::string::npos) << result.err;
   ASSERT_TRUE(fs::exists(output));
-  const nlohmann::json json = read_json(output);
+  const nlohmann::json json = read_json_file(output);
   EXPECT_FALSE(json.at("known").get<bool>());
   EXPECT_NE(json.at("reason").get<std::string>().find(reason_part), std::string::npos) << json.at("reason");
   EXPECT_TRUE(json.at("spline").is_null());  // never a made-up surface
@@ -218,7 +203,7 @@ TEST_F(TerrainCli, ATexturelessPairGivesTooFewCells) {
   const Result result = run("terrain " + path("flat_left.png") + " " + path("flat_right.png") + " --calib " + path("flat_calib.txt") +
                             " -o " + path("flat.json") + " --num-disp 32 --threads 2 --camera-height-m 1.5");
   expect_unknown(result, path("flat.json"), "");
-  EXPECT_EQ(read_json(path("flat.json")).at("grid").at("valid_cells"), 0);
+  EXPECT_EQ(read_json_file(path("flat.json")).at("grid").at("valid_cells"), 0);
 }
 
 TEST_F(TerrainCli, BadFlagsAndFilesGiveOneLineAndNoOutput) {
@@ -239,7 +224,7 @@ TEST_F(TerrainCli, BadFlagsAndFilesGiveOneLineAndNoOutput) {
   for (const Case& bad : cases) {
     const Result result = run("terrain " + bad.arguments);
     EXPECT_EQ(result.exit_code, bad.exit_code) << bad.arguments << "\n" << result.err;
-    EXPECT_EQ(lines(result.err), 1) << result.err;
+    EXPECT_EQ(count_lines(result.err), 1) << result.err;
     EXPECT_NE(result.err.find(bad.message), std::string::npos) << result.err;
     EXPECT_FALSE(fs::exists(path("bad.json"))) << bad.arguments;
   }
