@@ -23,6 +23,7 @@
 #include "arm/odometry/stereo_odometry.h"
 #include "arm/point_cloud.h"
 #include "arm/terrain/terrain_model.h"
+#include "arm/terrain_points.h"
 #include "dag/atomic_file.h"
 #include "io/camera/file_source.h"
 #include "io/image_io.h"
@@ -192,12 +193,8 @@ int Obstacles3dCommand::run() const {
   arm::DisparityEngine engine(width, height, disparity_parameters, {}, threads_);
   const arm::TriangulationParameters triangulation =
       triangulation_parameters(geometry, disparity_parameters.min_disparity, disparity_parameters.num_disparities);
-  const arm::CameraToVehicle to_vehicle(mount);
   o3::CandidateParameters candidate_parameters;
   candidate_parameters.obstacle_height_m = obstacle_height_m_;
-  Eigen::Isometry3d vehicle_from_camera = Eigen::Isometry3d::Identity();
-  vehicle_from_camera.linear() = to_vehicle.rotation();
-  vehicle_from_camera.translation() = to_vehicle.translation_m();
 
   arm::StereoOdometryParameters odometry_parameters;
   odometry_parameters.focal_px = geometry.focal_px;
@@ -209,47 +206,72 @@ int Obstacles3dCommand::run() const {
   o3::StereoErrorModel error_model;
   error_model.focal_px = geometry.focal_px;
   error_model.baseline_m = geometry.baseline_m;
-  std::unique_ptr<o3::OccupancyGrid> grid;
-  std::unique_ptr<o3::AugmentedStixels> stixels;
-  std::unique_ptr<o3::VoxelMap> voxel_map;
-  std::unique_ptr<o3::ObstacleTracker3d> tracker;
-  o3::VoxelClusteringParameters clustering;
-  try {
-    o3::OccupancyGridParameters grid_parameters = o3::OccupancyGridParameters::defaults(grid_kind_of(method_), width);
-    grid_parameters.error_model = error_model;
-    grid_parameters.principal_u_px = geometry.cx_left_px;
-    grid_parameters.vehicle_from_camera = vehicle_from_camera;
-    if (method_ == "stixels") {
-      o3::AugmentedStixelParameters stixel_parameters;
-      stixel_parameters.grid = grid_parameters;
-      stixels = std::make_unique<o3::AugmentedStixels>(stixel_parameters);
-    } else if (method_ == "voxels") {
-      o3::VoxelMapParameters map_parameters;
-      map_parameters.voxel_size_m = voxel_m_;
-      map_parameters.view_half_angle_rad = std::atan2(width / 2.0, geometry.focal_px);
-      voxel_map = std::make_unique<o3::VoxelMap>(map_parameters);
-      clustering.image_width_px = width;
-      clustering.image_height_px = height;
-      o3::validate_clustering_parameters(clustering);
-      o3::ObstacleTrackingParameters tracking;
-      tracking.frame_period_s = 1.0 / fps_;
-      tracking.stereo_error = error_model;
-      tracking.camera_mount = mount;
-      tracking.acceptance_frames = acceptance_frames_;
-      tracker = std::make_unique<o3::ObstacleTracker3d>(tracking);
-    } else {
-      grid = std::make_unique<o3::OccupancyGrid>(grid_parameters);
+  // The method's state, built for a mount: once with the given (or default) one, which checks the
+  // parameters before any frame is read, and again when the mount is estimated from a frame.
+  struct Method {
+    std::unique_ptr<arm::CameraToVehicle> to_vehicle;
+    Eigen::Isometry3d vehicle_from_camera = Eigen::Isometry3d::Identity();
+    std::unique_ptr<o3::OccupancyGrid> grid;
+    std::unique_ptr<o3::AugmentedStixels> stixels;
+    std::unique_ptr<o3::VoxelMap> voxel_map;
+    std::unique_ptr<o3::ObstacleTracker3d> tracker;
+    o3::VoxelClusteringParameters clustering;
+  };
+  const auto build_method = [&](const arm::CameraMount& for_mount) {
+    Method built;
+    built.to_vehicle = std::make_unique<arm::CameraToVehicle>(for_mount);
+    built.vehicle_from_camera.linear() = built.to_vehicle->rotation();
+    built.vehicle_from_camera.translation() = built.to_vehicle->translation_m();
+    try {
+      o3::OccupancyGridParameters grid_parameters = o3::OccupancyGridParameters::defaults(grid_kind_of(method_), width);
+      grid_parameters.error_model = error_model;
+      grid_parameters.principal_u_px = geometry.cx_left_px;
+      grid_parameters.vehicle_from_camera = built.vehicle_from_camera;
+      if (method_ == "stixels") {
+        o3::AugmentedStixelParameters stixel_parameters;
+        stixel_parameters.grid = grid_parameters;
+        built.stixels = std::make_unique<o3::AugmentedStixels>(stixel_parameters);
+      } else if (method_ == "voxels") {
+        o3::VoxelMapParameters map_parameters;
+        map_parameters.voxel_size_m = voxel_m_;
+        map_parameters.view_half_angle_rad = std::atan2(width / 2.0, geometry.focal_px);
+        built.voxel_map = std::make_unique<o3::VoxelMap>(map_parameters);
+        built.clustering.image_width_px = width;
+        built.clustering.image_height_px = height;
+        o3::validate_clustering_parameters(built.clustering);
+        o3::ObstacleTrackingParameters tracking;
+        tracking.frame_period_s = 1.0 / fps_;
+        tracking.stereo_error = error_model;
+        tracking.camera_mount = for_mount;
+        tracking.acceptance_frames = acceptance_frames_;
+        built.tracker = std::make_unique<o3::ObstacleTracker3d>(tracking);
+      } else {
+        built.grid = std::make_unique<o3::OccupancyGrid>(grid_parameters);
+      }
+    } catch (const std::invalid_argument& error) {
+      throw CommandError(kExitUsage, error.what());
     }
-  } catch (const std::invalid_argument& error) {
-    throw CommandError(kExitUsage, error.what());
-  }
+    return built;
+  };
+  Method method = build_method(mount);
+  // No mount flag: the mount comes from the ground plane (arm::estimate_ground_mount, as `lpstereo
+  // terrain` does) of the first frame where it is found; frames before it have no candidates.
+  const bool mount_given =
+      command_->count("--camera-height-m") > 0 || command_->count("--pitch-deg") > 0 || command_->count("--roll-deg") > 0;
+  bool mount_known = mount_given;
+  std::string mount_reason;
   if (!view_directory_.empty()) {
     std::error_code error;
     std::filesystem::create_directories(view_directory_, error);
     if (error) throw CommandError(kExitInput, "--view " + view_directory_ + ": cannot create the folder (" + error.message() + ")");
   }
-  std::printf("obstacles3d: %dx%d, method %s, %d frames, camera %.2f m high, pitch %.2f deg, roll %.2f deg\n", width, height,
-              method_.c_str(), frame_count, mount_options_.camera_height_m, mount_options_.pitch_deg, mount_options_.roll_deg);
+  if (mount_given) {
+    std::printf("obstacles3d: %dx%d, method %s, %d frames, camera %.2f m high, pitch %.2f deg, roll %.2f deg\n", width, height,
+                method_.c_str(), frame_count, mount_options_.camera_height_m, mount_options_.pitch_deg, mount_options_.roll_deg);
+  } else {
+    std::printf("obstacles3d: %dx%d, method %s, %d frames, camera mount estimated from the ground plane\n", width, height,
+                method_.c_str(), frame_count);
+  }
   if (frame_count == 1) std::fprintf(stderr, "obstacles3d: a single frame: no ego-motion, static camera assumed\n");
 
   const ProgressBar progress(frame_count);  // on a terminal only
@@ -267,16 +289,33 @@ int Obstacles3dCommand::run() const {
     const auto started = std::chrono::steady_clock::now();
     const Plane& disparity = engine.compute(pair.frame.left, pair.frame.right);
     const arm::CameraPoints camera = arm::triangulate(disparity, triangulation);
-    const o3::CandidatePoints candidates = o3::extract_obstacle_candidates(
-        disparity, engine.invalid_disparity_q4(), camera, pair.frame.left, o3::ColourView{bgr.data, bgr.step, true}, to_vehicle,
-        candidate_parameters);
+    if (!mount_known) {
+      const arm::GroundMountEstimate estimate = arm::estimate_ground_mount(camera);
+      if (estimate.found) {
+        mount_known = true;
+        method = build_method(estimate.mount);
+        std::printf("obstacles3d: frame %d: camera mount estimated: %.2f m high, pitch %.2f deg, roll %.2f deg (%d of %d ground "
+                    "candidates on the plane)\n",
+                    index, estimate.camera_height_m, estimate.mount.pitch_rad * 180 / M_PI, estimate.mount.roll_rad * 180 / M_PI,
+                    estimate.inliers, estimate.candidates);
+      } else {
+        mount_reason = "camera mount unknown (" + estimate.reason + "; give --camera-height-m): no obstacle candidates";
+      }
+    }
+    o3::CandidatePoints candidates;
+    if (mount_known) {
+      candidates = o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, pair.frame.left,
+                                                   o3::ColourView{bgr.data, bgr.step, true}, *method.to_vehicle, candidate_parameters);
+    } else {
+      candidates.note = mount_reason;
+    }
 
     // Ego-motion: the odometry's camera increment (t -> t-1) in the vehicle frame, V E_c V^-1.
     const arm::StereoOdometryFrame motion = odometry.process(pair.frame.left, pair.frame.right);
     o3::EgoMotion ego_motion;
     if (i > 0 && motion.statistics.valid) {
       ego_motion.available = true;
-      ego_motion.previous_from_current = vehicle_from_camera * motion.increment * vehicle_from_camera.inverse();
+      ego_motion.previous_from_current = method.vehicle_from_camera * motion.increment * method.vehicle_from_camera.inverse();
     } else if (i > 0) {
       if (static_frames == 0) {
         std::fprintf(stderr, "obstacles3d: frame %d: visual odometry failed (%d inliers): no ego-motion, static camera assumed "
@@ -288,18 +327,18 @@ int Obstacles3dCommand::run() const {
 
     std::vector<o3::Obstacle3d> obstacles;
     std::string method_status;
-    if (grid) {
-      grid->update(candidates.points, ego_motion);
-      obstacles = grid->obstacles();
-      method_status = grid->status();
-    } else if (stixels) {
-      stixels->update(candidates.points, ego_motion);
-      obstacles = stixels->obstacles();
-      method_status = stixels->status();
+    if (method.grid) {
+      method.grid->update(candidates.points, ego_motion);
+      obstacles = method.grid->obstacles();
+      method_status = method.grid->status();
+    } else if (method.stixels) {
+      method.stixels->update(candidates.points, ego_motion);
+      obstacles = method.stixels->obstacles();
+      method_status = method.stixels->status();
     } else {
-      const o3::VoxelMapStatus& map_status = voxel_map->update(candidates.points, ego_motion);
-      const o3::ClusteringResult clusters = o3::cluster_voxels(*voxel_map, clustering);
-      const o3::TrackingResult& tracks = tracker->update(clusters.clusters, voxel_map->world_from_current());
+      const o3::VoxelMapStatus& map_status = method.voxel_map->update(candidates.points, ego_motion);
+      const o3::ClusteringResult clusters = o3::cluster_voxels(*method.voxel_map, method.clustering);
+      const o3::TrackingResult& tracks = method.tracker->update(clusters.clusters, method.voxel_map->world_from_current());
       obstacles = tracks.obstacles;
       char text[160];
       std::snprintf(text, sizeof text, "; %zu clusters, %lld new tracks, %lld confirmed, %lld ghosted, %lld deleted",
@@ -327,8 +366,8 @@ int Obstacles3dCommand::run() const {
     if (!view_directory_.empty()) {
       io::write_image(view_file(view_directory_, "top", index), top_view(obstacles));
       io::write_image(view_file(view_directory_, "overlay", index), image_overlay(bgr, obstacles, geometry));
-      if (grid) io::write_image(view_file(view_directory_, "grid", index), io::occupancy_grid_picture(*grid));
-      if (stixels) io::write_image(view_file(view_directory_, "grid", index), io::stixel_top_view(*stixels));
+      if (method.grid) io::write_image(view_file(view_directory_, "grid", index), io::occupancy_grid_picture(*method.grid));
+      if (method.stixels) io::write_image(view_file(view_directory_, "grid", index), io::stixel_top_view(*method.stixels));
     }
     progress.show(i + 1);
   }

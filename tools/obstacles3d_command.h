@@ -6,7 +6,10 @@
 // (docs/obstacles3d.md "lpstereo obstacles3d"). Per frame:
 //   1. the pair through the disparity engine and disparity_to_points (camera frame), each point with
 //      the left image's colour (the left file decoded as colour; grey files give equal channels);
-//   2. the vehicle frame through the camera mount (tools/camera_mount_options.h);
+//   2. the vehicle frame through the camera mount (tools/camera_mount_options.h); with none of
+//      --camera-height-m, --pitch-deg, --roll-deg given, the mount is estimated from the ground plane
+//      (arm::estimate_ground_mount, as `lpstereo terrain` does) of the first frame where it is found,
+//      printed, and kept; frames before it have no candidates and their "status" says why;
 //   3. the terrain (arm/terrain/terrain_model.h): the points into the 2.5D grid of the default
 //      TerrainGridSpec (x 0..34 m forward, y -11..11 m), fit_terrain, classify_points with
 //      --obstacle-height-m: the obstacle candidates are the outliers, each with its height above the
