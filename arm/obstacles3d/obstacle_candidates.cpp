@@ -61,7 +61,8 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   }
   terrain::HeightGridAccumulator accumulator(parameters.grid);
   for (const Eigen::Vector3d& point : vehicle_points) accumulator.add_point(point);
-  result.terrain = terrain::fit_terrain(accumulator.finish(), parameters.fit);
+  result.measured_grid = accumulator.finish();
+  result.terrain = terrain::fit_terrain(result.measured_grid, parameters.fit);
   if (!result.terrain.known) {
     result.note = "terrain unknown (" + result.terrain.reason + "): no obstacle candidates";
     result.outside_area = result.cloud_points;

@@ -40,6 +40,9 @@ struct CandidatePoints {
   int64_t cloud_points = 0;           // valid disparities triangulated
   int64_t outside_area = 0;           // not covered by the terrain area (no height above ground)
   terrain::TerrainEstimate terrain;   // the fit (terrain.known false: no candidates)
+  // The 2.5D grid before the fit's equalisation (empty when the cloud was empty): what
+  // terrain::compute_traversability takes beside the fit (terrain.grid is the equalised one).
+  terrain::HeightGrid measured_grid;
   std::string note;                   // one line for a status or log
 };
 
