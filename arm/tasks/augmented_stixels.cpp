@@ -13,7 +13,8 @@
 // arm::CameraToVehicle of the mount (a camera camera_height_m above the ground with pitch_rad and
 // roll_rad: the mount point_cell_binning's rotation_q14 and translation_mm encode; graphs/terrain.json
 // is a level camera 1.65 m up), P_v = (x, y, z); its height above the terrain is h = z - S(x, y);
-// h > obstacle_height_m makes it a candidate (arm/terrain/terrain_model.h, classify_points's rule).
+// h > obstacle_height_m makes it a candidate (classify_points's rule, through
+// arm::obstacles3d::CandidateTest, which skips S where the control heights already decide).
 // A candidate's disparity, which the polar grid's error model takes, is d = f B / Z_c (the
 // triangulation inverted, focal_px and baseline_m: disparity_to_points's parameters). The graph
 // carries no colour to this task: every candidate's colour is 0 (the stixels' mean colour is 0).
@@ -25,8 +26,9 @@
 //   1. the terrain record: known = 0 gives an empty frame (header only, kStixelHeaderTerrainKnown 0);
 //      otherwise its degrees, control counts and cell size must be this task's (else KernelError);
 //   2. every sample_step-th row and column of the point planes: a pixel with a point is taken to the
-//      vehicle frame; outside the surface's area it is counted (outside), else h is computed and a
-//      candidate ObstaclePoint kept (camera and vehicle position in m, h, d, pixel);
+//      vehicle frame; outside the surface's area it is counted (outside), else CandidateTest
+//      classifies it and a candidate ObstaclePoint is kept (camera and vehicle position in m, h, d,
+//      pixel);
 //   3. AugmentedStixels::update(candidates, no ego-motion): polar grid update, stixels, obstacles;
 //   4. the "stixels" and "obstacles" records (at most max_stixels and max_obstacles rows).
 //
@@ -46,12 +48,17 @@
 // max_obstacles (256, 1 .. 65536).
 //
 // Counted work (deterministic, ArmWork), with S = ceil(W / step) ceil(H / step) sampled pixels of a
-// W x H plane, V of them with a point, I of those inside the surface's area, N candidates, T the
+// W x H plane, V of them with a point, I of those inside the surface's area, E of those with S
+// evaluated, N candidates, T the
 // stixels written, O the obstacles written, p, q the degrees:
 //   scalar_ops   = 3 S (load x, compare, branch) + 15 V (load y, z, convert, the 3 x 3 rotation and
-//                  translation, the area test) + I (6 (p + 1) (p + 2) + 6 (q + 1) (q + 2) + 2 (p + 1) (q + 1) + 24)
-//                  (two knot-span searches, the Cox-de Boor triangles of both axes, the tensor
-//                  product and the subtraction) + 16 N (the candidate's fields and the disparity)
+//                  translation, the area test) + 24 I (the two knot-span searches over at most 64
+//                  knots and the control-height bound of arm::obstacles3d::CandidateTest)
+//                  + E (6 p (p + 1) + 6 q (q + 1) + 2 (p + 1) (q + 1) + 8) for the E points the bound
+//                  cannot decide (S(x, y): the basis values of both axes, the tensor product, the
+//                  subtraction and compare; the per-point model arm/terrain/traversability.cpp gives
+//                  classify_points)
+//                  + 16 N (the candidate's fields and the disparity)
 //                  + the stixels' own counted work (AugmentedStixels::work(): the polar grid per
 //                  point and cell, the stixels per point, the clustering per stixel) + 16 T + 16 O + 64;
 //   memory_bytes = 12 W ceil(H / step) (the sampled rows of three planes, whole cache lines, as the
@@ -67,6 +74,7 @@
 #include <vector>
 
 #include "arm/obstacles3d/augmented_stixels.h"
+#include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/point_cloud.h"
 #include "arm/tasks/stixel_record.h"
 #include "arm/tasks/terrain_record.h"
@@ -223,7 +231,8 @@ void run(const ArmTaskArgs& args) {
     const CameraToVehicle to_vehicle(p.mount);
     const double focal_baseline = p.focal_px * p.baseline_m;
     std::vector<o3::ObstaclePoint> candidates;
-    uint64_t sampled = 0, valid = 0, inside = 0;
+    const o3::CandidateTest test(surface, p.obstacle_height_m);
+    uint64_t sampled = 0, valid = 0, inside = 0, evaluated_points = 0;
     for (int v = 0; v < x_plane.height(); v += p.sample_step) {
       const int32_t* x_row = x_plane.row<const int32_t>(v);
       const int32_t* y_row = y_plane.row<const int32_t>(v);
@@ -234,10 +243,13 @@ void run(const ArmTaskArgs& args) {
         ++valid;
         const Eigen::Vector3d camera_m(x_row[u] * 1e-3, y_row[u] * 1e-3, z_row[u] * 1e-3);
         const Eigen::Vector3d vehicle_m = to_vehicle.apply(camera_m);
-        if (!surface.contains(vehicle_m.x(), vehicle_m.y())) continue;
+        double height_m = 0;
+        bool evaluated = false;
+        const o3::CandidateTest::Class point_class = test.classify(vehicle_m, &height_m, &evaluated);
+        if (point_class == o3::CandidateTest::Class::outside) continue;
         ++inside;
-        const double height_m = vehicle_m.z() - surface.height_m(vehicle_m.x(), vehicle_m.y());
-        if (!(height_m > p.obstacle_height_m)) continue;
+        evaluated_points += evaluated;
+        if (point_class != o3::CandidateTest::Class::candidate) continue;
         o3::ObstaclePoint point;
         point.camera_m = camera_m.cast<float>();
         point.vehicle_m = vehicle_m.cast<float>();
@@ -252,8 +264,9 @@ void run(const ArmTaskArgs& args) {
     header[kStixelHeaderSampledPixels] = clamp_count(sampled);
     header[kStixelHeaderValidPoints] = clamp_count(valid);
     header[kStixelHeaderOutsidePoints] = clamp_count(valid - inside);
-    const uint64_t pf = static_cast<uint64_t>(p.degree_forward) + 1, pl = static_cast<uint64_t>(p.degree_lateral) + 1;
-    ops += 3 * sampled + 15 * valid + inside * (6 * pf * (pf + 1) + 6 * pl * (pl + 1) + 2 * pf * pl + 24) + 16 * candidates.size();
+    const uint64_t d0 = static_cast<uint64_t>(p.degree_forward), d1 = static_cast<uint64_t>(p.degree_lateral);
+    ops += 3 * sampled + 15 * valid + 24 * inside + evaluated_points * (6 * d0 * (d0 + 1) + 6 * d1 * (d1 + 1) + 2 * (d0 + 1) * (d1 + 1) + 8) +
+           16 * candidates.size();
     work.memory_bytes += sizeof(o3::ObstaclePoint) * candidates.size();
 
     // 3. The stixels (one frame's evidence, static camera).

@@ -8,14 +8,17 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "arm/obstacles3d/augmented_stixels.h"
+#include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/point_cloud.h"
 #include "arm/tasks/stixel_record.h"
 #include "arm/tasks/terrain_record.h"
+#include "arm/terrain/terrain_model.h"
 #include "dag/arm_task.h"
 #include "kernels/disparity_to_points.h"
 
@@ -206,8 +209,11 @@ TEST(AugmentedStixelsTask, BoxAndHangingSignOverFlatTerrain) {
   const uint64_t sampled = kWidth * kHeight, valid = static_cast<uint64_t>(scene.valid);
   const uint64_t inside = valid - static_cast<uint64_t>(scene.outside), count = static_cast<uint64_t>(scene.candidates);
   const uint64_t stixel_rows = static_cast<uint64_t>(header[arm::kStixelHeaderWritten]);
-  // Cubic in both axes: 6 * 4 * 5 twice + 2 * 4 * 4 + 24 = 296 ops per evaluated point.
-  EXPECT_EQ(run.work.scalar_ops, 64 + 3 * sampled + 15 * valid + 296 * inside + 16 * count + stixels.work().scalar_ops + 16 * stixel_rows + 16 * 2);
+  // S is evaluated for the box and sign points only: the ground points (z = 0) lie 0.2 m below the
+  // threshold over a surface whose control heights are all 0, which the bound decides. Cubic in
+  // both axes: 6 * 3 * 4 twice + 2 * 4 * 4 + 8 = 184 ops per evaluated point.
+  const uint64_t evaluated = count;
+  EXPECT_EQ(run.work.scalar_ops, 64 + 3 * sampled + 15 * valid + 24 * inside + 184 * evaluated + 16 * count + stixels.work().scalar_ops + 16 * stixel_rows + 16 * 2);
   EXPECT_EQ(run.work.memory_bytes, sizeof(o3::ObstaclePoint) * count + stixels.work().memory_bytes + 4ull * arm::kStixelWords * stixel_rows +
                                        4ull * arm::kObstacle3dWords * 2 + 12ull * kWidth * kHeight + 4ull * static_cast<uint64_t>(record.width()) +
                                        4ull * arm::kStixelWords + 4ull * arm::kObstacle3dWords);
@@ -292,6 +298,53 @@ TEST(AugmentedStixelsTask, RunRefusesATerrainRecordOfAnotherSurface) {
     EXPECT_NE(text.find("expected 3"), std::string::npos) << text;
     EXPECT_NE(text.find("got 2"), std::string::npos) << text;
   }
+}
+
+// CandidateTest (arm/obstacles3d/obstacle_candidates.h) against terrain::classify_points on a
+// bumpy surface (random control heights within +-0.5 m) and random points in and around its area,
+// within 0.6 m of the surface: the same class for every point, the candidates' height z - S
+// exactly, and the bound deciding some points without evaluating S.
+TEST(CandidateTest, GivesClassifyPointsClassesOnABumpySurface) {
+  namespace terrain = arm::terrain;
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> control(-0.5, 0.5), forward(-1.0, 11.0), lateral(-5.0, 5.0), offset(-0.6, 0.6);
+  terrain::TerrainEstimate estimate;
+  estimate.known = true;
+  terrain::BsplineSurface& surface = estimate.surface;
+  surface.forward_min_m = 0, surface.forward_max_m = 10, surface.lateral_min_m = -4, surface.lateral_max_m = 4;
+  surface.knots_forward_m = terrain::clamped_uniform_knots(8, 3, 0.0, 10.0);
+  surface.knots_lateral_m = terrain::clamped_uniform_knots(6, 3, -4.0, 4.0);
+  surface.control_z_m.resize(8, 6);
+  for (int i = 0; i < 8; ++i) {
+    for (int j = 0; j < 6; ++j) surface.control_z_m(i, j) = control(random);
+  }
+  std::vector<Eigen::Vector3d> points;
+  for (int k = 0; k < 20000; ++k) {
+    const double x = forward(random), y = lateral(random);
+    const double ground = surface.contains(x, y) ? surface.height_m(x, y) : 0.0;
+    points.emplace_back(x, y, ground + offset(random));
+  }
+  const std::vector<terrain::PointClass> expected = terrain::classify_points(points, estimate, 0.2);
+  const o3::CandidateTest test(surface, 0.2);
+  int skipped = 0, candidates = 0, outside = 0;
+  for (size_t k = 0; k < points.size(); ++k) {
+    double height_m = -1;
+    bool evaluated = true;
+    const o3::CandidateTest::Class actual = test.classify(points[k], &height_m, &evaluated);
+    switch (expected[k]) {
+      case terrain::PointClass::outside: EXPECT_EQ(actual, o3::CandidateTest::Class::outside) << k; ++outside; break;
+      case terrain::PointClass::terrain: EXPECT_EQ(actual, o3::CandidateTest::Class::terrain) << k; break;
+      case terrain::PointClass::obstacle:
+        EXPECT_EQ(actual, o3::CandidateTest::Class::candidate) << k;
+        EXPECT_EQ(height_m, points[k].z() - surface.height_m(points[k].x(), points[k].y())) << k;
+        ++candidates;
+        break;
+    }
+    skipped += expected[k] != terrain::PointClass::outside && !evaluated;
+  }
+  EXPECT_GT(outside, 0);
+  EXPECT_GT(candidates, 1000);
+  EXPECT_GT(skipped, 1000);
 }
 
 }  // namespace
