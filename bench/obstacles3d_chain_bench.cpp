@@ -263,10 +263,10 @@ int run(int argc, char** argv) {
   // On an idle 2-core machine every stage runs at most its CPU time (one thread doing all of it)
   // and at least half of it (both threads busy): the rate the chain would reach there lies between
   // these two, whatever the load on this machine.
-  const double cpu_ms = median(total_cpu_ms);
+  const double total_cpu_median_ms = median(total_cpu_ms);
   std::printf("  from the process CPU time (%.2f ms per frame): on an idle 2-core machine between %.1f fps (no overlap) and %.1f fps "
               "(both threads busy throughout)\n",
-              cpu_ms, 1000.0 / cpu_ms, 2000.0 / cpu_ms);
+              total_cpu_median_ms, 1000.0 / total_cpu_median_ms, 2000.0 / total_cpu_median_ms);
   const bool meets = fps >= kLineFps;
   std::printf("%s: full chain at %.1f fps %s the %.0f fps line\n", meets ? "PASS" : "MISSED", fps, meets ? "meets" : "misses", kLineFps);
   return meets ? 0 : 1;
