@@ -1,7 +1,9 @@
 #include "arm/obstacles3d/obstacle_candidates.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <stdexcept>
+#include <thread>
 
 #include "kernels/disparity_to_points.h"
 
@@ -12,6 +14,33 @@ namespace {
 std::string size_text(const Plane& plane) { return std::to_string(plane.width()) + "x" + std::to_string(plane.height()); }
 
 }  // namespace
+
+CandidateTest::CandidateTest(const terrain::BsplineSurface& surface, double obstacle_height_m)
+    : surface_(surface), obstacle_height_m_(obstacle_height_m) {
+  const int d0 = surface.degree_forward, d1 = surface.degree_lateral;
+  const Eigen::Index spans0 = surface.control_z_m.rows() - d0, spans1 = surface.control_z_m.cols() - d1;
+  if (spans0 <= 0 || spans1 <= 0) return;  // no surface: contains() is false everywhere
+  span_minimum_m_.resize(spans0, spans1);
+  for (Eigen::Index a = 0; a < spans0; ++a) {
+    for (Eigen::Index b = 0; b < spans1; ++b) span_minimum_m_(a, b) = surface.control_z_m.block(a, b, d0 + 1, d1 + 1).minCoeff();
+  }
+}
+
+CandidateTest::Class CandidateTest::classify(const Eigen::Vector3d& vehicle_m, double* height_above_m, bool* evaluated) const {
+  constexpr double kRoundingMarginM = 1e-9;
+  if (evaluated != nullptr) *evaluated = false;
+  if (!vehicle_m.allFinite() || span_minimum_m_.size() == 0 || !surface_.contains(vehicle_m.x(), vehicle_m.y())) return Class::outside;
+  const int span0 = terrain::knot_span(surface_.knots_forward_m, surface_.degree_forward, vehicle_m.x());
+  const int span1 = terrain::knot_span(surface_.knots_lateral_m, surface_.degree_lateral, vehicle_m.y());
+  if (vehicle_m.z() - obstacle_height_m_ < span_minimum_m_(span0 - surface_.degree_forward, span1 - surface_.degree_lateral) - kRoundingMarginM) {
+    return Class::terrain;
+  }
+  if (evaluated != nullptr) *evaluated = true;
+  const double above_m = vehicle_m.z() - surface_.height_m(vehicle_m.x(), vehicle_m.y());
+  if (!(above_m > obstacle_height_m_)) return Class::terrain;
+  *height_above_m = above_m;
+  return Class::candidate;
+}
 
 CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t invalid_disparity_q4, const CameraPoints& camera,
                                             const Plane& grey, const ColourView& colour, const CameraToVehicle& to_vehicle,
@@ -25,58 +54,106 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
                                   size_text(*plane));
     }
   }
-  CandidatePoints result;
-  std::vector<Eigen::Vector3d> vehicle_points;
-  std::vector<ObstaclePoint> all;
-  const int red_channel = colour.blue_first ? 2 : 0, blue_channel = colour.blue_first ? 0 : 2;
-  for (int v = 0; v < disparity_q4.height(); ++v) {
-    const uint8_t* colour_row = colour.pixels == nullptr ? nullptr : colour.pixels + static_cast<size_t>(v) * colour.row_stride_bytes;
-    for (int u = 0; u < disparity_q4.width(); ++u) {
-      const int32_t x_mm = camera.x_mm.at<int32_t>(u, v);
-      const int16_t d_q4 = disparity_q4.at<int16_t>(u, v);
-      if (x_mm == kernels::kNoPointMm || d_q4 == invalid_disparity_q4 || d_q4 <= 0) continue;
-      ObstaclePoint point;
-      point.camera_m = Eigen::Vector3f(static_cast<float>(x_mm) * 1e-3f, static_cast<float>(camera.y_mm.at<int32_t>(u, v)) * 1e-3f,
-                                       static_cast<float>(camera.z_mm.at<int32_t>(u, v)) * 1e-3f);
-      const Eigen::Vector3d vehicle = to_vehicle.apply(point.camera_m.cast<double>());
-      point.vehicle_m = vehicle.cast<float>();
-      point.disparity_px = static_cast<float>(d_q4) / 16.0f;
-      point.u_px = static_cast<uint16_t>(u);
-      point.v_px = static_cast<uint16_t>(v);
-      if (colour_row != nullptr) {
-        const uint8_t* pixel = colour_row + 3 * static_cast<size_t>(u);
-        point.rgb = {pixel[red_channel], pixel[1], pixel[blue_channel]};
-      } else {
-        const uint8_t value = grey.at<uint8_t>(u, v);
-        point.rgb = {value, value, value};
-      }
-      all.push_back(point);
-      vehicle_points.push_back(vehicle);
-    }
+  if (parameters.threads < 1 || parameters.threads > 16) {
+    throw std::invalid_argument("threads: expected a count in [1, 16], got " + std::to_string(parameters.threads));
   }
-  result.cloud_points = static_cast<int64_t>(all.size());
-  if (all.empty()) {
+  CandidatePoints result;
+  // The image split into contiguous bands of rows, one per thread: each band's points are built
+  // and later classified on its own thread, and every sequential step (the 2.5D grid's sums, the
+  // candidates' order) takes the bands in row order, so the result is the single-threaded one bit
+  // for bit whatever the scheduling.
+  struct Band {
+    std::vector<ObstaclePoint> points;
+    std::vector<Eigen::Vector3d> vehicle_points;
+    std::vector<ObstaclePoint> candidates;
+    int64_t outside_area = 0;
+  };
+  const int band_count = std::max(1, std::min(parameters.threads, disparity_q4.height() / 16));
+  std::vector<Band> bands(static_cast<size_t>(band_count));
+  const auto band_rows = [&](int band, int* first_row, int* end_row) {
+    *first_row = disparity_q4.height() * band / band_count;
+    *end_row = disparity_q4.height() * (band + 1) / band_count;
+  };
+  const auto run_bands = [&](const auto& work) {
+    std::vector<std::thread> workers;
+    for (int band = 1; band < band_count; ++band) workers.emplace_back(work, band);
+    work(0);
+    for (std::thread& worker : workers) worker.join();
+  };
+  const int red_channel = colour.blue_first ? 2 : 0, blue_channel = colour.blue_first ? 0 : 2;
+  run_bands([&](int band) {
+    Band& out = bands[static_cast<size_t>(band)];
+    int first_row = 0, end_row = 0;
+    band_rows(band, &first_row, &end_row);
+    const size_t capacity = static_cast<size_t>(end_row - first_row) * static_cast<size_t>(disparity_q4.width());
+    out.points.reserve(capacity);
+    out.vehicle_points.reserve(capacity);
+    for (int v = first_row; v < end_row; ++v) {
+      const uint8_t* colour_row = colour.pixels == nullptr ? nullptr : colour.pixels + static_cast<size_t>(v) * colour.row_stride_bytes;
+      const int32_t* x_row = camera.x_mm.row<const int32_t>(v);
+      const int32_t* y_row = camera.y_mm.row<const int32_t>(v);
+      const int32_t* z_row = camera.z_mm.row<const int32_t>(v);
+      const int16_t* disparity_row = disparity_q4.row<const int16_t>(v);
+      const uint8_t* grey_row = grey.row<const uint8_t>(v);
+      for (int u = 0; u < disparity_q4.width(); ++u) {
+        const int32_t x_mm = x_row[u];
+        const int16_t d_q4 = disparity_row[u];
+        if (x_mm == kernels::kNoPointMm || d_q4 == invalid_disparity_q4 || d_q4 <= 0) continue;
+        ObstaclePoint point;
+        point.camera_m = Eigen::Vector3f(static_cast<float>(x_mm) * 1e-3f, static_cast<float>(y_row[u]) * 1e-3f,
+                                         static_cast<float>(z_row[u]) * 1e-3f);
+        const Eigen::Vector3d vehicle = to_vehicle.apply(point.camera_m.cast<double>());
+        point.vehicle_m = vehicle.cast<float>();
+        point.disparity_px = static_cast<float>(d_q4) / 16.0f;
+        point.u_px = static_cast<uint16_t>(u);
+        point.v_px = static_cast<uint16_t>(v);
+        if (colour_row != nullptr) {
+          const uint8_t* pixel = colour_row + 3 * static_cast<size_t>(u);
+          point.rgb = {pixel[red_channel], pixel[1], pixel[blue_channel]};
+        } else {
+          point.rgb = {grey_row[u], grey_row[u], grey_row[u]};
+        }
+        out.points.push_back(point);
+        out.vehicle_points.push_back(vehicle);
+      }
+    }
+  });
+  for (const Band& band : bands) result.cloud_points += static_cast<int64_t>(band.points.size());
+  if (result.cloud_points == 0) {
     result.note = "empty cloud (no valid disparity)";
     return result;
   }
   terrain::HeightGridAccumulator accumulator(parameters.grid);
-  for (const Eigen::Vector3d& point : vehicle_points) accumulator.add_point(point);
-  result.terrain = terrain::fit_terrain(accumulator.finish(), parameters.fit);
+  for (const Band& band : bands) {
+    for (const Eigen::Vector3d& point : band.vehicle_points) accumulator.add_point(point);
+  }
+  result.measured_grid = accumulator.finish();
+  result.terrain = terrain::fit_terrain(result.measured_grid, parameters.fit);
   if (!result.terrain.known) {
     result.note = "terrain unknown (" + result.terrain.reason + "): no obstacle candidates";
     result.outside_area = result.cloud_points;
     return result;
   }
-  const std::vector<terrain::PointClass> classes = terrain::classify_points(vehicle_points, result.terrain, parameters.obstacle_height_m);
-  for (size_t i = 0; i < all.size(); ++i) {
-    if (classes[i] == terrain::PointClass::outside) {
-      ++result.outside_area;
-    } else if (classes[i] == terrain::PointClass::obstacle) {
-      ObstaclePoint point = all[i];
-      point.height_above_ground_m =
-          static_cast<float>(vehicle_points[i].z() - result.terrain.surface.height_m(vehicle_points[i].x(), vehicle_points[i].y()));
-      result.points.push_back(point);
+  const CandidateTest test(result.terrain.surface, parameters.obstacle_height_m);
+  run_bands([&](int band_index) {
+    Band& band = bands[static_cast<size_t>(band_index)];
+    for (size_t i = 0; i < band.points.size(); ++i) {
+      double height_above_m = 0;
+      const CandidateTest::Class point_class = test.classify(band.vehicle_points[i], &height_above_m);
+      if (point_class == CandidateTest::Class::outside) {
+        ++band.outside_area;
+      } else if (point_class == CandidateTest::Class::candidate) {
+        band.candidates.push_back(band.points[i]);
+        band.candidates.back().height_above_ground_m = static_cast<float>(height_above_m);
+      }
     }
+  });
+  size_t candidate_count = 0;
+  for (const Band& band : bands) candidate_count += band.candidates.size();
+  result.points.reserve(candidate_count);
+  for (const Band& band : bands) {
+    result.points.insert(result.points.end(), band.candidates.begin(), band.candidates.end());
+    result.outside_area += band.outside_area;
   }
   char note[160];
   std::snprintf(note, sizeof note, "terrain: %lld points, %zu obstacle candidates, %lld outside the terrain area",

@@ -4,8 +4,10 @@
 // Steps: (1) every valid disparity's camera point (arm::triangulate, millimetres) becomes an
 // ObstaclePoint in metres, with its vehicle-frame position (CameraToVehicle), its disparity, pixel
 // and colour; (2) the vehicle points are condensed into the 2.5D grid and the terrain is fitted
-// (arm/terrain: height_grid, fit_terrain); (3) classify_points keeps the points more than
-// obstacle_height_m above the fitted surface, with their height above it. When the terrain is
+// (arm/terrain: height_grid, fit_terrain); (3) classify_points's rule keeps the points more than
+// obstacle_height_m above the fitted surface, with their height above it (CandidateTest: S evaluated
+// only where the control heights' bound cannot decide; the same classes). Steps 1 and 3 run
+// on `threads` bands of rows, joined in row order. When the terrain is
 // unknown (too few cells, a wall filling the view ...) there are no candidates and `note` says why.
 #pragma once
 
@@ -33,6 +35,9 @@ struct CandidateParameters {
   double obstacle_height_m = 0.2;  // a point this far above the fitted surface is a candidate, (0, 10)
   terrain::TerrainGridSpec grid;   // default: x 0..34 m forward, y -11..11 m, 0.5 m cells
   terrain::TerrainFitParameters fit;
+  // [1, 16]: steps 1 and 3 split the image into this many bands of rows, one thread each (at most
+  // one band per 16 rows); the result is the same for any count (the bands are joined in row order).
+  int threads = 1;
 };
 
 struct CandidatePoints {
@@ -40,11 +45,37 @@ struct CandidatePoints {
   int64_t cloud_points = 0;           // valid disparities triangulated
   int64_t outside_area = 0;           // not covered by the terrain area (no height above ground)
   terrain::TerrainEstimate terrain;   // the fit (terrain.known false: no candidates)
+  // The 2.5D grid before the fit's equalisation (empty when the cloud was empty): what
+  // terrain::compute_traversability takes beside the fit (terrain.grid is the equalised one).
+  terrain::HeightGrid measured_grid;
   std::string note;                   // one line for a status or log
 };
 
+// terrain::classify_points's rule for one vehicle-frame point (outside when the surface does not
+// cover it, candidate when z - S(x, y) > obstacle_height_m, terrain otherwise), with a shortcut that
+// cannot change a class: S is a convex combination of the (d0 + 1)(d1 + 1) control heights of the
+// knot spans holding (x, y) (the basis functions are >= 0 and sum to 1; rational weights > 0 keep
+// it one), so a point with z - obstacle_height_m below the smallest of them (less 1e-9 m for the
+// rounding of the sums) is terrain without evaluating S. Most points of a frame are ground points
+// within centimetres of the surface, 0.2 m below the threshold: S is evaluated for the others only.
+// Shared by extract_obstacle_candidates and the ARM task augmented_stixels.
+class CandidateTest {
+ public:
+  enum class Class : uint8_t { outside, terrain, candidate };
+  // `surface` must outlive the test; obstacle_height_m as in CandidateParameters.
+  CandidateTest(const terrain::BsplineSurface& surface, double obstacle_height_m);
+  // The point's class; for a candidate *height_above_m = z - S(x, y). *evaluated (may be null) says
+  // whether S was evaluated (the ARM task counts that work).
+  Class classify(const Eigen::Vector3d& vehicle_m, double* height_above_m, bool* evaluated = nullptr) const;
+
+ private:
+  const terrain::BsplineSurface& surface_;
+  double obstacle_height_m_;
+  Eigen::MatrixXd span_minimum_m_;  // (n0 - d0) x (n1 - d1): the smallest control height per span pair
+};
+
 // `grey` (u8) and the colour view, when given, are the left image the disparity map belongs to.
-// Throws std::invalid_argument when the planes' sizes disagree or obstacle_height_m is out of range.
+// Throws std::invalid_argument when the planes' sizes disagree or obstacle_height_m or threads is out of range.
 CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t invalid_disparity_q4, const CameraPoints& camera,
                                             const Plane& grey, const ColourView& colour, const CameraToVehicle& to_vehicle,
                                             const CandidateParameters& parameters);

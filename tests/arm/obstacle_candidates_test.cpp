@@ -1,0 +1,135 @@
+// extract_obstacle_candidates (arm/obstacles3d/obstacle_candidates.h) on a hand-made disparity map:
+// a level camera 1.5 m above a flat road (row v below the horizon has d = B (v - v0) / H) with a box
+// 10 m ahead (d = 6 px) rising from the road. The candidates are exactly the points that
+// terrain::classify_points calls obstacle against the returned fit (the CandidateTest shortcut
+// changes no class), each with z - S as its height; 1, 2 and 3 threads give the same result field
+// for field; a thread count out of range is refused by name.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "arm/obstacles3d/obstacle_candidates.h"
+#include "arm/point_cloud.h"
+#include "arm/terrain/terrain_model.h"
+#include "kernels/disparity_to_points.h"
+
+namespace lpstereo {
+namespace {
+
+namespace o3 = arm::obstacles3d;
+
+constexpr int kWidth = 160, kHeight = 120;
+constexpr double kFocalPx = 200, kBaselineM = 0.3, kCameraHeightM = 1.5;
+constexpr double kU0 = (kWidth - 1) / 2.0, kV0 = (kHeight - 1) / 2.0;
+constexpr int16_t kInvalidQ4 = -16;  // min_disparity 0
+
+struct Frame {
+  Plane disparity{kWidth, kHeight, {ElementType::s16, 4}};
+  Plane grey{kWidth, kHeight, {ElementType::u8}};
+  arm::CameraPoints camera;
+  arm::CameraToVehicle to_vehicle{[] {
+    arm::CameraMount mount;
+    mount.position_m = Eigen::Vector3d(0, 0, kCameraHeightM);
+    return mount;
+  }()};
+};
+
+Frame make_frame() {
+  Frame frame;
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      double d_px = v > kV0 + 1 ? kBaselineM * (v - kV0) / kCameraHeightM : -1;  // the road below the horizon
+      if (u >= 60 && u < 100 && v >= 40 && v < 90) d_px = 6.0;                   // the box, Z = 10 m
+      frame.disparity.at<int16_t>(u, v) = d_px > 0 ? static_cast<int16_t>(std::lround(16 * d_px)) : kInvalidQ4;
+      frame.grey.at<uint8_t>(u, v) = static_cast<uint8_t>((u * 7 + v * 3) % 251);
+    }
+  }
+  frame.camera = arm::triangulate(frame.disparity, arm::TriangulationParameters{kBaselineM, kFocalPx, kU0, kV0, 0, 64, 0});
+  return frame;
+}
+
+o3::CandidatePoints extract(const Frame& frame, int threads) {
+  o3::CandidateParameters parameters;
+  parameters.threads = threads;
+  return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+}
+
+TEST(ObstacleCandidates, AreClassifyPointsObstaclesWithTheirHeight) {
+  const Frame frame = make_frame();
+  const o3::CandidatePoints result = extract(frame, 2);
+  ASSERT_TRUE(result.terrain.known) << result.note;
+  // Every valid pixel's vehicle point, in row order (the function's own conversion: mm -> float m).
+  std::vector<Eigen::Vector3d> vehicle_points;
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      if (frame.camera.x_mm.at<int32_t>(u, v) == kernels::kNoPointMm || frame.disparity.at<int16_t>(u, v) <= 0) continue;
+      const Eigen::Vector3f camera_m(static_cast<float>(frame.camera.x_mm.at<int32_t>(u, v)) * 1e-3f,
+                                     static_cast<float>(frame.camera.y_mm.at<int32_t>(u, v)) * 1e-3f,
+                                     static_cast<float>(frame.camera.z_mm.at<int32_t>(u, v)) * 1e-3f);
+      vehicle_points.push_back(frame.to_vehicle.apply(camera_m.cast<double>()));
+    }
+  }
+  EXPECT_EQ(result.cloud_points, static_cast<int64_t>(vehicle_points.size()));
+  const std::vector<arm::terrain::PointClass> classes = arm::terrain::classify_points(vehicle_points, result.terrain, 0.2);
+  std::vector<Eigen::Vector3d> expected;
+  int64_t outside = 0;
+  for (size_t k = 0; k < classes.size(); ++k) {
+    if (classes[k] == arm::terrain::PointClass::obstacle) expected.push_back(vehicle_points[k]);
+    outside += classes[k] == arm::terrain::PointClass::outside;
+  }
+  EXPECT_EQ(result.outside_area, outside);
+  ASSERT_EQ(result.points.size(), expected.size());
+  ASSERT_GT(expected.size(), 500u);  // the box: 40 x 50 pixels, most of it above 0.2 m
+  for (size_t k = 0; k < expected.size(); ++k) {
+    const o3::ObstaclePoint& point = result.points[k];
+    EXPECT_EQ(point.vehicle_m, expected[k].cast<float>()) << k;
+    EXPECT_EQ(point.height_above_ground_m,
+              static_cast<float>(expected[k].z() - result.terrain.surface.height_m(expected[k].x(), expected[k].y())))
+        << k;
+    EXPECT_EQ(point.disparity_px, 6.0f) << k;  // only the box stands above the road
+    EXPECT_EQ(point.rgb[0], frame.grey.at<uint8_t>(point.u_px, point.v_px)) << k;
+  }
+}
+
+TEST(ObstacleCandidates, ThreadCountDoesNotChangeTheResult) {
+  const Frame frame = make_frame();
+  const o3::CandidatePoints one = extract(frame, 1);
+  ASSERT_FALSE(one.points.empty());
+  for (int threads : {2, 3}) {
+    const o3::CandidatePoints many = extract(frame, threads);
+    EXPECT_EQ(many.cloud_points, one.cloud_points) << threads;
+    EXPECT_EQ(many.outside_area, one.outside_area) << threads;
+    EXPECT_EQ(many.terrain.surface.control_z_m, one.terrain.surface.control_z_m) << threads;
+    EXPECT_EQ(many.measured_grid.point_count, one.measured_grid.point_count) << threads;
+    EXPECT_EQ(many.measured_grid.state, one.measured_grid.state) << threads;
+    ASSERT_EQ(many.points.size(), one.points.size()) << threads;
+    for (size_t k = 0; k < one.points.size(); ++k) {
+      const o3::ObstaclePoint &a = one.points[k], &b = many.points[k];
+      EXPECT_TRUE(a.camera_m == b.camera_m && a.vehicle_m == b.vehicle_m && a.height_above_ground_m == b.height_above_ground_m &&
+                  a.disparity_px == b.disparity_px && a.u_px == b.u_px && a.v_px == b.v_px && a.rgb == b.rgb)
+          << threads << " threads, point " << k;
+    }
+  }
+}
+
+TEST(ObstacleCandidates, RefusesAThreadCountOutOfRange) {
+  const Frame frame = make_frame();
+  for (int threads : {0, 17}) {
+    try {
+      extract(frame, threads);
+      ADD_FAILURE() << "accepted threads = " << threads;
+    } catch (const std::invalid_argument& error) {
+      const std::string text = error.what();
+      EXPECT_NE(text.find("threads"), std::string::npos) << text;
+      EXPECT_NE(text.find("[1, 16]"), std::string::npos) << text;
+      EXPECT_NE(text.find("got " + std::to_string(threads)), std::string::npos) << text;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace lpstereo
