@@ -8,6 +8,7 @@
 #include <memory>
 #include <set>
 #include <stdexcept>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -195,6 +196,7 @@ int Obstacles3dCommand::run() const {
       triangulation_parameters(geometry, disparity_parameters.min_disparity, disparity_parameters.num_disparities);
   o3::CandidateParameters candidate_parameters;
   candidate_parameters.obstacle_height_m = obstacle_height_m_;
+  candidate_parameters.threads = threads_ == 0 ? static_cast<int>(std::max(1u, std::thread::hardware_concurrency())) : threads_;
 
   arm::StereoOdometryParameters odometry_parameters;
   odometry_parameters.focal_px = geometry.focal_px;
