@@ -125,21 +125,13 @@ PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShap
   }
   auto prepared = std::make_shared<AugmentedStixelsTaskParams>();
   AugmentedStixelsTaskParams& p = *prepared;
-  p.grid.forward_min_m = param_double(params, "forward_min_m", 0.0, -1000.0, 1000.0);
-  p.grid.forward_max_m = param_double(params, "forward_max_m", 34.0, -1000.0, 1000.0);
-  p.grid.lateral_min_m = param_double(params, "lateral_min_m", -11.0, -1000.0, 1000.0);
-  p.grid.lateral_max_m = param_double(params, "lateral_max_m", 11.0, -1000.0, 1000.0);
-  p.grid.cell_m = param_double(params, "cell_m", 0.5, 0.016, 100.0);
-  try {
-    p.grid.validate();
-  } catch (const std::invalid_argument& error) {
-    throw KernelError(std::string("grid parameters: ") + error.what());
-  }
-  p.degree_forward = param_int(params, "degree_forward", 3, 1, 5);
-  p.degree_lateral = param_int(params, "degree_lateral", 3, 1, 5);
-  p.control_forward = param_int(params, "control_forward", 25, p.degree_forward + 1, 64);
-  p.control_lateral = param_int(params, "control_lateral", 25, p.degree_lateral + 1, 64);
-  const int record_words = kTerrainHeaderWords + p.control_forward * p.control_lateral;
+  const TerrainRecordShape shape = terrain_record_shape_params(params);
+  p.grid = shape.grid;
+  p.degree_forward = shape.degree_forward;
+  p.degree_lateral = shape.degree_lateral;
+  p.control_forward = shape.control_forward;
+  p.control_lateral = shape.control_lateral;
+  const int record_words = shape.record_words();
   if (input_shapes[3].width != record_words || input_shapes[3].height != 1) {
     throw KernelError("input 'terrain': expected " + std::to_string(record_words) + "x1 (kTerrainHeaderWords + control_forward * control_lateral), got " +
                       shape_text(input_shapes[3]));

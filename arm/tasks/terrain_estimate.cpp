@@ -78,20 +78,12 @@ PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShap
   }
   auto prepared = std::make_shared<TerrainEstimateParams>();
   TerrainEstimateParams& p = *prepared;
-  p.grid.forward_min_m = param_double(params, "forward_min_m", 0.0, -1000.0, 1000.0);
-  p.grid.forward_max_m = param_double(params, "forward_max_m", 34.0, -1000.0, 1000.0);
-  p.grid.lateral_min_m = param_double(params, "lateral_min_m", -11.0, -1000.0, 1000.0);
-  p.grid.lateral_max_m = param_double(params, "lateral_max_m", 11.0, -1000.0, 1000.0);
-  p.grid.cell_m = param_double(params, "cell_m", 0.5, 0.016, 100.0);
-  try {
-    p.grid.validate();
-  } catch (const std::invalid_argument& error) {
-    throw KernelError(std::string("grid parameters: ") + error.what());
-  }
-  p.fit.degree_forward = param_int(params, "degree_forward", 3, 1, 5);
-  p.fit.degree_lateral = param_int(params, "degree_lateral", 3, 1, 5);
-  p.fit.control_forward = param_int(params, "control_forward", 25, p.fit.degree_forward + 1, 64);
-  p.fit.control_lateral = param_int(params, "control_lateral", 25, p.fit.degree_lateral + 1, 64);
+  const TerrainRecordShape shape = terrain_record_shape_params(params);
+  p.grid = shape.grid;
+  p.fit.degree_forward = shape.degree_forward;
+  p.fit.degree_lateral = shape.degree_lateral;
+  p.fit.control_forward = shape.control_forward;
+  p.fit.control_lateral = shape.control_lateral;
   p.fit.initial_control_forward = param_int(params, "initial_control_forward", std::min(5, p.fit.control_forward),
                                             p.fit.degree_forward + 1, p.fit.control_forward);
   p.fit.initial_control_lateral = param_int(params, "initial_control_lateral", std::min(5, p.fit.control_lateral),

@@ -17,6 +17,13 @@
 #pragma once
 
 #include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "arm/terrain/terrain_model.h"
+#include "kernels/kernel.h"
 
 namespace lpstereo::arm {
 
@@ -47,5 +54,35 @@ enum class TerrainUnknownReason : int32_t {
 };
 
 inline constexpr int32_t kUnknownCostMilli = -1;
+
+// The terrain area and the spline's shape: the params of every task that writes or reads a
+// "terrain" record (forward_min_m, forward_max_m, lateral_min_m, lateral_max_m, cell_m,
+// degree_forward, degree_lateral, control_forward, control_lateral), so that producer and consumer
+// read them with the same defaults and ranges.
+struct TerrainRecordShape {
+  terrain::TerrainGridSpec grid;
+  int degree_forward = 3, degree_lateral = 3, control_forward = 25, control_lateral = 25;
+  int record_words() const { return kTerrainHeaderWords + control_forward * control_lateral; }
+};
+
+// Throws KernelError naming the parameter, its range and the value (the grid's own check too).
+inline TerrainRecordShape terrain_record_shape_params(const nlohmann::json& params) {
+  TerrainRecordShape shape;
+  shape.grid.forward_min_m = param_double(params, "forward_min_m", 0.0, -1000.0, 1000.0);
+  shape.grid.forward_max_m = param_double(params, "forward_max_m", 34.0, -1000.0, 1000.0);
+  shape.grid.lateral_min_m = param_double(params, "lateral_min_m", -11.0, -1000.0, 1000.0);
+  shape.grid.lateral_max_m = param_double(params, "lateral_max_m", 11.0, -1000.0, 1000.0);
+  shape.grid.cell_m = param_double(params, "cell_m", 0.5, 0.016, 100.0);
+  try {
+    shape.grid.validate();
+  } catch (const std::invalid_argument& error) {
+    throw KernelError(std::string("grid parameters: ") + error.what());
+  }
+  shape.degree_forward = param_int(params, "degree_forward", 3, 1, 5);
+  shape.degree_lateral = param_int(params, "degree_lateral", 3, 1, 5);
+  shape.control_forward = param_int(params, "control_forward", 25, shape.degree_forward + 1, 64);
+  shape.control_lateral = param_int(params, "control_lateral", 25, shape.degree_lateral + 1, 64);
+  return shape;
+}
 
 }  // namespace lpstereo::arm
