@@ -1,10 +1,12 @@
 // terrain_synth_eval: issue 9's synthetic acceptance line, measured. An evaluation program, not a
-// test (it renders a dozen 640x480 scenes; the figures are printed, the lines checked at the end).
+// test (it renders 15 scenes, 640x480 unless --width/--height; the figures are printed, the lines checked at the end).
 //
 // For several seeds and ground kinds (hills; ditch + berm; mining-like rough; hills + rough with the
 // camera rolled), io::render_stereo_synth renders a 640x480 pair with obstacles standing on the
 // height field (io/stereo_synth.h); arm::DisparityEngine (the `lpstereo points` settings) gives the
-// disparity, arm::triangulate the camera-frame points, arm::CameraToVehicle with the synthetic
+// disparity, arm::invalidate_near_side_of_discontinuities drops the near side of every disparity
+// jump of more than 2 px, 3 px wide (the fattened object edges; "edge px" counts the pixels
+// dropped; --discontinuity-radius 0 turns it off), arm::triangulate the camera-frame points, arm::CameraToVehicle with the synthetic
 // camera's known mount (roll, pitch, 0 yaw, centre camera_height_m above the ground under it) the
 // vehicle frame; then the 2.5D grid, fit_terrain and classify_points (arm/terrain/terrain_model.h).
 //
@@ -28,9 +30,11 @@
 // surface's RMS per 5 m band for the left verge, the road and the right verge; --exact-points runs
 // the whole evaluation on the exact points.
 //
-// Usage: terrain_synth_eval [--seeds N] [--census 5|9] [--bands] [--control N] [--initial-control N]
-//        [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A] [--threshold-factor F] [--alpha-step A]
-//        [--iterations N] [--cell-m C] [--noise-sigma S]
+// Usage: terrain_synth_eval [--seeds N] [--first-seed S] [--scene SPEC] [--width W --height H] [--census 5|9] [--bands]
+//        [--control N] [--initial-control N] [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A]
+//        [--threshold-factor F] [--alpha-step A] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
+//        [--noise-quantile Q] [--discontinuity-radius R] [--discontinuity-jump J] [--disparity-margin M] [--exact-points]
+// The disparity range is 80 at 640 px wide and scales with the width (160 at 1280).
 // Exit 0 when every scene meets both lines, 1 otherwise.
 #include <algorithm>
 #include <chrono>
