@@ -30,8 +30,8 @@
 // docs/terrain.md.
 //
 // Steps: add_point (cell of (x, y), reject outside or non-finite) / add_to_cell (the cell given by
-// the binning), each summing count, sum z, sum z^2 and min z; finish() applies eq. 3.2 per measured
-// cell and the neighbour fill per empty cell.
+// the binning), each summing count, sum z, sum z^2 and min z; finish() applies the cell rule per
+// measured cell (the noise floor: each forward row's first) and the neighbour fill per empty cell.
 //
 // Counted work (ArmWork), with P accepted points, R rejected points, C = m0 m1 cells:
 //   scalar_ops   = 10 per add_point call (finite checks, two subtract-multiply-floor, range compares)
@@ -46,10 +46,10 @@
 //                  while binning: 68 x 44 cells are 84 KiB) + 8 C (the heights written).
 #include <algorithm>
 #include <cmath>
-#include <vector>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "arm/localization/ransac_sampling.h"
 #include "arm/terrain/terrain_model.h"
@@ -182,8 +182,9 @@ HeightGrid HeightGridAccumulator::finish() const {
       variance(i, j) = std::max(0.0, sum_z2_(i, j) / count - mean * mean);
     }
   }
-  // The noise floor of each forward row (noise_floor rule): the quantile of the sigma of the measured
-  // cells with at least kMinNoisePoints points in rows i - 1 .. i + 1.
+  // The noise floor of each forward row (noise_floor rule): the quantile of the variances (the same
+  // rank as of the sigmas) of the measured cells with at least kMinNoisePoints points in rows
+  // i - 1 .. i + 1.
   Eigen::VectorXd noise_variance = Eigen::VectorXd::Zero(m0);
   if (spec_.cell_rule == TerrainGridSpec::CellRule::noise_floor) {
     std::vector<double> row_variances;
