@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
@@ -166,6 +167,50 @@ std::string ground_extent_problem(const terrain::HeightGrid& grid, int min_rows,
   return "no ground extent: " + std::to_string(rows) + " forward row(s) and " + std::to_string(columns) +
          " lateral column(s) of cells hold at least 1 % of the " + std::to_string(total) + " points each, expected at least " +
          std::to_string(min_rows) + " and " + std::to_string(min_columns) + " (a wall filling the view, or points on one line)";
+}
+
+int64_t invalidate_near_side_of_discontinuities(Plane& disparity_q4, int16_t invalid_q4, int radius_px, double jump_px) {
+  if (radius_px < 1) throw std::invalid_argument("radius_px: expected >= 1, got " + std::to_string(radius_px));
+  if (!(jump_px > 0)) throw std::invalid_argument("jump_px: expected > 0, got " + std::to_string(jump_px));
+  if (disparity_q4.format().type != ElementType::s16) throw std::invalid_argument("disparity_q4: expected an s16 plane");
+  const int width = disparity_q4.width(), height = disparity_q4.height();
+  const int jump_q4 = static_cast<int>(std::ceil(16 * jump_px));
+  // Valid pixels only: invalid is invalid_q4 and below (DESIGN.md §4: (min_disparity - 1) * 16).
+  const auto valid = [invalid_q4](int16_t d) { return d > invalid_q4; };
+  // The minimum valid disparity of each pixel's window, separably: rows first, then columns.
+  constexpr int kNoValue = INT32_MAX;
+  std::vector<int> row_minimum(static_cast<size_t>(width) * height, kNoValue), window_minimum(row_minimum.size(), kNoValue);
+  for (int v = 0; v < height; ++v) {
+    const int16_t* row = disparity_q4.row<int16_t>(v);
+    for (int u = 0; u < width; ++u) {
+      int lowest = kNoValue;
+      for (int k = std::max(0, u - radius_px); k <= std::min(width - 1, u + radius_px); ++k) {
+        if (valid(row[k])) lowest = std::min<int>(lowest, row[k]);
+      }
+      row_minimum[static_cast<size_t>(v) * width + u] = lowest;
+    }
+  }
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      int lowest = kNoValue;
+      for (int k = std::max(0, v - radius_px); k <= std::min(height - 1, v + radius_px); ++k) {
+        lowest = std::min(lowest, row_minimum[static_cast<size_t>(k) * width + u]);
+      }
+      window_minimum[static_cast<size_t>(v) * width + u] = lowest;
+    }
+  }
+  int64_t invalidated = 0;
+  for (int v = 0; v < height; ++v) {
+    int16_t* row = disparity_q4.row<int16_t>(v);
+    for (int u = 0; u < width; ++u) {
+      if (!valid(row[u]) || window_minimum[static_cast<size_t>(v) * width + u] == kNoValue) continue;
+      if (row[u] - window_minimum[static_cast<size_t>(v) * width + u] > jump_q4) {
+        row[u] = invalid_q4;
+        ++invalidated;
+      }
+    }
+  }
+  return invalidated;
 }
 
 std::optional<double> surface_camera_y_m(const terrain::TerrainEstimate& terrain, const CameraToVehicle& to_vehicle, double x_c_m,

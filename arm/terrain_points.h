@@ -66,6 +66,17 @@ void accumulate_binned(const BinnedPoints& binned, const terrain::TerrainGridSpe
 // would then return a made-up surface. Returns the one-line reason, or empty when the extent is enough.
 std::string ground_extent_problem(const terrain::HeightGrid& grid, int min_rows = 4, int min_columns = 4);
 
+// Foreground fattening at depth discontinuities (a window matcher gives the background pixels next
+// to a nearer object the object's disparity; Hirschmueller and Scharstein 2009, §2; Scharstein and
+// Szeliski 2002, §5.2 "depth discontinuity" regions): invalidates, in place, every valid pixel of
+// disparity_q4 (s16 Q4) with a valid pixel within radius_px (square window) whose disparity is more
+// than jump_px smaller, i.e. the near side of every jump of more than jump_px, radius_px wide. Their
+// 3D points would stand in the air beside the object, above any ground surface: the false obstacle
+// points of terrain segmentation. A ground surface seen by a level camera 1.5 m up changes its
+// disparity by baseline / height = 0.2 px a row, far below the jump. Returns the pixels invalidated.
+// Throws std::invalid_argument unless radius_px >= 1 and jump_px > 0, or for a non-s16 plane.
+int64_t invalidate_near_side_of_discontinuities(Plane& disparity_q4, int16_t invalid_q4, int radius_px, double jump_px);
+
 // The camera-frame y (down, metres) of the fitted surface on the camera's vertical line through
 // (x_c, ., z_c): the y with p_vehicle = R C (x_c, y, z_c) + T on z = S(x, y), by Newton steps along
 // that line (dz_v / dy_c is the constant (R C)(2, 1); S's own slope enters through a secant

@@ -1,10 +1,12 @@
 // terrain_synth_eval: issue 9's synthetic acceptance line, measured. An evaluation program, not a
-// test (it renders a dozen 640x480 scenes; the figures are printed, the lines checked at the end).
+// test (it renders 15 scenes, 640x480 unless --width/--height; the figures are printed, the lines checked at the end).
 //
 // For several seeds and ground kinds (hills; ditch + berm; mining-like rough; hills + rough with the
 // camera rolled), io::render_stereo_synth renders a 640x480 pair with obstacles standing on the
 // height field (io/stereo_synth.h); arm::DisparityEngine (the `lpstereo points` settings) gives the
-// disparity, arm::triangulate the camera-frame points, arm::CameraToVehicle with the synthetic
+// disparity, arm::invalidate_near_side_of_discontinuities drops the near side of every disparity
+// jump of more than 2 px, 3 px wide (the fattened object edges; "edge px" counts the pixels
+// dropped; --discontinuity-radius 0 turns it off), arm::triangulate the camera-frame points, arm::CameraToVehicle with the synthetic
 // camera's known mount (roll, pitch, 0 yaw, centre camera_height_m above the ground under it) the
 // vehicle frame; then the 2.5D grid, fit_terrain and classify_points (arm/terrain/terrain_model.h).
 //
@@ -28,9 +30,11 @@
 // surface's RMS per 5 m band for the left verge, the road and the right verge; --exact-points runs
 // the whole evaluation on the exact points.
 //
-// Usage: terrain_synth_eval [--seeds N] [--census 5|9] [--bands] [--control N] [--initial-control N]
-//        [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A] [--threshold-factor F] [--alpha-step A]
-//        [--iterations N] [--cell-m C] [--noise-sigma S]
+// Usage: terrain_synth_eval [--seeds N] [--first-seed S] [--scene SPEC] [--width W --height H] [--census 5|9] [--bands]
+//        [--control N] [--initial-control N] [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A]
+//        [--threshold-factor F] [--alpha-step A] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
+//        [--noise-quantile Q] [--discontinuity-radius R] [--discontinuity-jump J] [--disparity-margin M] [--exact-points]
+// The disparity range is 80 at 640 px wide and scales with the width (160 at 1280).
 // Exit 0 when every scene meets both lines, 1 otherwise.
 #include <algorithm>
 #include <chrono>
@@ -44,6 +48,7 @@
 
 #include "arm/disparity_engine.h"
 #include "arm/point_cloud.h"
+#include "arm/terrain_points.h"
 #include "arm/terrain/terrain_model.h"
 #include "io/image_io.h"
 #include "io/stereo_synth.h"
@@ -61,9 +66,17 @@ struct SceneKind {
 };
 
 struct Settings {
-  int seeds = 3;
-  bool bands = false;
-  bool exact_points = false;  // --exact-points: the exact points of every pixel instead of the stereo ones  // --bands: the surface's RMS error per 5 m band forward x road / beside it
+  int seeds = 3;       // --seeds N: seeds first_seed .. first_seed + N - 1
+  int first_seed = 1;  // --first-seed
+  int width = 640, height = 480;  // --width, --height: the rendering (the disparity range scales with the width)
+  std::string only_scene;         // --scene SPEC: only the scene kind of that ground spec ("hills", "ditch+berm", ...)
+  // --discontinuity-radius, --discontinuity-jump: arm::invalidate_near_side_of_discontinuities on the
+  // disparity before triangulation (radius 0: off).
+  int discontinuity_radius_px = 3;
+  double discontinuity_jump_px = 2.0;
+  double disparity_margin_px = 0.0;  // --disparity-margin: terrain::StereoRayModel (0: the plain classify_points)
+  bool bands = false;         // --bands: the surface's RMS error per 5 m band forward x road / beside it
+  bool exact_points = false;  // --exact-points: the exact points of every pixel instead of the stereo ones
   double noise_sigma = 1.0;
   int census_width = 5;  // the disparity engine's census window (5 or 9)
   terrain::TerrainFitParameters fit;
@@ -111,6 +124,7 @@ struct SceneResult {
   double mount_error_m = 0;
   int iterations = 0;
   double fit_ms = 0;
+  int64_t discontinuity_invalidated = 0;
 };
 
 SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& settings) {
@@ -120,12 +134,17 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
   const int width = options.width, height = options.height;
 
   arm::DisparityParameters disparity_parameters;
-  disparity_parameters.num_disparities = 80;
+  // 80 at 640 px (points from 2.1 m on), scaled with the width to keep the same near range.
+  disparity_parameters.num_disparities = 16 * ((80 * width / 640 + 15) / 16);
   disparity_parameters.census_width = settings.census_width;
   arm::DisparityEngine engine(width, height, disparity_parameters);
   const Plane left = io::mat_to_plane(scene.left, BufferFormat{ElementType::u8});
   const Plane right = io::mat_to_plane(scene.right, BufferFormat{ElementType::u8});
-  const Plane& disparity = engine.compute(left, right);
+  Plane disparity = engine.compute(left, right).clone();
+  if (settings.discontinuity_radius_px > 0) {
+    result.discontinuity_invalidated = arm::invalidate_near_side_of_discontinuities(disparity, engine.invalid_disparity_q4(),
+                                                                                    settings.discontinuity_radius_px, settings.discontinuity_jump_px);
+  }
   const double cx = (width - 1) / 2.0, cy = (height - 1) / 2.0;
   const arm::TriangulationParameters triangulation{options.baseline_m, scene.focal_px, cx, cy, 0, disparity_parameters.num_disparities, 0};
   const arm::CameraPoints points = arm::triangulate(disparity, triangulation);
@@ -267,7 +286,13 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
   result.bias_20_m = signed_20 / std::max(result.cells_20, 1);
   result.grid_rms_20_m = std::sqrt(grid_sum_20 / std::max(grid_cells_20, 1));
 
-  const std::vector<terrain::PointClass> classes = terrain::classify_points(measured, estimate, 0.2);
+  terrain::StereoRayModel stereo;
+  stereo.camera_centre_m = to_vehicle.translation_m();
+  stereo.optical_axis = to_vehicle.rotation() * Eigen::Vector3d::UnitZ();
+  stereo.focal_baseline_px_m = scene.focal_px * options.baseline_m;
+  stereo.disparity_margin_px = settings.disparity_margin_px;
+  const std::vector<terrain::PointClass> classes = settings.disparity_margin_px > 0 ? terrain::classify_points(measured, estimate, 0.2, stereo)
+                                                                                  : terrain::classify_points(measured, estimate, 0.2);
   for (size_t k = 0; k < measured.size(); ++k) {
     if (classes[k] == terrain::PointClass::outside) continue;
     const int u = pixel_of[k] % width, v = pixel_of[k] / width;
@@ -307,6 +332,10 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--seeds") settings.seeds = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--scene" && i + 1 < argc) settings.only_scene = argv[++i];
+    else if (a == "--width") settings.width = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--height") settings.height = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--first-seed") settings.first_seed = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--control") settings.fit.control_forward = settings.fit.control_lateral = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--initial-control") settings.fit.initial_control_forward = settings.fit.initial_control_lateral = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--equalisation-threshold-factor") settings.fit.equalisation_threshold_factor = number_argument(i, argc, argv);
@@ -318,6 +347,11 @@ int main(int argc, char** argv) {
     else if (a == "--cell-m") settings.grid.cell_m = number_argument(i, argc, argv);
     else if (a == "--census") settings.census_width = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--exact-points") settings.exact_points = true;
+    else if (a == "--discontinuity-radius") settings.discontinuity_radius_px = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--discontinuity-jump") settings.discontinuity_jump_px = number_argument(i, argc, argv);
+    else if (a == "--disparity-margin") settings.disparity_margin_px = number_argument(i, argc, argv);
+    else if (a == "--thesis-cell-rule") settings.grid.cell_rule = terrain::TerrainGridSpec::CellRule::thesis;
+    else if (a == "--noise-quantile") settings.grid.noise_floor_quantile = number_argument(i, argc, argv);
     else if (a == "--bands") settings.bands = true;
     else if (a == "--noise-sigma") settings.noise_sigma = number_argument(i, argc, argv);
     else {
@@ -326,15 +360,15 @@ int main(int argc, char** argv) {
     }
   }
   const terrain::TerrainFitParameters& f = settings.fit;
-  std::printf("terrain_synth_eval: 640x480, hfov 60 deg, baseline 0.30 m, camera 1.5 m, pitch 0.06 rad, noise %.1f, 4 rays/px; "
+  std::printf("terrain_synth_eval: %dx%d, hfov 60 deg, baseline 0.30 m, camera 1.5 m, pitch 0.06 rad, noise %.1f, 4 rays/px; "
               "area %.0fx%.0f m, cell %.2f m; fit: degree %dx%d, control %dx%d (from %dx%d), %d iterations, threshold factor %.2f, "
               "alpha %.2f + %.2f/iteration, equalisation tolerance %.3f m and %.1f th; obstacle threshold 0.20 m\n",
-              settings.noise_sigma, settings.grid.forward_max_m - settings.grid.forward_min_m,
+              settings.width, settings.height, settings.noise_sigma, settings.grid.forward_max_m - settings.grid.forward_min_m,
               settings.grid.lateral_max_m - settings.grid.lateral_min_m, settings.grid.cell_m, f.degree_forward, f.degree_lateral,
               f.control_forward, f.control_lateral, f.initial_control_forward, f.initial_control_lateral, f.max_iterations,
               f.threshold_factor, f.alpha_initial, f.alpha_step, f.equalisation_tolerance_m, f.equalisation_threshold_factor);
-  std::printf("%-26s %4s %10s %10s %9s %9s %11s %10s %7s %7s %9s %9s %8s %7s %9s %8s %8s %9s %6s\n", "scene", "seed", "rms<=20m", "rms<=34m", "bias<=20m",
-              "grid<=20m", "points<=20", "exact<=20", "cells20", "cells34", "precision", "recall", "obstacle", "FP", "FP ground", "gnd>20cm", "mount", "fit", "lines");
+  std::printf("%-26s %4s %10s %10s %9s %9s %11s %10s %7s %7s %9s %9s %8s %7s %9s %8s %8s %8s %9s %6s\n", "scene", "seed", "rms<=20m", "rms<=34m", "bias<=20m",
+              "grid<=20m", "points<=20", "exact<=20", "cells20", "cells34", "precision", "recall", "obstacle", "FP", "FP ground", "gnd>20cm", "edge px", "mount", "fit", "lines");
   const SceneKind kinds[] = {{"hills", "hills", 0.0},
                              {"ditch+berm", "ditch+berm", 0.0},
                              {"rough", "rough", 0.0},
@@ -342,10 +376,11 @@ int main(int argc, char** argv) {
                              {"ditch-u+berm, roll -2 deg", "ditch-u+berm", -2.0}};
   int failed = 0, scenes = 0;
   for (const SceneKind& kind : kinds) {
-    for (int seed = 1; seed <= settings.seeds; ++seed) {
+    if (!settings.only_scene.empty() && settings.only_scene != kind.ground) continue;
+    for (int seed = settings.first_seed; seed < settings.first_seed + settings.seeds; ++seed) {
       io::StereoSynthOptions options;
-      options.width = 640;
-      options.height = 480;
+      options.width = settings.width;
+      options.height = settings.height;
       options.pitch_rad = 0.06;
       options.roll_rad = kind.roll_deg * 3.14159265358979323846 / 180;
       options.ground = io::parse_synth_ground(kind.ground);
@@ -363,9 +398,9 @@ int main(int argc, char** argv) {
       const double recall = 100.0 * static_cast<double>(r.true_positive) / static_cast<double>(std::max<int64_t>(r.truly_obstacle, 1));
       const bool ok = r.rms_20_m <= 0.05 && precision >= 95 && recall >= 95;
       failed += ok ? 0 : 1;
-      std::printf("%-26s %4d %8.1f cm %8.1f cm %7.1f cm %7.1f cm %8.1f cm %7.1f cm %7d %7d %8.1f %% %8.1f %% %8lld %7lld %9lld %8lld %6.0f um %6.1f ms %6s\n", kind.name, seed,
+      std::printf("%-26s %4d %8.1f cm %8.1f cm %7.1f cm %7.1f cm %8.1f cm %7.1f cm %7d %7d %8.1f %% %8.1f %% %8lld %7lld %9lld %8lld %8lld %6.0f um %6.1f ms %6s\n", kind.name, seed,
                   100 * r.rms_20_m, 100 * r.rms_34_m, 100 * r.bias_20_m, 100 * r.grid_rms_20_m, 100 * r.point_rms_20_m, 100 * r.exact_rms_20_m, r.cells_20, r.cells_34, precision, recall, static_cast<long long>(r.truly_obstacle), static_cast<long long>(r.false_positive),
-                  static_cast<long long>(r.false_positive_ground_pixel), static_cast<long long>(r.ground_points_above_20_cm),
+                  static_cast<long long>(r.false_positive_ground_pixel), static_cast<long long>(r.ground_points_above_20_cm), static_cast<long long>(r.discontinuity_invalidated),
                   1e6 * r.mount_error_m, r.fit_ms, ok ? "met" : "MISSED");
       std::fflush(stdout);
     }

@@ -11,9 +11,27 @@
 // and spread a single return over the whole area); without any, it is invalid (height NaN, weight 0
 // in the fit; the thesis sets Z := 0 and leaves the cell out of the fit, which is the same thing).
 //
+// The noise-floor rule (TerrainGridSpec::CellRule::noise_floor, the default). Under stereo, eq. 3.2's
+// sigma is mostly the height noise of the points, not an obstacle's spread: a ground point at range
+// r seen from a camera h up has a depth error of r^2 sigma_d / (f B) (the stereo error model, e.g.
+// Chang et al. 1994; Gallup et al. 2008), which moves it along its ray by h / r of that in height:
+// sigma_h = r h sigma_d / (f B), 2-5 cm at 10-20 m for 640 px, 0.30 m and sigma_d ~ 0.25 px. Eq. 3.2
+// then puts every ground cell about sigma_h below the ground (bench/terrain_synth_eval: bias -1 to
+// -4 cm within 20 m, the largest share of its RMS). Cells at one range share sigma_h, and most
+// cells of a forward row are ground, so the rule estimates the noise from the data instead of a
+// camera model: sigma_noise^2 = the noise_floor_quantile (median by default) of the variances of
+// the measured cells with at least kMinNoisePoints points in rows i - 1 .. i + 1, and subtracts only
+// the spread in excess of it (a noise-only cell keeps its mean; an obstacle cell still loses its
+// spread, and stays within [min z, max z]):
+//     Z = max(min z_j, mean z_j - sqrt(max(0, sigma^2 - sigma_noise^2)))
+// Without such cells in the three rows sigma_noise = 0: eq. 3.2. With exact (noise-free) points
+// the floor is the median spread of the row's ground cells (their slope), so the rule is eq. 3.2
+// wherever the ground is flat (the deviation test of bench/terrain_bench is unchanged). The figures:
+// docs/terrain.md.
+//
 // Steps: add_point (cell of (x, y), reject outside or non-finite) / add_to_cell (the cell given by
-// the binning), each summing count, sum z, sum z^2 and min z; finish() applies eq. 3.2 per measured
-// cell and the neighbour fill per empty cell.
+// the binning), each summing count, sum z, sum z^2 and min z; finish() applies the cell rule per
+// measured cell (the noise floor: each forward row's first) and the neighbour fill per empty cell.
 //
 // Counted work (ArmWork), with P accepted points, R rejected points, C = m0 m1 cells:
 //   scalar_ops   = 10 per add_point call (finite checks, two subtract-multiply-floor, range compares)
@@ -21,13 +39,17 @@
 //                  + 2 per add_to_cell call (range compares), accepted or not
 //                  + 12 C in finish() (eq. 3.2: two divides, a square root, a max; or the 8-neighbour
 //                  mean of an empty cell)
+//                  + 8 C more with the noise-floor rule (each cell's variance collected for three
+//                  rows, a linear-time selection, the subtraction)
 //   memory_bytes = 12 P (the point read from a DRAM buffer, three floats on the chip) + 28 C (the
 //                  accumulator cells, 4 + 3 x 8 bytes, read once by finish; they stay in the cache
 //                  while binning: 68 x 44 cells are 84 KiB) + 8 C (the heights written).
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "arm/localization/ransac_sampling.h"
 #include "arm/terrain/terrain_model.h"
@@ -36,6 +58,8 @@ namespace lpstereo::arm::terrain {
 
 namespace {
 
+// A cell with fewer points gives no useful sigma for the noise floor (one point: sigma 0).
+constexpr int kMinNoisePoints = 4;
 constexpr int64_t kMaxCells = 4 * 1024 * 1024;  // a grid beyond this is a mistake in the spec (16 M cells of doubles)
 
 // The repository's number format for error messages (%.6g).
@@ -75,6 +99,9 @@ void TerrainGridSpec::validate() const {
   finite("lateral_min_m", lateral_min_m);
   finite("lateral_max_m", lateral_max_m);
   finite("cell_m", cell_m);
+  if (!(noise_floor_quantile >= 0 && noise_floor_quantile <= 1)) {
+    throw std::invalid_argument("noise_floor_quantile: expected in [0, 1], got " + format_number(noise_floor_quantile));
+  }
   if (!(cell_m > 0)) throw std::invalid_argument("cell_m: expected > 0, got " + format_number(cell_m));
   if (!(forward_max_m > forward_min_m)) {
     throw std::invalid_argument("forward_max_m: expected > forward_min_m = " + format_number(forward_min_m) + ", got " +
@@ -144,14 +171,44 @@ HeightGrid HeightGridAccumulator::finish() const {
   grid.height_m = Eigen::MatrixXd::Constant(m0, m1, std::numeric_limits<double>::quiet_NaN());
   grid.point_count = count_;
   grid.state = Eigen::MatrixXi::Constant(m0, m1, kCellInvalid);
+  // Per measured cell: mean and population variance (rounding can make the variance of equal heights
+  // slightly negative).
+  Eigen::MatrixXd variance = Eigen::MatrixXd::Constant(m0, m1, std::numeric_limits<double>::quiet_NaN());
   for (Eigen::Index i = 0; i < m0; ++i) {
     for (Eigen::Index j = 0; j < m1; ++j) {
       const int count = count_(i, j);
       if (count == 0) continue;
       const double mean = sum_z_(i, j) / count;
-      // Rounding can make the variance of equal heights slightly negative.
-      const double variance = std::max(0.0, sum_z2_(i, j) / count - mean * mean);
-      grid.height_m(i, j) = std::max(min_z_(i, j), mean - std::sqrt(variance));  // thesis eq. 3.2
+      variance(i, j) = std::max(0.0, sum_z2_(i, j) / count - mean * mean);
+    }
+  }
+  // The noise floor of each forward row (noise_floor rule): the quantile of the variances (the same
+  // rank as of the sigmas) of the measured cells with at least kMinNoisePoints points in rows
+  // i - 1 .. i + 1.
+  Eigen::VectorXd noise_variance = Eigen::VectorXd::Zero(m0);
+  if (spec_.cell_rule == TerrainGridSpec::CellRule::noise_floor) {
+    std::vector<double> row_variances;
+    for (Eigen::Index i = 0; i < m0; ++i) {
+      row_variances.clear();
+      for (Eigen::Index r = std::max<Eigen::Index>(0, i - 1); r <= std::min<Eigen::Index>(m0 - 1, i + 1); ++r) {
+        for (Eigen::Index j = 0; j < m1; ++j) {
+          if (count_(r, j) >= kMinNoisePoints) row_variances.push_back(variance(r, j));
+        }
+      }
+      if (row_variances.empty()) continue;
+      const size_t rank = static_cast<size_t>(std::lround(spec_.noise_floor_quantile * static_cast<double>(row_variances.size() - 1)));
+      std::nth_element(row_variances.begin(), row_variances.begin() + static_cast<std::ptrdiff_t>(rank), row_variances.end());
+      noise_variance(i) = row_variances[rank];
+    }
+  }
+  for (Eigen::Index i = 0; i < m0; ++i) {
+    for (Eigen::Index j = 0; j < m1; ++j) {
+      const int count = count_(i, j);
+      if (count == 0) continue;
+      const double mean = sum_z_(i, j) / count;
+      // thesis eq. 3.2 (noise_variance 0), or the spread in excess of the row's noise floor
+      const double excess_sigma = std::sqrt(std::max(0.0, variance(i, j) - noise_variance(i)));
+      grid.height_m(i, j) = std::max(min_z_(i, j), mean - excess_sigma);
       grid.state(i, j) = kCellMeasured;
     }
   }
@@ -179,8 +236,9 @@ HeightGrid HeightGridAccumulator::finish() const {
 ArmWork HeightGridAccumulator::work() const {
   const uint64_t cells = static_cast<uint64_t>(count_.size());
   ArmWork work;
+  const uint64_t per_cell = spec_.cell_rule == TerrainGridSpec::CellRule::noise_floor ? 12 + 8 : 12;
   work.scalar_ops = 10 * static_cast<uint64_t>(add_point_calls_) + 6 * static_cast<uint64_t>(accepted_) +
-                    2 * static_cast<uint64_t>(add_to_cell_calls_) + 12 * cells;
+                    2 * static_cast<uint64_t>(add_to_cell_calls_) + per_cell * cells;
   work.memory_bytes = 12 * static_cast<uint64_t>(accepted_) + (28 + 8) * cells;
   return work;
 }

@@ -9,7 +9,8 @@
 //
 // Pipeline (issue 9 deliverables 1-4):
 //   points (vehicle frame) -> HeightGridAccumulator (2.5D sampling: per cell count, min, mean, sigma
-//   of z) -> HeightGrid (cell height Z = max(min z, mean z - sigma), empty cells filled from the mean
+//   of z) -> HeightGrid (cell height Z = max(min z, mean z - sigma), or by default sigma less the
+//   row's stereo noise floor (height_grid.cpp), empty cells filled from the mean
 //   of measured 8-neighbours, else invalid) -> fit_terrain (iterative re-weighted B-spline fit with
 //   equalisation) -> TerrainEstimate (surface, per-cell weights) -> compute_traversability (slope
 //   from the surface's derivatives, cost Tc = w_occ occupancy + w_slope |grad S|) and
@@ -39,6 +40,14 @@ struct TerrainGridSpec {
   double lateral_min_m = -11.0;  // y range (y left)
   double lateral_max_m = 11.0;
   double cell_m = 0.5;           // > 0
+  // The 2.5D sampling's cell rule (arm/terrain/height_grid.cpp has the model and the figures):
+  // thesis = eq. 3.2, Z = max(min z, mean z - sigma); noise_floor = the spread subtracted is only the
+  // part in excess of the stereo noise of the cell's range, Z = max(min z, mean z - sqrt(max(0,
+  // sigma^2 - sigma_noise^2))), sigma_noise the noise_floor_quantile of the measured cells' sigma over
+  // the cell's forward row and its two neighbours (cells at one range share the stereo noise).
+  enum class CellRule : uint8_t { thesis, noise_floor };
+  CellRule cell_rule = CellRule::noise_floor;
+  double noise_floor_quantile = 0.5;  // in [0, 1]
 
   int forward_cells() const;  // ceil((forward_max_m - forward_min_m) / cell_m)
   int lateral_cells() const;
@@ -190,5 +199,20 @@ enum class PointClass : uint8_t { outside = 0, terrain = 1, obstacle = 2 };
 // outside when the surface does not cover it (or terrain unknown, or the point is not finite).
 std::vector<PointClass> classify_points(const std::vector<Eigen::Vector3d>& points_vehicle_m, const TerrainEstimate& terrain,
                                         double obstacle_height_m);
+
+// The stereo camera the points came from, for a classification that allows for the disparity's
+// uncertainty: a stereo point moves along its viewing ray when its disparity changes.
+struct StereoRayModel {
+  Eigen::Vector3d camera_centre_m = Eigen::Vector3d::Zero();         // left camera centre, vehicle frame
+  Eigen::Vector3d optical_axis = Eigen::Vector3d::UnitX();           // unit, vehicle frame (R C (0, 0, 1))
+  double focal_baseline_px_m = 0;                                    // f B (> 0): disparity = f B / depth
+  double disparity_margin_px = 1.0;                                  // >= 0
+};
+// As above, but a point is an obstacle only when it would still be more than obstacle_height_m above
+// the surface with its disparity disparity_margin_px smaller (the point pushed away along its ray to
+// depth f B / (d - margin); a ground point that stereo placed too near, hence too high, falls back
+// onto the surface; terrain when d <= margin). Throws std::invalid_argument for a bad model.
+std::vector<PointClass> classify_points(const std::vector<Eigen::Vector3d>& points_vehicle_m, const TerrainEstimate& terrain,
+                                        double obstacle_height_m, const StereoRayModel& stereo);
 
 }  // namespace lpstereo::arm::terrain

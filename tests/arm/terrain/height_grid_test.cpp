@@ -67,7 +67,9 @@ TEST(TerrainGridSpec, ValidateNamesTheParameter) {
 // Empty cells: (1, 0) has measured neighbours (0, 0) and (0, 1): Z = (1 + 1.03670) / 2; (1, 1)
 // also; (3, 0) has none (its neighbours rows 2-4 are empty): invalid, NaN. (4, 2) next to (5, 3): 2.
 TEST(HeightGridAccumulator, CellRuleAndNeighbourFill) {
-  HeightGridAccumulator accumulator(small_spec());
+  TerrainGridSpec spec = small_spec();
+  spec.cell_rule = TerrainGridSpec::CellRule::thesis;
+  HeightGridAccumulator accumulator(spec);
   for (double z : {1.0, 2.0, 3.0, 10.0}) EXPECT_TRUE(accumulator.add_point(Eigen::Vector3d(0.1, -0.9, z)));
   for (double z : {1.0, 1.2, 1.4}) EXPECT_TRUE(accumulator.add_point(Eigen::Vector3d(0.4, -0.3, z)));
   EXPECT_TRUE(accumulator.add_to_cell(5, 3, 2.0));
@@ -102,6 +104,66 @@ TEST(HeightGridAccumulator, CellRuleAndNeighbourFill) {
   EXPECT_EQ(grid.valid_cells(), 3 + 4 + 3);
 }
 
+// The noise-floor rule on one forward row (row 2 of small_spec, 4 cells), stereo-like noise +-s
+// (s = 0.05 m, equal counts: mean g, population sigma exactly s):
+//   (2, 0), (2, 1), (2, 2): 8 points each at g +- s, g = 0.3: variance s^2 = 0.0025;
+//   (2, 3): the same 8 noise points about 0 plus 2 points of an obstacle 0.6 m up: n = 10,
+//           mean = 1.2 / 10 = 0.12, mean z^2 = (8 x 0.0025 + 2 x 0.36) / 10 = 0.074,
+//           variance = 0.074 - 0.0144 = 0.0596.
+// Noise floor: the median (quantile 0.5) of the 4 variances of rows 1-3 (rank round(0.5 x 3) = 2 of
+// {0.0025, 0.0025, 0.0025, 0.0596}) = 0.0025. Ground cells: excess 0, Z = mean = 0.3 (eq. 3.2 would
+// give 0.3 - 0.05: one noise sigma low). Obstacle cell: Z = max(-0.05, 0.12 - sqrt(0.0596 - 0.0025))
+// = max(-0.05, 0.12 - 0.238956) = -0.05 (the min: the obstacle's spread is still subtracted).
+// With quantile 0: the lowest variance, the same 0.0025 here. With the thesis rule: 0.25 and -0.05.
+TEST(HeightGridAccumulator, NoiseFloorRuleSubtractsOnlyTheSpreadAboveTheRowsNoise) {
+  const double s = 0.05, g = 0.3;
+  const auto fill = [&](HeightGridAccumulator& accumulator) {
+    for (int j = 0; j < 4; ++j) {
+      const double ground = j < 3 ? g : 0.0;
+      for (int k = 0; k < 8; ++k) accumulator.add_to_cell(2, j, ground + (k % 2 == 0 ? s : -s));
+    }
+    accumulator.add_to_cell(2, 3, 0.6);
+    accumulator.add_to_cell(2, 3, 0.6);
+  };
+  TerrainGridSpec spec = small_spec();
+  spec.cell_rule = TerrainGridSpec::CellRule::noise_floor;
+  HeightGridAccumulator noise_floor(spec);
+  fill(noise_floor);
+  const HeightGrid grid = noise_floor.finish();
+  for (int j = 0; j < 3; ++j) EXPECT_NEAR(grid.height_m(2, j), g, 1e-12) << j;
+  EXPECT_NEAR(grid.height_m(2, 3), -s, 1e-12);
+  // A lower obstacle point set where mean - excess lies above the min: 8 noise points about 0 plus
+  // one point at 0.3 in cell (2, 3): n = 9, mean = 0.3 / 9, mean z^2 = (0.02 + 0.09) / 9,
+  // variance = 0.11 / 9 - (0.3 / 9)^2 = 0.0111111; the median of {0.0025 x 3, 0.0111} is 0.0025:
+  // Z = 0.033333 - sqrt(0.0086111) = 0.033333 - 0.092796 = -0.059463 < -0.05: the min again; so
+  // check the excess directly on a cell without the min bound: 16 points, 8 at +-s about 0 and 8 at
+  // 0.1 +- s: mean 0.05, variance = s^2 + 0.05^2 = 0.005, excess sqrt(0.005 - 0.0025) = 0.05,
+  // Z = max(-0.05, 0.05 - 0.05) = 0.
+  HeightGridAccumulator two_levels(spec);
+  for (int j = 0; j < 3; ++j)
+    for (int k = 0; k < 8; ++k) two_levels.add_to_cell(2, j, g + (k % 2 == 0 ? s : -s));
+  for (int k = 0; k < 8; ++k) two_levels.add_to_cell(2, 3, k % 2 == 0 ? s : -s);
+  for (int k = 0; k < 8; ++k) two_levels.add_to_cell(2, 3, 0.1 + (k % 2 == 0 ? s : -s));
+  EXPECT_NEAR(two_levels.finish().height_m(2, 3), 0.0, 1e-9);
+
+  spec.cell_rule = TerrainGridSpec::CellRule::thesis;
+  HeightGridAccumulator thesis(spec);
+  fill(thesis);
+  const HeightGrid thesis_grid = thesis.finish();
+  for (int j = 0; j < 3; ++j) EXPECT_NEAR(thesis_grid.height_m(2, j), g - s, 1e-12) << j;
+  EXPECT_NEAR(thesis_grid.height_m(2, 3), -s, 1e-12);
+
+  // Cells with fewer than 4 points give no noise estimate: a row of 3-point cells keeps eq. 3.2.
+  spec.cell_rule = TerrainGridSpec::CellRule::noise_floor;
+  HeightGridAccumulator sparse(spec);
+  for (double z : {1.0, 1.2, 1.4}) sparse.add_to_cell(4, 1, z);
+  const double sigma = std::sqrt((1.0 + 1.44 + 1.96) / 3.0 - 1.44);
+  EXPECT_NEAR(sparse.finish().height_m(4, 1), 1.2 - sigma, 1e-12);
+
+  spec.noise_floor_quantile = 1.5;
+  expect_spec_error(spec, "noise_floor_quantile");
+}
+
 TEST(HeightGridAccumulator, EqualHeightsGiveThatHeight) {
   // Rounding must not make the variance of equal heights negative (a NaN sigma).
   HeightGridAccumulator accumulator(small_spec());
@@ -115,9 +177,15 @@ TEST(HeightGridAccumulator, WorkFollowsTheDocumentedModel) {
   for (int k = 0; k < 10; ++k) accumulator.add_point(Eigen::Vector3d(0.2 * k, 0, 1));  // 0 .. 1.8: all inside
   accumulator.add_point(Eigen::Vector3d(9, 0, 1));                                    // rejected
   for (int k = 0; k < 3; ++k) accumulator.add_to_cell(1, 1, 0.5);
-  // 10 per add_point call, 6 per accepted point, 2 per add_to_cell call, 12 per cell (24 cells).
-  EXPECT_EQ(accumulator.work().scalar_ops, 10u * 11 + 6u * 13 + 2u * 3 + 12u * 24);
+  // 10 per add_point call, 6 per accepted point, 2 per add_to_cell call, 12 + 8 per cell (24 cells)
+  // with the noise-floor rule, 12 with eq. 3.2.
+  EXPECT_EQ(accumulator.work().scalar_ops, 10u * 11 + 6u * 13 + 2u * 3 + 20u * 24);
   EXPECT_EQ(accumulator.work().memory_bytes, 12u * 13 + 36u * 24);
+  TerrainGridSpec thesis_spec = small_spec();
+  thesis_spec.cell_rule = TerrainGridSpec::CellRule::thesis;
+  HeightGridAccumulator thesis(thesis_spec);
+  thesis.add_to_cell(1, 1, 0.5);
+  EXPECT_EQ(thesis.work().scalar_ops, 6u + 2u + 12u * 24);
 }
 
 }  // namespace

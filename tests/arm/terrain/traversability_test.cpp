@@ -139,5 +139,54 @@ TEST(ClassifyPoints, ByHeightAboveTheSurface) {
   for (const PointClass point_class : classify_points(points, unknown, 0.2)) EXPECT_EQ(int(point_class), int(PointClass::outside));
 }
 
+// The stereo-aware classification on the flat surface z = 0 (plane_grid(0, 0) + 1 m offset removed
+// below): a camera 1.5 m up looking along x, f B = 166 px m (f 554 px, B 0.30 m), margin 1 px.
+//   (20, 0, 0.30): d = 166 / 20 = 8.3 px; pushed by 8.3 / 7.3 = 1.13699 along the ray (20, 0, -1.2)
+//                  from the camera: z = 1.5 - 1.2 x 1.13699 = 0.1356 <= 0.2: terrain (the plain rule
+//                  says obstacle);
+//   (20, 0, 0.80): pushed z = 1.5 - 0.7 x 1.13699 = 0.7041 > 0.2: obstacle;
+//   (6, 0, 0.30):  d = 27.67 px, scale 27.67 / 26.67 = 1.0375, z = 1.5 - 1.2 x 1.0375 = 0.255: obstacle;
+//   (200, 0, 0.5) is outside the area: outside either way.
+TEST(ClassifyPoints, StereoMarginPushesGroundLikePointsBackOntoTheSurface) {
+  HeightGrid grid = plane_grid(0.0, 0.0);
+  grid.height_m.setZero();
+  const TerrainEstimate terrain = fit_terrain(grid, parameters_for_plane());
+  ASSERT_TRUE(terrain.known) << terrain.reason;
+  StereoRayModel stereo;
+  stereo.camera_centre_m = Eigen::Vector3d(0, 0, 1.5);
+  stereo.optical_axis = Eigen::Vector3d::UnitX();
+  stereo.focal_baseline_px_m = 166;
+  stereo.disparity_margin_px = 1.0;
+  // Hand computation of the first case, independent of the implementation's form.
+  const double pushed_z = 1.5 - 1.2 * (8.3 / 7.3);
+  EXPECT_NEAR(pushed_z, 0.1356, 1e-4);
+  const std::vector<Eigen::Vector3d> points = {{10, 0, 0.30}, {10, 0, 0.80}, {6, 0, 0.30}, {200, 0, 0.5}};
+  // Scaled to the 12 m area: the same geometry at x = 10 (d = 16.6 px, scale 16.6 / 15.6):
+  //   (10, 0, 0.30): z = 1.5 - 1.2 x 1.0641 = 0.2231 > 0.2: obstacle (nearer: smaller height error);
+  const std::vector<PointClass> plain = classify_points(points, terrain, 0.2);
+  const std::vector<PointClass> with_margin = classify_points(points, terrain, 0.2, stereo);
+  EXPECT_EQ(int(plain[0]), int(PointClass::obstacle));
+  EXPECT_EQ(int(with_margin[0]), int(PointClass::obstacle));
+  EXPECT_EQ(int(with_margin[1]), int(PointClass::obstacle));
+  EXPECT_EQ(int(with_margin[2]), int(PointClass::obstacle));
+  EXPECT_EQ(int(with_margin[3]), int(PointClass::outside));
+  // A wider margin (2 px) at x = 10: scale 16.6 / 14.6 = 1.13699, z = 0.1356: terrain; 0.8 m stays.
+  stereo.disparity_margin_px = 2.0;
+  const std::vector<PointClass> wider = classify_points(points, terrain, 0.2, stereo);
+  EXPECT_EQ(int(wider[0]), int(PointClass::terrain));
+  EXPECT_EQ(int(wider[1]), int(PointClass::obstacle));
+  // A margin at or above the disparity: the point could be anywhere beyond: terrain.
+  stereo.disparity_margin_px = 17.0;
+  EXPECT_EQ(int(classify_points(points, terrain, 0.2, stereo)[1]), int(PointClass::terrain));
+  stereo.disparity_margin_px = -1;
+  EXPECT_THROW(classify_points(points, terrain, 0.2, stereo), std::invalid_argument);
+  stereo.disparity_margin_px = 1;
+  stereo.focal_baseline_px_m = 0;
+  EXPECT_THROW(classify_points(points, terrain, 0.2, stereo), std::invalid_argument);
+  stereo.focal_baseline_px_m = 166;
+  stereo.optical_axis = Eigen::Vector3d(2, 0, 0);
+  EXPECT_THROW(classify_points(points, terrain, 0.2, stereo), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace lpstereo::arm::terrain
