@@ -174,11 +174,13 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
       lower_edges.push_back(stixel.min_height_m);
       max_height = std::max(max_height, stixel.max_height_m);
     }
-    // The obstacle's lower edge: the median of its stixels' (a stixel whose lower edge a fattened
-    // border or a pole's foot pulled down does not move it; the join rule keeps them within
-    // max_lower_edge_step_m of their neighbours).
-    std::nth_element(lower_edges.begin(), lower_edges.begin() + static_cast<long>(lower_edges.size() / 2), lower_edges.end());
-    min_height = lower_edges[lower_edges.size() / 2];
+    // The obstacle's lower edge: the lower tercile of its stixels' (the k-th lowest, k = n / 3): a
+    // stixel whose lower edge a fattened border or a pole's foot pulled down does not move it, and
+    // a ball's side stixels (higher than its bottom) do not lift it as the median did (eval,
+    // floating, 30 frames x 2 seeds: within 10 cm 63 % with the median, 75 % with the tercile, 77 %
+    // with the quartile, which loses the free space under a board more often: 95 against 99 of 119).
+    std::nth_element(lower_edges.begin(), lower_edges.begin() + static_cast<long>(lower_edges.size() / 3), lower_edges.end());
+    min_height = lower_edges[lower_edges.size() / 3];
     Obstacle3d obstacle = obstacle_from_points(points, cluster_points, static_cast<int>(index));
     obstacle.min_height_m = min_height;  // trimmed, as the stixels'
     obstacle.max_height_m = max_height;

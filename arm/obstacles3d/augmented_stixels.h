@@ -33,8 +33,8 @@
 //      than min_cluster_stixels or with fewer than min_obstacle_points points (scattered
 //      terrain-fit outliers, mismatches) are dropped; each cluster's points give its Obstacle3d
 //      (occupancy_grid.h, obstacle_from_points), with max_height_m the highest stixel upper edge and
-//      min_height_m the median of its stixels' lower edges (one stixel pulled down by a pole's foot
-//      or a fattened border does not move it).
+//      min_height_m the lower tercile of its stixels' lower edges (the k-th lowest, k = n / 3: one
+//      stixel pulled down by a pole's foot or a fattened border does not move it).
 //
 // Counted work (ArmWork): the grid's own (occupancy_grid.h), plus per point 8 ops + 8 bytes (count)
 // and 6 ops + 8 bytes (placement); per cell 4 ops + 4 bytes (prefix sum); per stixel 12 ops per
