@@ -15,10 +15,12 @@ OccupancyGridParameters validated_grid(const AugmentedStixelParameters& paramete
   return parameters.grid;
 }
 
-// Two height intervals [low, high] closer than gap (overlapping intervals are at distance 0).
-bool heights_join(const AugmentedStixel& a, const AugmentedStixel& b, double gap_m) {
+// Two height intervals [low, high] closer than gap (overlapping intervals are at distance 0) whose
+// lower edges differ by at most lower_edge_step (an obstacle has one height interval: a board and
+// the poles it hangs on are separate obstacles, so the board's keeps its free space under it).
+bool heights_join(const AugmentedStixel& a, const AugmentedStixel& b, double gap_m, double lower_edge_step_m) {
   const double distance = std::max<double>(a.min_height_m, b.min_height_m) - std::min<double>(a.max_height_m, b.max_height_m);
-  return distance <= gap_m;
+  return distance <= gap_m && std::abs(a.min_height_m - b.min_height_m) <= lower_edge_step_m;
 }
 
 }  // namespace
@@ -34,7 +36,12 @@ void AugmentedStixelParameters::validate() const {
   if (min_points < 1) throw_invalid_parameter("min_points", ">= 1", min_points);
   if (!(height_trim_fraction >= 0 && height_trim_fraction < 0.25))
     throw_invalid_parameter("height_trim_fraction", "in [0, 0.25)", height_trim_fraction);
+  if (!(lower_edge_fraction >= 0 && lower_edge_fraction < 0.5))
+    throw_invalid_parameter("lower_edge_fraction", "in [0, 0.5)", lower_edge_fraction);
   if (!(max_height_gap_m >= 0)) throw_invalid_parameter("max_height_gap_m", ">= 0", max_height_gap_m);
+  if (!(max_lower_edge_step_m >= 0)) throw_invalid_parameter("max_lower_edge_step_m", ">= 0", max_lower_edge_step_m);
+  if (min_obstacle_points < 1) throw_invalid_parameter("min_obstacle_points", ">= 1", min_obstacle_points);
+  if (!(range_join_sigmas >= 0 && range_join_sigmas <= 6)) throw_invalid_parameter("range_join_sigmas", "in [0, 6]", range_join_sigmas);
   if (min_cluster_stixels < 1) throw_invalid_parameter("min_cluster_stixels", ">= 1", min_cluster_stixels);
 }
 
@@ -96,8 +103,9 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
       for (int channel = 0; channel < 3; ++channel) rgb_sum[channel] += point.rgb[static_cast<size_t>(channel)];
     }
     const int trim = static_cast<int>(std::floor(parameters_.height_trim_fraction * count));
-    std::nth_element(heights.begin(), heights.begin() + trim, heights.end());
-    stixel.min_height_m = heights[static_cast<size_t>(trim)];
+    const int lower = static_cast<int>(std::floor(parameters_.lower_edge_fraction * count));
+    std::nth_element(heights.begin(), heights.begin() + lower, heights.end());
+    stixel.min_height_m = heights[static_cast<size_t>(lower)];
     std::nth_element(heights.begin(), heights.end() - 1 - trim, heights.end());
     stixel.max_height_m = heights[static_cast<size_t>(count - 1 - trim)];
     stixel.mean_range_m = static_cast<float>(range_sum / count);
@@ -123,21 +131,29 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
       stack.pop_back();
       members.push_back(current);
       const AugmentedStixel& stixel = stixels_[static_cast<size_t>(current)];
-      for (int dr = -1; dr <= 1; ++dr) {
+      // Along the bearing, stixels within range_join_sigmas depth sigmas are neighbours: at 27 m
+      // sigma_Z is 1.3 m (6 cells), and one surface's points scatter over that many range cells.
+      const double sigma_range_m = parameters_.grid.error_model.depth_sigma_m(stixel.mean_range_m);
+      const int range_reach = std::max(1, static_cast<int>(std::ceil(parameters_.range_join_sigmas * sigma_range_m / parameters_.grid.row_cell)));
+      for (int dr = -range_reach; dr <= range_reach; ++dr) {
         for (int dc = -1; dc <= 1; ++dc) {
           const int r = stixel.range_cell + dr, c = stixel.angle_cell + dc;
           if ((dr == 0 && dc == 0) || r < 0 || r >= rows || c < 0 || c >= columns) continue;
           const int neighbour = stixel_of_cell[static_cast<size_t>(r) * columns + c];
           ++pairs;
           if (neighbour < 0 || cluster_of[static_cast<size_t>(neighbour)] != -1) continue;
-          if (!heights_join(stixel, stixels_[static_cast<size_t>(neighbour)], parameters_.max_height_gap_m)) continue;
+          if (!heights_join(stixel, stixels_[static_cast<size_t>(neighbour)], parameters_.max_height_gap_m,
+                            parameters_.max_lower_edge_step_m))
+            continue;
           cluster_of[static_cast<size_t>(neighbour)] = -2;
           stack.push_back(neighbour);
         }
       }
     }
     std::sort(members.begin(), members.end());
-    if (static_cast<int>(members.size()) < parameters_.min_cluster_stixels) {
+    int member_points = 0;
+    for (int member : members) member_points += stixels_[static_cast<size_t>(member)].point_count;
+    if (static_cast<int>(members.size()) < parameters_.min_cluster_stixels || member_points < parameters_.min_obstacle_points) {
       for (int member : members) cluster_of[static_cast<size_t>(member)] = -3;  // dropped
       continue;
     }
@@ -150,13 +166,21 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
   for (size_t index = 0; index < clusters.size(); ++index) {
     std::vector<int> cluster_points;
     float min_height = std::numeric_limits<float>::infinity(), max_height = -min_height;
+    std::vector<float> lower_edges;
     for (int member : clusters[index]) {
       const AugmentedStixel& stixel = stixels_[static_cast<size_t>(member)];
       cluster_points.insert(cluster_points.end(), point_indices_.begin() + stixel.first_point,
                             point_indices_.begin() + stixel.first_point + stixel.point_count);
-      min_height = std::min(min_height, stixel.min_height_m);
+      lower_edges.push_back(stixel.min_height_m);
       max_height = std::max(max_height, stixel.max_height_m);
     }
+    // The obstacle's lower edge: the lower tercile of its stixels' (the k-th lowest, k = n / 3): a
+    // stixel whose lower edge a fattened border or a pole's foot pulled down does not move it, and
+    // a ball's side stixels (higher than its bottom) do not lift it as the median did (eval,
+    // floating, 30 frames x 2 seeds: within 10 cm 63 % with the median, 75 % with the tercile, 77 %
+    // with the quartile, which loses the free space under a board more often: 95 against 99 of 119).
+    std::nth_element(lower_edges.begin(), lower_edges.begin() + static_cast<long>(lower_edges.size() / 3), lower_edges.end());
+    min_height = lower_edges[lower_edges.size() / 3];
     Obstacle3d obstacle = obstacle_from_points(points, cluster_points, static_cast<int>(index));
     obstacle.min_height_m = min_height;  // trimmed, as the stixels'
     obstacle.max_height_m = max_height;

@@ -16,20 +16,31 @@
 //      then placed by a counting sort (the points split into contiguous chunks over `threads`, chunk
 //      order kept, so the order of a stixel's points never depends on scheduling);
 //   3. a stixel per cell that is occupied in the grid (require_occupied_cell; otherwise any cell) and
-//      holds at least min_points points: heights = the trimmed extremes of its points' heights (the
-//      k-th lowest and k-th highest, k = floor(height_trim_fraction * count): a stray low point of the
-//      terrain fit does not pull a hanging sign to the ground), mean range, mean colour;
-//   4. obstacles: stixels of 8-neighbouring cells joined when their height intervals overlap or lie
-//      within max_height_gap_m of each other (a sign next to a low box are two objects; the board
-//      and its poles are one; a sign above a box in the same cells is one stixel interval: one
-//      interval per cell is the representation's limit), clusters smaller than min_cluster_stixels dropped; each
-//      cluster's points give its Obstacle3d (occupancy_grid.h, obstacle_from_points), with
-//      min_height_m / max_height_m the trimmed extremes over its stixels.
+//      holds at least min_points points: upper edge = the k-th highest height, k = floor(
+//      height_trim_fraction * count); lower edge = the k-th lowest, k = floor(lower_edge_fraction *
+//      count), a robust lower percentile rather than the minimum: stereo fattens a hanging board's
+//      lower border (the aggregation window gives the board's disparity to a few road pixels under
+//      it, about 1.5 px, 5-8 cm at 16-28 m in bench/obstacles3d_eval) and a stray point of the terrain
+//      fit sits under it; mean range, mean colour;
+//   4. obstacles: stixels join when they are neighbours (8-neighbouring cells, and along a bearing
+//      any range cell within range_join_sigmas depth sigmas of the stereo error model, sigma_Z =
+//      Z^2 sigma_d / (f B), since one surface's points scatter over that many 0.2 m cells at range:
+//      1.3 m at 27 m), their height intervals overlap or lie within max_height_gap_m, and their lower
+//      edges differ by at most max_lower_edge_step_m. An obstacle has one height interval, so a
+//      board and the poles it hangs on are three obstacles and the board's keeps the free space
+//      under it; a sign next to a low box are two; a sign above a box in the same cells is one
+//      stixel interval (one interval per cell is the representation's limit). Clusters smaller
+//      than min_cluster_stixels or with fewer than min_obstacle_points points (scattered
+//      terrain-fit outliers, mismatches) are dropped; each cluster's points give its Obstacle3d
+//      (occupancy_grid.h, obstacle_from_points), with max_height_m the highest stixel upper edge and
+//      min_height_m the lower tercile of its stixels' lower edges (the k-th lowest, k = n / 3: one
+//      stixel pulled down by a pole's foot or a fattened border does not move it).
 //
 // Counted work (ArmWork): the grid's own (occupancy_grid.h), plus per point 8 ops + 8 bytes (count)
 // and 6 ops + 8 bytes (placement); per cell 4 ops + 4 bytes (prefix sum); per stixel 12 ops per
 // point (nth_element ~ 2 passes, sums) + 16 bytes per point; clustering 20 ops per stixel pair tested
-// (8 neighbours) and the Obstacle3d's 10 ops + sizeof(ObstaclePoint) per point.
+// (8 neighbours, and 3 (2 n + 1) - 1 with n range cells reached along the bearing) and the
+// Obstacle3d's 10 ops + sizeof(ObstaclePoint) per point.
 #pragma once
 
 #include <array>
@@ -47,9 +58,13 @@ struct AugmentedStixelParameters {
   OccupancyGridParameters grid = OccupancyGridParameters::defaults(GridKind::polar);  // kind must be polar
   int min_points = 3;                 // >= 1
   bool require_occupied_cell = true;  // a stixel only where the polar grid says occupied
-  double height_trim_fraction = 0.02; // in [0, 0.25)
+  double height_trim_fraction = 0.02; // in [0, 0.25): the upper edge, the k-th highest
+  double lower_edge_fraction = 0.10;  // in [0, 0.5): the lower edge, the k-th lowest (stereo fattening)
   double max_height_gap_m = 0.5;      // >= 0: neighbours join when their height intervals are this close
+  double max_lower_edge_step_m = 0.3; // >= 0: ... and their lower edges differ by at most this
+  double range_join_sigmas = 1.0;     // in [0, 6]: neighbours along a bearing reach this many sigma_Z
   int min_cluster_stixels = 1;        // >= 1
+  int min_obstacle_points = 10;       // >= 1: a cluster with fewer points gives no obstacle
   // Throws std::invalid_argument "<parameter>: expected ..., got ..." (grid parameters prefixed "grid.").
   void validate() const;
 };

@@ -50,10 +50,14 @@
 // plane", Information Processing Letters 2(1), 1973) of its cells' corners in the picture plane: the
 // camera's (x, z) in metres for the cartesian and polar grids, (u, d) for the column/disparity grid
 // (corners shared by four cells of the cluster are interior and skipped).
-// An Obstacle3d comes from the points of this frame whose mean lies in a cell of the cluster:
+// Obstacles: the likelihood's window spreads an object over +-3 sigma_Z in range (3 m at 25 m, 4.8 m
+// at 31 m), so objects on one bearing a few metres apart share a cluster, and one obstacle from all
+// its points would have its centre between them. So each cluster's cells that hold this frame's
+// points (their means) are split into 8-connected groups, and every group of at least
+// min_obstacle_points points gives an Obstacle3d (GridCluster: obstacle_index, obstacle_count):
 // position = centre of their camera-frame bounding box, size = its extent, min/max height above the
-// terrain, bbox_px from their pixels. A cluster held only by memory (no point this frame) is kept
-// (hull, cells) but gives no Obstacle3d (counted in clusters_without_points).
+// terrain, bbox_px from their pixels. A cluster with no such group (held only by memory, or a few
+// scattered points) is kept (hull, cells) but gives no Obstacle3d (counted in clusters_without_points).
 //
 // Bad input: points with a non-finite position or disparity <= 0 are rejected; points whose mean
 // lies outside the grid are clipped; both counted and reported in status(). An empty cloud is a
@@ -70,7 +74,8 @@
 //     and then 12 ops per window row and 4 per window cell (an outer product);
 //   per cell: ego-motion resampling 20 ops (transform, rounding, bounds) + 8 bytes, when the motion
 //     is available; update 24 ops (exp, log, clamp) + 12 bytes (evidence read, log-odds read and
-//     written); clustering 12 ops + 4 bytes, plus 10 ops per occupied cell (stack, 8 neighbours);
+//     written); clustering 12 ops + 1 byte, plus 10 ops per occupied cell (stack, 8 neighbours); the
+//     point groups' components the same again (12 ops + 1 byte, 10 per cell holding points);
 //   per cluster: 4 ops per cell corner (is it shared by four member cells?), hull 6 ops per
 //     (remaining corner x hull vertex) visited;
 //   per point again: 10 ops + sizeof(ObstaclePoint) for the obstacles' statistics.
@@ -112,6 +117,7 @@ struct OccupancyGridParameters {
   double log_odds_min = -4.0, log_odds_max = 4.0;  // clamp, min < 0 < max
   double occupied_probability = 0.65;  // a cell above it is occupied, in (0.5, 1)
   int min_cluster_cells = 1;           // >= 1
+  int min_obstacle_points = 20;        // >= 1: a cluster's point group with fewer gives no obstacle
   int threads = 1;                     // evidence accumulation split over this many threads, 1..16
   // V: the camera in the vehicle frame (arm::CameraToVehicle's rotation and translation). Default:
   // a level camera looking forward at the vehicle origin (arm::optical_to_body()).
@@ -134,7 +140,8 @@ struct GridCluster {
   std::vector<int> cells;                 // row * columns + column
   std::vector<Eigen::Vector2d> hull;      // convex hull, counter-clockwise, picture plane
   int point_count = 0;                    // this frame's points in its cells
-  int obstacle_index = -1;                // into OccupancyGrid::obstacles(), -1 when no points
+  int obstacle_index = -1;                // its first obstacle in OccupancyGrid::obstacles(), -1: none
+  int obstacle_count = 0;                 // its obstacles are [obstacle_index, + obstacle_count)
 };
 
 struct OccupancyGridStatistics {

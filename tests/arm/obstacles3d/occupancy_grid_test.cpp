@@ -6,6 +6,7 @@
 // occupied cell where a hand derivation says;
 // gift wrapping on hand-made sets (interior, collinear and duplicate points, degenerate sets, and a
 // random set checked by brute force); connected components; two separated blobs give two obstacles;
+// two objects 6 m apart on one bearing at 25-31 m (one cluster of occupied cells) are two obstacles;
 // clipping and rejection counted and reported; empty cloud and missing ego-motion reported; bad
 // parameters throw naming the parameter; the counted work's per-cell closed form; 2 threads agree.
 #include <gtest/gtest.h>
@@ -308,6 +309,52 @@ TEST(OccupancyGridClusters, TwoSeparatedBlobsGiveTwoObstacles) {
   }
 }
 
+TEST(OccupancyGridClusters, TwoObjectsOnOneBearingSixMetresApartAtRangeAreTwoObstacles) {
+  // A pedestrian-sized object (0.5 m wide, 0.2-1.7 m) at 25 m and another at 31 m on the same
+  // bearing, one point per pixel, each disparity off by a Gaussian of the error model's sigma_d (so
+  // depths scatter by sigma_Z = 1.0 m and 1.6 m). The likelihood windows (+-3 sigma_Z) overlap, so
+  // the polar grid's occupied cells join the two into one cluster; each object must still be an
+  // obstacle whose centre lies within 1 m + w/2 across and max(1 m, 3 sigma_Z) + l/2 in depth
+  // (bench/obstacles3d_eval's gate) by the third frame.
+  const StereoErrorModel model = testing::error_model();
+  std::mt19937 generator(5);
+  std::normal_distribution<double> disparity_error(0.0, model.disparity_sigma_px);
+  OccupancyGrid grid(grid_parameters(GridKind::polar));
+  const double depths_m[2] = {25.0, 31.0};
+  for (int frame = 0; frame < 3; ++frame) {
+    std::vector<ObstaclePoint> points;
+    for (double z : depths_m) {
+      const double pixel_m = z / kFocalPx;
+      for (double x = 0.75; x <= 1.25; x += pixel_m) {
+        for (double height = 0.2; height <= 1.7; height += pixel_m) {
+          const double disparity = kFocalPx * kBaselineM / z + disparity_error(generator);
+          const double scale = kFocalPx * kBaselineM / disparity / z;  // along the ray
+          points.push_back(point_at(x * scale, testing::kCameraHeightM - (testing::kCameraHeightM - height) * scale, z * scale));
+        }
+      }
+    }
+    grid.update(points, EgoMotion{});
+  }
+  // Each object has its own obstacle: the nearest obstacle centre to each lies in its gate, and the
+  // two are different obstacles (one obstacle for both would describe neither).
+  int nearest_of[2] = {-1, -1};
+  for (int k = 0; k < 2; ++k) {
+    const double z = depths_m[k];
+    const double depth_gate_m = std::max(1.0, 3 * model.depth_sigma_m(z)) + 0.25;
+    double nearest_distance_m = 1e9;
+    for (size_t i = 0; i < grid.obstacles().size(); ++i) {
+      const Eigen::Vector3d& centre = grid.obstacles()[i].position_m;
+      const double distance_m = std::hypot(centre.x() - 1.0, centre.z() - z);
+      if (distance_m < nearest_distance_m) nearest_distance_m = distance_m, nearest_of[k] = static_cast<int>(i);
+    }
+    ASSERT_GE(nearest_of[k], 0) << grid.status();
+    const Eigen::Vector3d& centre = grid.obstacles()[static_cast<size_t>(nearest_of[k])].position_m;
+    EXPECT_LE(std::abs(centre.x() - 1.0), 1.25) << "object at " << z << " m";
+    EXPECT_LE(std::abs(centre.z() - z), depth_gate_m) << "object at " << z << " m: " << grid.status();
+  }
+  EXPECT_NE(nearest_of[0], nearest_of[1]) << grid.status();
+}
+
 TEST(OccupancyGridBadInput, PointsBeyondTheBoundsAreClippedAndCounted) {
   OccupancyGrid grid(grid_parameters(GridKind::cartesian));
   std::vector<ObstaclePoint> points = {point_at(0.0, 0.5, 10.0), point_at(0.0, 0.5, 100.0), point_at(50.0, 0.5, 20.0),
@@ -367,12 +414,13 @@ TEST(OccupancyGridWork, AnEmptyFrameCostsTheHeadersPerCellModel) {
   OccupancyGrid grid(grid_parameters(GridKind::cartesian));
   grid.update({}, EgoMotion{});
   const uint64_t cells = static_cast<uint64_t>(grid.rows()) * static_cast<uint64_t>(grid.columns());
-  EXPECT_EQ(grid.work().scalar_ops, (24 + 12) * cells);  // update + clustering, no member cells
-  EXPECT_EQ(grid.work().memory_bytes, (12 + 1) * cells);
+  // update + clustering of the occupied cells + components of the cells holding points, no members
+  EXPECT_EQ(grid.work().scalar_ops, (24 + 12 + 12) * cells);
+  EXPECT_EQ(grid.work().memory_bytes, (12 + 1 + 1) * cells);
   EgoMotion motion;
   motion.available = true;
   grid.update({}, motion);
-  EXPECT_EQ(grid.work().scalar_ops, (20 + 24 + 12) * cells);  // + resampling
+  EXPECT_EQ(grid.work().scalar_ops, (20 + 24 + 12 + 12) * cells);  // + resampling
   // A point adds its own terms: more work than an empty frame.
   const uint64_t empty_ops = grid.work().scalar_ops;
   grid.update({point_at(0.0, 0.5, 10.0)}, motion);
