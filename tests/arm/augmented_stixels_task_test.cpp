@@ -153,7 +153,11 @@ TEST(AugmentedStixelsTask, BoxAndHangingSignOverFlatTerrain) {
   EXPECT_GT(box_stixels, 0);
   EXPECT_GT(sign_stixels, 0);
 
-  // Two obstacles: the box from 0.3 to 1.0 m, the sign from 1.5 to 1.8 m above the terrain.
+  // Two obstacles: the box from 0.3 to 1.0 m, the sign from 1.5 to 1.8 m above the terrain. The
+  // lower edge is a robust lower percentile (lower_edge_fraction 0.10 of a stixel's points, whose
+  // heights are the scene's 10 rows in equal numbers): the second row's height, 0.3 + 0.7 / 9 =
+  // 0.378 m for the box and 1.5 + 0.3 / 9 = 1.533 m for the sign.
+  constexpr double kBoxLowerEdgeMm = 300 + 700 / 9.0, kSignLowerEdgeMm = 1500 + 300 / 9.0;
   const int32_t* obstacle_header = run.obstacles.row<const int32_t>(0);
   ASSERT_EQ(obstacle_header[0], 2);
   EXPECT_EQ(obstacle_header[1], 2);
@@ -163,12 +167,12 @@ TEST(AugmentedStixelsTask, BoxAndHangingSignOverFlatTerrain) {
     const int32_t* row = run.obstacles.row<const int32_t>(o);
     if (row[arm::kObstacle3dPositionXMm] > 0) {
       saw_box = true;
-      EXPECT_NEAR(row[arm::kObstacle3dMinHeightMm], 300, 40);
+      EXPECT_NEAR(row[arm::kObstacle3dMinHeightMm], kBoxLowerEdgeMm, 10);
       EXPECT_NEAR(row[arm::kObstacle3dMaxHeightMm], 1000, 40);
       EXPECT_NEAR(row[arm::kObstacle3dPositionZMm], 5000, 100);
     } else {
       saw_sign = true;
-      EXPECT_NEAR(row[arm::kObstacle3dMinHeightMm], 1500, 40);
+      EXPECT_NEAR(row[arm::kObstacle3dMinHeightMm], kSignLowerEdgeMm, 10);
       EXPECT_NEAR(row[arm::kObstacle3dMaxHeightMm], 1800, 40);
       EXPECT_NEAR(row[arm::kObstacle3dPositionZMm], 7000, 100);
     }
