@@ -744,13 +744,14 @@ double SynthGroundTruth::raw_elevation_m(double x, double z, NoiseCache* cache) 
     // Octave k: cells of wavelength / 2^k, amplitude 2^-k (sum 1.875). x / (wavelength 2^-k) is
     // (x / wavelength) 2^k exactly (scaling by a power of two is exact), so one division serves
     // every octave with the same bits as dividing by each cell.
+    constexpr double kScale[kRoughOctaves] = {1, 2, 4, 8}, kAmplitude[kRoughOctaves] = {1, 0.5, 0.25, 0.125};
     const double x_cells = x / g.rough_wavelength_m, z_cells = z / g.rough_wavelength_m;
-    double sum = 0, scale = 1;
-    for (int k = 0; k < kRoughOctaves; ++k, scale *= 2) {
+    double sum = 0;
+    for (int k = 0; k < kRoughOctaves; ++k) {
       const uint64_t seed = rough_seed_ + 7919u * static_cast<uint64_t>(k);
-      const double noise = cache ? value_noise(x_cells * scale, z_cells * scale, seed, cache->octave[k])
-                                 : value_noise(x_cells * scale, z_cells * scale, seed);
-      sum += (1 / scale) * noise;
+      const double noise = cache ? value_noise(x_cells * kScale[k], z_cells * kScale[k], seed, cache->octave[k])
+                                 : value_noise(x_cells * kScale[k], z_cells * kScale[k], seed);
+      sum += kAmplitude[k] * noise;
     }
     e += g.rough_amplitude_m * sum / 1.875;
   }
