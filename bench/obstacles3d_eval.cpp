@@ -39,6 +39,7 @@
 // (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2.)
 // Exit 0 when every line is met, 1 otherwise (the issue wants >= 300 frames and several seeds).
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -217,7 +218,13 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   arm::DisparityParameters disparity_parameters;  // the command's defaults (64 disparities)
   arm::DisparityEngine engine(width, height, disparity_parameters, {}, settings.threads);
   const double cx = (width - 1) / 2.0, cy = (height - 1) / 2.0;
+  // Wall-clock time of the rendering and of the rest (printed per sequence: what a run costs).
+  using Clock = std::chrono::steady_clock;
+  double render_s = 0, pipeline_s = 0;
+  auto seconds_since = [](Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); };
+  Clock::time_point started = Clock::now();
   const io::StereoSequenceFrame first = io::render_sequence_frame(options, 0);
+  render_s += seconds_since(started);
   const double focal_px = first.scene.focal_px;
   const arm::TriangulationParameters triangulation{base.baseline_m, focal_px, cx, cy, disparity_parameters.min_disparity,
                                                    disparity_parameters.num_disparities, 0};
@@ -274,7 +281,10 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   std::vector<Tally> tallies(kMethods);
   io::SynthCameraPose previous_pose = first.pose;
   for (int n = 0; n < settings.frames; ++n) {
+    started = Clock::now();
     const io::StereoSequenceFrame frame = n == 0 ? first : io::render_sequence_frame(options, n);
+    render_s += seconds_since(started);
+    started = Clock::now();
     const Plane left = io::mat_to_plane(frame.scene.left, BufferFormat{ElementType::u8});
     const Plane right = io::mat_to_plane(frame.scene.right, BufferFormat{ElementType::u8});
     const Plane& disparity = engine.compute(left, right);
@@ -312,7 +322,10 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     const o3::ClusteringResult clusters = o3::cluster_voxels(voxel_map, clustering);
     const o3::TrackingResult& tracks = tracker.update(clusters.clusters, voxel_map.world_from_current());
     score_frame(tracks.obstacles, frame, error_model, settings, true, tallies[4]);
+    pipeline_s += seconds_since(started);
   }
+  std::printf("%-9s seed %u: %d frames rendered in %.1f s (%.2f s a frame), processed and scored in %.1f s (%.2f s a frame), wall clock\n",
+              scene.c_str(), seed, settings.frames, render_s, render_s / settings.frames, pipeline_s, pipeline_s / settings.frames);
   if (odometry) {
     std::printf("%-9s seed %u: visual odometry failed in %d of %d frames after the first (no ego-motion: static camera assumed)\n",
                 scene.c_str(), seed, frames_without_ego_motion, settings.frames - 1);
@@ -347,8 +360,13 @@ int main(int argc, char** argv) {
       settings.min_pixels = std::atoll(argv[++i]);
     } else if (arg == "--range-m" && has_value) {
       settings.range_m = std::atof(argv[++i]);
-    } else if (arg == "--ego-motion" && has_value && (std::strcmp(argv[i + 1], "vo") == 0 || std::strcmp(argv[i + 1], "truth") == 0)) {
-      settings.true_ego_motion = std::strcmp(argv[++i], "truth") == 0;
+    } else if (arg == "--ego-motion" && has_value) {
+      const std::string source = argv[++i];
+      if (source != "vo" && source != "truth") {
+        std::fprintf(stderr, "obstacles3d_eval: --ego-motion: expected vo or truth, got '%s'\n", source.c_str());
+        return 2;
+      }
+      settings.true_ego_motion = source == "truth";
     } else if (arg == "--grey") {
       settings.colour = false;
     } else if (arg == "--threads" && has_value) {
