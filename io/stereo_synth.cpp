@@ -742,8 +742,8 @@ double SynthGroundTruth::raw_elevation_m(double x, double z, NoiseCache* cache) 
   }
   if (g.rough_amplitude_m > 0) {
     // Octave k: cells of wavelength / 2^k, amplitude 2^-k (sum 1.875). x / (wavelength 2^-k) is
-    // (x / wavelength) 2^k exactly (scaling by a power of two is exact), so one division serves
-    // every octave with the same bits as dividing by each cell.
+    // (x / wavelength) 2^k exactly (scaling by a power of two is exact, barring subnormal quotients,
+    // |x| < 1e-300 m), so one division serves every octave with the same bits as dividing by each cell.
     constexpr double kScale[kRoughOctaves] = {1, 2, 4, 8}, kAmplitude[kRoughOctaves] = {1, 0.5, 0.25, 0.125};
     const double x_cells = x / g.rough_wavelength_m, z_cells = z / g.rough_wavelength_m;
     double sum = 0;

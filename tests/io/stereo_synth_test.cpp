@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -23,6 +24,7 @@
 #include "io/disparity_metrics.h"
 #include "io/image_io.h"
 #include "io/stereo_sequence.h"
+#include "io/synth_render.h"
 #include "tests/support/scratch_directory.h"
 
 namespace {
@@ -612,6 +614,28 @@ TEST(StereoSynthGround, HeightFieldScenesRenderTheSameBitsAsBeforeTheSpeedUp) {
   const uint64_t u_ditch = scene_checksum(io::render_stereo_synth(options));
   EXPECT_EQ(v_ditch, 0x67270855381b27cdull) << std::hex << v_ditch;
   EXPECT_EQ(u_ditch, 0x3baa9adf2ce94736ull) << std::hex << u_ditch;
+}
+
+// The march's cached value noise (io/synth_render.h) gives the plain value noise's bits, along a path
+// that stays in a cell for several calls, crosses cell edges both ways, lands exactly on lattice
+// points and runs through negative coordinates; a cache filled for one cell is not used for another.
+TEST(StereoSynthGround, CachedValueNoiseIsTheSameBitsAsThePlainOne) {
+  io::synth_detail::NoiseCell cell;
+  int compared = 0;
+  for (int i = -400; i <= 400; ++i) {
+    const double x = i * 0.0625 + (i % 7) * 0.01, y = -3.0 + 0.37 * std::sin(i * 0.05) + i * 0.01;
+    for (const double px : {x, std::floor(x)}) {
+      const double cached = io::synth_detail::value_noise(px, y, 77, cell), plain = io::synth_detail::value_noise(px, y, 77);
+      ASSERT_EQ(std::memcmp(&cached, &plain, sizeof cached), 0) << px << ", " << y;
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 1602);
+  // A jump back into an earlier cell refills the corners.
+  const double first = io::synth_detail::value_noise(0.5, 0.5, 5, cell);
+  (void)io::synth_detail::value_noise(10.5, 0.5, 5, cell);
+  EXPECT_EQ(io::synth_detail::value_noise(0.5, 0.5, 5, cell), first);
+  EXPECT_NE(io::synth_detail::value_noise(10.5, 0.5, 5, cell), first);
 }
 
 TEST(StereoSynthGround, GroundJsonHoldsTheTrueHeight) {
