@@ -8,9 +8,12 @@
 // arm::CameraToVehicle with the synthetic mount; the 2.5D grid, fit_terrain and classify_points: the
 // points more than 0.2 m above the fitted terrain are the candidates) and feeds the same candidates to
 // all five methods side by side: occupancy grids polar, cartesian, coldisp, the augmented stixels and
-// the voxel map + colour clustering + Kalman tracking (0.25 m voxels, 3 acceptance frames). Deviations
-// from the command: the ego-motion is the TRUE camera motion (the sequence's poses, not visual
-// odometry: this measures the methods, not the odometry), and the colour is the grey image.
+// the voxel map + colour clustering + Kalman tracking (0.25 m voxels, 3 acceptance frames). As the
+// command by default: the ego-motion from arm::StereoOdometry (its camera increment t -> t-1 in the
+// vehicle frame, V E V^-1; a frame whose odometry fails gets none: static camera assumed, counted and
+// printed) and the candidates coloured from the left colour view (the voxel clustering is colour-
+// based). Options measure the methods apart from the odometry (--ego-motion truth: the sequence's
+// true camera motion) or on grey (--grey: the grey image as the colour).
 //
 // Measured (objects: visible_pixels >= --min-pixels and base-centre depth <= --range-m):
 //   detection rate  an object counts as detected in a frame when an obstacle's centre lies within its
@@ -32,9 +35,11 @@
 //                   moving objects matched by a confirmed track.
 //
 // Usage: obstacles3d_eval [--frames N] [--seeds N] [--scenes urban,country,mining,floating]
-//        [--min-pixels P] [--range-m R]
+//        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N]
+// (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2.)
 // Exit 0 when every line is met, 1 otherwise (the issue wants >= 300 frames and several seeds).
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -47,6 +52,7 @@
 #include <Eigen/Geometry>
 
 #include "arm/disparity_engine.h"
+#include "arm/odometry/stereo_odometry.h"
 #include "arm/obstacles3d/augmented_stixels.h"
 #include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/obstacles3d/obstacle_tracking.h"
@@ -73,6 +79,9 @@ struct Settings {
   std::vector<std::string> scenes{"urban", "country", "mining", "floating"};
   int64_t min_pixels = 200;
   double range_m = 30;
+  bool true_ego_motion = false;  // --ego-motion truth; default vo (arm::StereoOdometry, as the command)
+  bool colour = true;            // --grey: candidates coloured from the grey image instead
+  int threads = 2;
 };
 
 struct Tally {  // per method
@@ -200,14 +209,22 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
 std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Settings& settings) {
   io::StereoSequenceOptions options = io::preset_stereo_sequence(scene, seed);
   options.frames = settings.frames;
+  options.base.colour = settings.colour;
+  options.base.threads = settings.threads;
   io::validate_stereo_sequence(options);
   const io::StereoSynthOptions& base = options.base;
   const int width = base.width, height = base.height;
 
   arm::DisparityParameters disparity_parameters;  // the command's defaults (64 disparities)
-  arm::DisparityEngine engine(width, height, disparity_parameters, {}, 2);
+  arm::DisparityEngine engine(width, height, disparity_parameters, {}, settings.threads);
   const double cx = (width - 1) / 2.0, cy = (height - 1) / 2.0;
+  // Wall-clock time of the rendering and of the rest (printed per sequence: what a run costs).
+  using Clock = std::chrono::steady_clock;
+  double render_s = 0, pipeline_s = 0;
+  auto seconds_since = [](Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); };
+  Clock::time_point started = Clock::now();
   const io::StereoSequenceFrame first = io::render_sequence_frame(options, 0);
+  render_s += seconds_since(started);
   const double focal_px = first.scene.focal_px;
   const arm::TriangulationParameters triangulation{base.baseline_m, focal_px, cx, cy, disparity_parameters.min_disparity,
                                                    disparity_parameters.num_disparities, 0};
@@ -220,6 +237,15 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   Eigen::Isometry3d vehicle_from_camera = Eigen::Isometry3d::Identity();
   vehicle_from_camera.linear() = to_vehicle.rotation();
   vehicle_from_camera.translation() = to_vehicle.translation_m();
+
+  arm::StereoOdometryParameters odometry_parameters;  // the command's (tools/obstacles3d_command.cpp)
+  odometry_parameters.focal_px = focal_px;
+  odometry_parameters.principal_point_x_px = cx;
+  odometry_parameters.principal_point_y_px = cy;
+  odometry_parameters.baseline_m = base.baseline_m;
+  std::unique_ptr<arm::StereoOdometry> odometry;
+  if (!settings.true_ego_motion) odometry = std::make_unique<arm::StereoOdometry>(width, height, odometry_parameters, settings.threads);
+  int frames_without_ego_motion = 0;  // after the first
 
   o3::StereoErrorModel error_model;
   error_model.focal_px = focal_px;
@@ -255,16 +281,32 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   std::vector<Tally> tallies(kMethods);
   io::SynthCameraPose previous_pose = first.pose;
   for (int n = 0; n < settings.frames; ++n) {
+    started = Clock::now();
     const io::StereoSequenceFrame frame = n == 0 ? first : io::render_sequence_frame(options, n);
+    render_s += seconds_since(started);
+    started = Clock::now();
     const Plane left = io::mat_to_plane(frame.scene.left, BufferFormat{ElementType::u8});
     const Plane right = io::mat_to_plane(frame.scene.right, BufferFormat{ElementType::u8});
     const Plane& disparity = engine.compute(left, right);
     const arm::CameraPoints camera = arm::triangulate(disparity, triangulation);
     const std::vector<o3::ObstaclePoint> candidates =
-        o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, left, o3::ColourView{}, to_vehicle, candidate_parameters)
+        o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, left,
+                                        settings.colour ? o3::ColourView{frame.scene.left_colour.data, frame.scene.left_colour.step, true}
+                                                        : o3::ColourView{},
+                                        to_vehicle, candidate_parameters)
             .points;
+    // Ego-motion (t -> t-1) in the vehicle frame, V E V^-1: the odometry's increment (the command's)
+    // or the sequence's true camera motion.
     o3::EgoMotion ego_motion;
-    if (n > 0) {
+    if (odometry) {
+      const arm::StereoOdometryFrame motion = odometry->process(left, right);
+      if (n > 0 && motion.statistics.valid) {
+        ego_motion.available = true;
+        ego_motion.previous_from_current = vehicle_from_camera * motion.increment * vehicle_from_camera.inverse();
+      } else if (n > 0) {
+        ++frames_without_ego_motion;
+      }
+    } else if (n > 0) {
       ego_motion.available = true;
       ego_motion.previous_from_current =
           vehicle_from_camera * camera_previous_from_current(previous_pose, frame.pose) * vehicle_from_camera.inverse();
@@ -280,6 +322,13 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     const o3::ClusteringResult clusters = o3::cluster_voxels(voxel_map, clustering);
     const o3::TrackingResult& tracks = tracker.update(clusters.clusters, voxel_map.world_from_current());
     score_frame(tracks.obstacles, frame, error_model, settings, true, tallies[4]);
+    pipeline_s += seconds_since(started);
+  }
+  std::printf("%-9s seed %u: %d frames rendered in %.1f s (%.2f s a frame), processed and scored in %.1f s (%.2f s a frame), wall clock\n",
+              scene.c_str(), seed, settings.frames, render_s, render_s / settings.frames, pipeline_s, pipeline_s / settings.frames);
+  if (odometry) {
+    std::printf("%-9s seed %u: visual odometry failed in %d of %d frames after the first (no ego-motion: static camera assumed)\n",
+                scene.c_str(), seed, frames_without_ego_motion, settings.frames - 1);
   }
   return tallies;
 }
@@ -311,22 +360,39 @@ int main(int argc, char** argv) {
       settings.min_pixels = std::atoll(argv[++i]);
     } else if (arg == "--range-m" && has_value) {
       settings.range_m = std::atof(argv[++i]);
+    } else if (arg == "--ego-motion" && has_value) {
+      const std::string source = argv[++i];
+      if (source != "vo" && source != "truth") {
+        std::fprintf(stderr, "obstacles3d_eval: --ego-motion: expected vo or truth, got '%s'\n", source.c_str());
+        return 2;
+      }
+      settings.true_ego_motion = source == "truth";
+    } else if (arg == "--grey") {
+      settings.colour = false;
+    } else if (arg == "--threads" && has_value) {
+      settings.threads = std::atoi(argv[++i]);
     } else {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
-                   "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R]\n",
+                   "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N]\n",
                    arg.c_str());
       return 2;
     }
   }
-  if (settings.frames < 2 || settings.seeds < 1 || settings.scenes.empty() || !(settings.range_m > 0)) {
-    std::fprintf(stderr, "obstacles3d_eval: expected --frames >= 2, --seeds >= 1, a scene and --range-m > 0, got %d, %d, %zu, %.2f\n",
-                 settings.frames, settings.seeds, settings.scenes.size(), settings.range_m);
+  if (settings.frames < 2 || settings.seeds < 1 || settings.scenes.empty() || !(settings.range_m > 0) || settings.threads < 1 ||
+      settings.threads > 64) {
+    std::fprintf(stderr,
+                 "obstacles3d_eval: expected --frames >= 2, --seeds >= 1, a scene, --range-m > 0 and --threads in [1, 64], got %d, %d, %zu, "
+                 "%.2f, %d\n",
+                 settings.frames, settings.seeds, settings.scenes.size(), settings.range_m, settings.threads);
     return 2;
   }
-  std::printf("obstacles3d_eval: %d frames per sequence (the issue wants >= 300), %d seed(s), 640x480, true ego-motion;\n"
+  std::printf("obstacles3d_eval: %d frames per sequence (the issue wants >= 300), %d seed(s), 640x480, ego-motion %s, candidates "
+              "coloured from the %s image, %d thread(s);\n"
               "objects counted when >= %lld visible pixels and <= %.0f m; gate |dx| <= 1 m + w/2, |dz| <= max(1 m, 3 sigma_Z) + l/2\n",
-              settings.frames, settings.seeds, static_cast<long long>(settings.min_pixels), settings.range_m);
+              settings.frames, settings.seeds,
+              settings.true_ego_motion ? "TRUE (the sequence's camera motion)" : "from visual odometry (as the command)",
+              settings.colour ? "left colour" : "grey", settings.threads, static_cast<long long>(settings.min_pixels), settings.range_m);
 
   std::vector<std::vector<Tally>> per_scene(settings.scenes.size(), std::vector<Tally>(kMethods));
   try {

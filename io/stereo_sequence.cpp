@@ -247,7 +247,7 @@ StereoSequenceOptions preset_stereo_sequence(const std::string& name, uint32_t s
     move(SynthClass::pedestrian, -5.5, 30, 1.5, 0);  // crossing left to right
     move(SynthClass::pedestrian, 5.5, 45, -1.3, 0);  // right to left
     move(SynthClass::car, 0, 25, 0, 10);             // ahead in the lane, a little faster than the camera
-    move(SynthClass::car, -3.5, 250, 0, -10);        // oncoming in the left lane
+    move(SynthClass::car, -3.5, 320, 0, -10);        // oncoming in the left lane (still at z > 0 after 30 s)
   } else if (name == "country") {
     options.camera_speed_mps = 12;
     b.ground.hills_amplitude_m = 0.6;
@@ -255,7 +255,7 @@ StereoSequenceOptions preset_stereo_sequence(const std::string& name, uint32_t s
     place(SynthClass::box, -1.5, 45);
     place(SynthClass::bin, 4.8, 60);
     move(SynthClass::pedestrian, 5.5, 50, -1.5, 0);
-    move(SynthClass::car, -3.5, 300, 0, -12);
+    move(SynthClass::car, -3.5, 380, 0, -12);  // oncoming (still at z > 0 after 30 s)
   } else if (name == "mining") {
     options.camera_speed_mps = 5;
     b.ground.rough_amplitude_m = 0.25;

@@ -109,6 +109,16 @@ struct Camera {
   }
 };
 
+constexpr int kRoughOctaves = 4;
+
+}  // namespace
+
+struct SynthGroundTruth::NoiseCache {
+  synth_detail::NoiseCell octave[kRoughOctaves];
+};
+
+namespace {
+
 struct Road {
   double height_m, slope_tan, slope_start_m, end_m;
   const SynthGroundTruth* field = nullptr;  // the height field, or null: the flat or sloped road alone
@@ -117,6 +127,10 @@ struct Road {
   double y_at(double z) const { return z <= slope_start_m ? height_m : height_m - slope_tan * (z - slope_start_m); }
   // The ground's Y (down) under road point (x, z).
   double ground_y(double x, double z) const { return field ? y_at(z) - field->elevation_m(x, z) : y_at(z); }
+  // The same, bit for bit, through a ray's noise cache (ray marching).
+  double ground_y(double x, double z, SynthGroundTruth::NoiseCache& cache) const {
+    return field ? y_at(z) - field->elevation_m(x, z, cache) : y_at(z);
+  }
 
   // Nearest hit of a ray from o along d with the flat or sloped road before its end, or +inf.
   double plane_hit(Vec o, Vec d) const {
@@ -161,7 +175,13 @@ struct Road {
     const double horizontal = std::hypot(d.x, d.z);
     const double smooth_rate = std::abs(d.y) + (field->smooth_lipschitz() + std::abs(slope_tan)) * horizontal;
     const double full_rate = std::abs(d.y) + rate_bound * horizontal;
-    auto gap = [&](double at) { return ground_y(o.x + at * d.x, o.z + at * d.z) - (o.y + at * d.y); };
+    SynthGroundTruth::NoiseCache cache;
+    auto gap = [&](double at) { return ground_y(o.x + at * d.x, o.z + at * d.z, cache) - (o.y + at * d.y); };
+    // A ray that rises (or runs level) while above the highest ground there can be (flat or falling
+    // road: no ground Y below height_m - max elevation; 1 um margin against rounding) never meets it:
+    // the march below would step on to the background and return +inf; it returns that now.
+    const bool can_rise_clear = d.y <= 0 && slope_tan <= 0;
+    const double clear_y = height_m - field->max_elevation_m() - 1e-6;
     auto touches_strip = [&](double from, double to) {
       const double x0 = o.x + from * d.x, x1 = o.x + to * d.x;
       for (const SynthGroundTruth::Strip& strip : field->strips()) {
@@ -175,6 +195,7 @@ struct Road {
     // camera) keeps grazing rays from creeping; it can only skip a bump thinner than the floor along
     // the ray, which these smooth fields (finest cell 0.375 m) do not have within the rendered range.
     for (int step = 0; step < 20000 && t < t_end; ++step) {
+      if (can_rise_clear && o.y + t * d.y < clear_y) return kInfinity;
       const double floor = 0.004 * t + 0.002;
       double t_next = t + std::max(g / smooth_rate, floor);
       if (touches_strip(t, t_next)) t_next = t + std::max(g / full_rate, floor);
@@ -527,8 +548,9 @@ class Renderer {
   // The unit normal of the height-field ground at (x, z), from central differences (1 cm).
   Vec ground_normal(double x, double z) const {
     const double step = 0.01;
-    const double dydx = (road_.ground_y(x + step, z) - road_.ground_y(x - step, z)) / (2 * step);
-    const double dydz = (road_.ground_y(x, z + step) - road_.ground_y(x, z - step)) / (2 * step);
+    SynthGroundTruth::NoiseCache cache;  // the four points mostly share their noise cells
+    const double dydx = (road_.ground_y(x + step, z, cache) - road_.ground_y(x - step, z, cache)) / (2 * step);
+    const double dydz = (road_.ground_y(x, z + step, cache) - road_.ground_y(x, z - step, cache)) / (2 * step);
     return normalized({-dydx, 1, -dydz});
   }
 
@@ -639,7 +661,6 @@ void validate_ground(const SynthGround& g) {
   require(g.rough_wavelength_m >= 0.5 && g.rough_wavelength_m <= 1000, "rough-wavelength-m", "[0.5, 1000] metres", g.rough_wavelength_m);
 }
 
-constexpr int kRoughOctaves = 4;
 // The second swell of the hills runs obliquely (direction (0.6, 0.8) in X, Z) with a longer wavelength.
 constexpr double kObliqueX = 0.6, kObliqueZ = 0.8, kObliqueStretch = 1.3;
 
@@ -680,7 +701,7 @@ SynthGroundTruth::SynthGroundTruth(const StereoSynthOptions& options) : ground_(
   hills_phase_[0] = random.uniform(0.0, 2 * kPi);
   hills_phase_[1] = random.uniform(0.0, 2 * kPi);
   rough_seed_ = random.next();
-  origin_elevation_m_ = raw_elevation_m(0, 0);
+  origin_elevation_m_ = raw_elevation_m(0, 0, nullptr);
   // Bounds. Hills: each swell A/2 sin(2 pi s / lambda) has slope <= pi A / lambda. Ditch: V 2D/W, U
   // (1 - u^2 over half-width W/2) 4D/W. Berm: H/2 (1 + cos(pi u)) over W/2: pi H / W. Rough: an
   // octave of value noise (smoothstep slope <= 1.5, lattice in [-1, 1]) changes by <= 3 per cell
@@ -703,7 +724,7 @@ SynthGroundTruth::SynthGroundTruth(const StereoSynthOptions& options) : ground_(
   min_elevation_m_ = -g.hills_amplitude_m - g.ditch_depth_m - g.rough_amplitude_m - origin_elevation_m_;
 }
 
-double SynthGroundTruth::raw_elevation_m(double x, double z) const {
+double SynthGroundTruth::raw_elevation_m(double x, double z, NoiseCache* cache) const {
   const SynthGround& g = ground_;
   double e = 0;
   if (g.hills_amplitude_m > 0) {
@@ -720,18 +741,28 @@ double SynthGroundTruth::raw_elevation_m(double x, double z) const {
     if (u < 1) e += g.berm_height_m * 0.5 * (1 + std::cos(kPi * u));
   }
   if (g.rough_amplitude_m > 0) {
-    double sum = 0, amplitude_sum = 0;
+    // Octave k: cells of wavelength / 2^k, amplitude 2^-k (sum 1.875). x / (wavelength 2^-k) is
+    // (x / wavelength) 2^k exactly (scaling by a power of two is exact, barring subnormal quotients,
+    // |x| < 1e-300 m), so one division serves every octave with the same bits as dividing by each cell.
+    constexpr double kScale[kRoughOctaves] = {1, 2, 4, 8}, kAmplitude[kRoughOctaves] = {1, 0.5, 0.25, 0.125};
+    const double x_cells = x / g.rough_wavelength_m, z_cells = z / g.rough_wavelength_m;
+    double sum = 0;
     for (int k = 0; k < kRoughOctaves; ++k) {
-      const double cell = std::ldexp(g.rough_wavelength_m, -k), amplitude = std::ldexp(1.0, -k);
-      sum += amplitude * value_noise(x / cell, z / cell, rough_seed_ + 7919u * static_cast<uint64_t>(k));
-      amplitude_sum += amplitude;
+      const uint64_t seed = rough_seed_ + 7919u * static_cast<uint64_t>(k);
+      const double noise = cache ? value_noise(x_cells * kScale[k], z_cells * kScale[k], seed, cache->octave[k])
+                                 : value_noise(x_cells * kScale[k], z_cells * kScale[k], seed);
+      sum += kAmplitude[k] * noise;
     }
-    e += g.rough_amplitude_m * sum / amplitude_sum;
+    e += g.rough_amplitude_m * sum / 1.875;
   }
   return e;
 }
 
-double SynthGroundTruth::elevation_m(double x_m, double z_m) const { return raw_elevation_m(x_m, z_m) - origin_elevation_m_; }
+double SynthGroundTruth::elevation_m(double x_m, double z_m) const { return raw_elevation_m(x_m, z_m, nullptr) - origin_elevation_m_; }
+
+double SynthGroundTruth::elevation_m(double x_m, double z_m, NoiseCache& cache) const {
+  return raw_elevation_m(x_m, z_m, &cache) - origin_elevation_m_;
+}
 
 double SynthGroundTruth::height_m(double x_m, double z_m) const {
   const double rise = z_m <= slope_start_m_ ? 0.0 : slope_tan_ * (z_m - slope_start_m_);

@@ -210,9 +210,14 @@ class SynthGroundTruth {
   const std::vector<Strip>& strips() const { return strips_; }
   double smooth_lipschitz() const { return smooth_lipschitz_; }
   double smooth_max_elevation_m() const { return smooth_max_elevation_m_; }
+  // For ray marching: elevation_m, the same value bit for bit, through a cache of the rough noise's
+  // lattice cells (one per octave; a ray's consecutive steps mostly stay in the coarse octaves' cells).
+  // A cache serves one SynthGroundTruth and one thread.
+  struct NoiseCache;  // defined in stereo_synth.cpp (the renderer's march makes them)
+  double elevation_m(double x_m, double z_m, NoiseCache& cache) const;
 
  private:
-  double raw_elevation_m(double x_m, double z_m) const;
+  double raw_elevation_m(double x_m, double z_m, NoiseCache* cache) const;
   SynthGround ground_;
   double slope_tan_ = 0, slope_start_m_ = 0;
   double hills_phase_[2] = {0, 0};

@@ -48,15 +48,38 @@ inline double lattice(int64_t x, int64_t y, uint64_t seed) {
   return static_cast<double>(h >> 40) * (2.0 / 16777216.0) - 1.0;
 }
 
-inline double value_noise(double x, double y, uint64_t seed) {
-  const double fx = std::floor(x), fy = std::floor(y);
-  const auto ix = static_cast<int64_t>(fx), iy = static_cast<int64_t>(fy);
+// The smoothstep interpolation inside one lattice cell: corner = the values at (ix, iy), (ix + 1, iy),
+// (ix, iy + 1), (ix + 1, iy + 1), (fx, fy) = (floor x, floor y).
+inline double value_noise_in_cell(const double corner[4], double x, double y, double fx, double fy) {
   double sx = x - fx, sy = y - fy;
   sx = sx * sx * (3 - 2 * sx);
   sy = sy * sy * (3 - 2 * sy);
-  const double top = lattice(ix, iy, seed) + sx * (lattice(ix + 1, iy, seed) - lattice(ix, iy, seed));
-  const double bottom = lattice(ix, iy + 1, seed) + sx * (lattice(ix + 1, iy + 1, seed) - lattice(ix, iy + 1, seed));
+  const double top = corner[0] + sx * (corner[1] - corner[0]);
+  const double bottom = corner[2] + sx * (corner[3] - corner[2]);
   return top + sy * (bottom - top);
+}
+
+inline double value_noise(double x, double y, uint64_t seed) {
+  const double fx = std::floor(x), fy = std::floor(y);
+  const auto ix = static_cast<int64_t>(fx), iy = static_cast<int64_t>(fy);
+  const double corner[4] = {lattice(ix, iy, seed), lattice(ix + 1, iy, seed), lattice(ix, iy + 1, seed), lattice(ix + 1, iy + 1, seed)};
+  return value_noise_in_cell(corner, x, y, fx, fy);
+}
+
+// value_noise through a cache of the last cell's corners (one cache per seed): the same value, bit
+// for bit; for a ray march whose consecutive steps mostly stay in a cell of the coarse octaves.
+struct NoiseCell {
+  int64_t ix = 0, iy = 0;
+  bool filled = false;
+  double corner[4] = {0, 0, 0, 0};
+};
+inline double value_noise(double x, double y, uint64_t seed, NoiseCell& cell) {
+  const double fx = std::floor(x), fy = std::floor(y);
+  const auto ix = static_cast<int64_t>(fx), iy = static_cast<int64_t>(fy);
+  if (!cell.filled || ix != cell.ix || iy != cell.iy) {
+    cell = {ix, iy, true, {lattice(ix, iy, seed), lattice(ix + 1, iy, seed), lattice(ix, iy + 1, seed), lattice(ix + 1, iy + 1, seed)}};
+  }
+  return value_noise_in_cell(cell.corner, x, y, fx, fy);
 }
 
 // The weight of a texture octave of cell `cell` at a hit whose pixel footprint is `footprint` (same
