@@ -93,21 +93,6 @@ double median(std::vector<double> values) {
   return result;
 }
 
-// The camera motion current -> previous from the sequence's poses (road = R camera + c), as
-// bench/obstacles3d_eval.cpp feeds its methods.
-Eigen::Isometry3d camera_previous_from_current(const io::SynthCameraPose& previous, const io::SynthCameraPose& current) {
-  Eigen::Matrix3d r_previous, r_current;
-  Eigen::Vector3d c_previous, c_current;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) r_previous(i, j) = previous.rotation[i][j], r_current(i, j) = current.rotation[i][j];
-    c_previous(i) = previous.centre_m[i], c_current(i) = current.centre_m[i];
-  }
-  Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
-  motion.linear() = r_previous.transpose() * r_current;
-  motion.translation() = r_previous.transpose() * (c_current - c_previous);
-  return motion;
-}
-
 bool parse(int argc, char** argv, Settings& settings) {
   for (int i = 1; i < argc; ++i) {
     const std::string flag = argv[i];
@@ -201,7 +186,7 @@ int run(int argc, char** argv) {
       o3::EgoMotion ego_motion;
       if (n > 0) {
         ego_motion.available = true;
-        ego_motion.previous_from_current = vehicle_from_camera * camera_previous_from_current(frames[static_cast<size_t>(n - 1)].pose, frame.pose) *
+        ego_motion.previous_from_current = vehicle_from_camera * io::camera_previous_from_current(frames[static_cast<size_t>(n - 1)].pose, frame.pose) *
                                            vehicle_from_camera.inverse();
       }
       double stage_wall[kStages], stage_cpu[kStages];

@@ -119,20 +119,6 @@ bool is_floating(io::SynthClass c) {
   return c == io::SynthClass::board_on_poles || c == io::SynthClass::hanging_sign || c == io::SynthClass::ball_on_post;
 }
 
-// The camera motion current -> previous from the sequence's poses (road = R camera + c).
-Eigen::Isometry3d camera_previous_from_current(const io::SynthCameraPose& previous, const io::SynthCameraPose& current) {
-  Eigen::Matrix3d r_previous, r_current;
-  Eigen::Vector3d c_previous, c_current;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) r_previous(i, j) = previous.rotation[i][j], r_current(i, j) = current.rotation[i][j];
-    c_previous(i) = previous.centre_m[i], c_current(i) = current.centre_m[i];
-  }
-  Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
-  motion.linear() = r_previous.transpose() * r_current;
-  motion.translation() = r_previous.transpose() * (c_current - c_previous);
-  return motion;
-}
-
 struct Gate {
   double lateral_m, depth_m;
 };
@@ -309,7 +295,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     } else if (n > 0) {
       ego_motion.available = true;
       ego_motion.previous_from_current =
-          vehicle_from_camera * camera_previous_from_current(previous_pose, frame.pose) * vehicle_from_camera.inverse();
+          vehicle_from_camera * io::camera_previous_from_current(previous_pose, frame.pose) * vehicle_from_camera.inverse();
     }
     previous_pose = frame.pose;
     for (int g = 0; g < 3; ++g) {

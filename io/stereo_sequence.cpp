@@ -33,7 +33,9 @@ void camera_at(const StereoSequenceOptions& options, double t_s, double& x_m, do
   }
 }
 
-Eigen::Isometry3d to_isometry(const SynthCameraPose& pose) {
+}  // namespace
+
+Eigen::Isometry3d road_from_camera(const SynthCameraPose& pose) {
   Eigen::Isometry3d result = Eigen::Isometry3d::Identity();
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) result.linear()(i, j) = pose.rotation[i][j];
@@ -42,7 +44,9 @@ Eigen::Isometry3d to_isometry(const SynthCameraPose& pose) {
   return result;
 }
 
-}  // namespace
+Eigen::Isometry3d camera_previous_from_current(const SynthCameraPose& previous, const SynthCameraPose& current) {
+  return road_from_camera(previous).inverse() * road_from_camera(current);
+}
 
 StereoSynthOptions sequence_frame_options(const StereoSequenceOptions& options, int frame) {
   StereoSynthOptions result = options.base;
@@ -162,7 +166,7 @@ void write_stereo_sequence(const std::string& directory, const StereoSequenceOpt
       }
       write_png(folder / "disparity" / name, synth_detail::kitti_disparity_truth(rendered.scene.disparity_px));
       write_png(folder / "object_ids" / name, rendered.scene.object_ids);
-      const Eigen::Isometry3d camera_to_road = to_isometry(rendered.pose);
+      const Eigen::Isometry3d camera_to_road = road_from_camera(rendered.pose);
       if (frame == 0) {
         first_inverse = camera_to_road.inverse();
         first = rendered.scene;

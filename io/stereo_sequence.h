@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "io/stereo_synth.h"
 
 namespace lpstereo::io {
@@ -57,6 +59,14 @@ struct StereoSequenceFrame {
 };
 
 StereoSequenceFrame render_sequence_frame(const StereoSequenceOptions& options, int frame);
+
+// A pose as a transform: p_road = R p_camera + c.
+Eigen::Isometry3d road_from_camera(const SynthCameraPose& pose);
+
+// The camera's motion between two frames as the obstacle methods take ego-motion: maps the current
+// camera frame's coordinates into the previous one's (road_from_camera(previous)^-1
+// road_from_camera(current)).
+Eigen::Isometry3d camera_previous_from_current(const SynthCameraPose& previous, const SynthCameraPose& current);
 
 // Renders every frame and writes `directory` (replaced only when every file is written; nothing left
 // on failure): left/%06d.png, right/%06d.png (grey), left_colour/, right_colour/ (when

@@ -298,6 +298,25 @@ TEST(StereoSequence, FramesAreDeterministic) {
   EXPECT_EQ(cv::countNonZero(a.scene.right != b.scene.right), 0);
 }
 
+// The ego-motion the obstacle evaluations take from the poses: a camera driving straight ahead at
+// v m/s, f fps, level on a flat road, moves v / f along its own z between frames, so the previous
+// frame sees the current origin at (0, 0, v / f), with no rotation; on a yaw-rate arc the rotation
+// angle between frames is rate / f.
+TEST(StereoSequence, CameraPreviousFromCurrentIsTheDriveBetweenFrames) {
+  io::StereoSequenceOptions options = small_sequence();
+  options.base.ground = io::SynthGround{};
+  options.base.pitch_rad = options.base.roll_rad = 0;
+  options.yaw_rate_rad_s = 0;
+  const auto pose = [&](int frame) { return io::synth_camera_pose(io::sequence_frame_options(options, frame)); };
+  const Eigen::Isometry3d straight = io::camera_previous_from_current(pose(1), pose(2));
+  EXPECT_NEAR((straight.translation() - Eigen::Vector3d(0, 0, options.camera_speed_mps / options.fps)).norm(), 0, 1e-9);
+  EXPECT_NEAR((straight.linear() - Eigen::Matrix3d::Identity()).norm(), 0, 1e-12);
+  options.yaw_rate_rad_s = 0.2;
+  const Eigen::Isometry3d turning = io::camera_previous_from_current(pose(1), pose(2));
+  EXPECT_NEAR(Eigen::AngleAxisd(turning.linear()).angle(), 0.2 / options.fps, 1e-9);
+  EXPECT_NEAR(turning.translation().norm(), 2 * options.camera_speed_mps / 0.2 * std::sin(0.2 / options.fps / 2), 1e-9);
+}
+
 TEST(StereoSequence, BadOptionsGiveOneLine) {
   auto message_of = [](const io::StereoSequenceOptions& options) -> std::string {
     try {
