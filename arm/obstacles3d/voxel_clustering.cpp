@@ -186,7 +186,7 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
     std::sort(cluster_members.begin(), cluster_members.end());  // increasing key order (candidates are sorted)
     VoxelCluster cluster;
     ColourMean mean;
-    Eigen::Vector3d world_sum = Eigen::Vector3d::Zero();
+    Eigen::Vector3d world_sum = Eigen::Vector3d::Zero(), camera_sum = Eigen::Vector3d::Zero();
     Eigen::Vector3f camera_min = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
     Eigen::Vector3f camera_max = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
     float min_height = std::numeric_limits<float>::max(), max_height = std::numeric_limits<float>::lowest();
@@ -201,6 +201,7 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
       mean.add(candidate.rgb, candidate.hsl);
       cluster.frame_points += voxel.frame_point_count;
       world_sum += voxel.frame_world_sum_m;
+      camera_sum += voxel.frame_camera_sum_m;
       camera_min = camera_min.cwiseMin(voxel.frame_camera_min_m);
       camera_max = camera_max.cwiseMax(voxel.frame_camera_max_m);
       min_height = std::min(min_height, voxel.frame_min_height_m);
@@ -233,7 +234,9 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
     Obstacle3d& obstacle = cluster.obstacle;
     obstacle.id = static_cast<int>(result.clusters.size());
     obstacle.bbox_px = box;
-    obstacle.position_m = ((camera_min + camera_max) / 2.0f).cast<double>();
+    cluster.camera_min_m = camera_min.cast<double>();
+    cluster.camera_max_m = camera_max.cast<double>();
+    obstacle.position_m = camera_sum / double(std::max<int64_t>(1, cluster.frame_points));
     obstacle.size_m = (camera_max - camera_min).cast<double>();
     obstacle.min_height_m = min_height;
     obstacle.max_height_m = max_height;
@@ -258,8 +261,8 @@ bool parts_of_one_object(const VoxelCluster& host, const VoxelCluster& part, boo
   const std::array<int, 4>&box_a = host.obstacle.bbox_px, &box_b = part.obstacle.bbox_px;
   const int margin = p.pixel_margin_px;
   if (box_a[0] > box_b[2] + margin || box_b[0] > box_a[2] + margin || box_a[1] > box_b[3] + margin || box_b[1] > box_a[3] + margin) return false;
-  const Eigen::Vector3d low_a = host.obstacle.position_m - host.obstacle.size_m / 2, high_a = host.obstacle.position_m + host.obstacle.size_m / 2;
-  const Eigen::Vector3d low_b = part.obstacle.position_m - part.obstacle.size_m / 2, high_b = part.obstacle.position_m + part.obstacle.size_m / 2;
+  const Eigen::Vector3d &low_a = host.camera_min_m, &high_a = host.camera_max_m;
+  const Eigen::Vector3d &low_b = part.camera_min_m, &high_b = part.camera_max_m;
   const double gap_m = std::max({0.0, low_b.z() - high_a.z(), low_a.z() - high_b.z()});
   const double lateral_overlap_m = std::min(high_a.x(), high_b.x()) - std::max(low_a.x(), low_b.x());
   const double narrower_m = std::min(high_a.x() - low_a.x(), high_b.x() - low_b.x());
@@ -318,7 +321,7 @@ FragmentMergeResult merge_stereo_fragments(const std::vector<VoxelCluster>& clus
     const VoxelCluster& cluster = clusters[static_cast<size_t>(i)];
     const int r = root(i);
     if ((r == i) != (pass == 0)) continue;
-    const Eigen::Vector3d low = cluster.obstacle.position_m - cluster.obstacle.size_m / 2, high = cluster.obstacle.position_m + cluster.obstacle.size_m / 2;
+    const Eigen::Vector3d &low = cluster.camera_min_m, &high = cluster.camera_max_m;
     const int weight = static_cast<int>(cluster.voxels.size());
     if (output_of[static_cast<size_t>(r)] < 0) {
       output_of[static_cast<size_t>(r)] = static_cast<int>(result.clusters.size());
@@ -334,6 +337,9 @@ FragmentMergeResult merge_stereo_fragments(const std::vector<VoxelCluster>& clus
     const int64_t points = merged.frame_points + cluster.frame_points;
     merged.centroid_world_m = (merged.centroid_world_m * double(merged.frame_points) + cluster.centroid_world_m * double(cluster.frame_points)) /
                               double(std::max<int64_t>(1, points));
+    merged.obstacle.position_m =
+        (merged.obstacle.position_m * double(merged.frame_points) + cluster.obstacle.position_m * double(cluster.frame_points)) /
+        double(std::max<int64_t>(1, points));
     merged.frame_points = points;
     merged.voxels.insert(merged.voxels.end(), cluster.voxels.begin(), cluster.voxels.end());
     merged.min_key = VoxelKey{std::min(merged.min_key.x, cluster.min_key.x), std::min(merged.min_key.y, cluster.min_key.y),
@@ -360,7 +366,8 @@ FragmentMergeResult merge_stereo_fragments(const std::vector<VoxelCluster>& clus
                                         double(merged.max_key.z) - merged.min_key.z + 1);
     merged.density = double(merged.voxels.size()) / extent_voxels.prod();
     merged.size_world_m = extent_voxels * voxel_size_m;
-    merged.obstacle.position_m = (camera_boxes[o][0] + camera_boxes[o][1]) / 2;
+    merged.camera_min_m = camera_boxes[o][0];
+    merged.camera_max_m = camera_boxes[o][1];
     merged.obstacle.size_m = camera_boxes[o][1] - camera_boxes[o][0];
     merged.obstacle.id = static_cast<int>(o);
   }

@@ -27,8 +27,10 @@
 // density (voxels / the volume of its key bounding box, in voxels) below min_density, are removed.
 //
 // Obstacle3d per cluster (obstacle_points.h), from the current frame's points of its voxels:
-// position_m = the centre of the points' camera-frame bounding box, size_m its extent (width x,
-// height y, length z), min/max_height_m the lowest and highest point above the terrain, bbox_px the
+// position_m = the mean of the points' camera-frame positions (not the centre of their bounding box:
+// stereo smears an object's depth into a tail behind it, sigma_Z growing as Z^2, and the box centre
+// follows the tail), size_m the extent of their camera-frame bounding box (width x, height y, length
+// z; the box is kept as camera_min_m / camera_max_m), min/max_height_m the lowest and highest point above the terrain, bbox_px the
 // union of the points' pixels; id = index in the result, track_id = -1, velocity 0, moving = false
 // (obstacle_tracking.h fills those).
 //
@@ -86,6 +88,8 @@ struct VoxelCluster {
   double density = 0;                                           // voxels / key-box volume, (0, 1]
   bool truncated = false;                                       // cut by the map bounds or the image border (header)
   Eigen::Vector3d size_world_m = Eigen::Vector3d::Zero();       // key box extent, metres
+  Eigen::Vector3d camera_min_m = Eigen::Vector3d::Zero();       // this frame's points' camera-frame bounding box
+  Eigen::Vector3d camera_max_m = Eigen::Vector3d::Zero();
   Obstacle3d obstacle;
 };
 
@@ -116,14 +120,14 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
 // part of, tested against that host's own cluster (no chains through fragments), or becomes a host.
 // A cluster is a part of a host when their left-image pixel boxes overlap once grown by
 // pixel_margin_px, and either
-//     (same surface) the gap between their camera depth ranges (position_m.z +- size_m.z / 2) is at
+//     (same surface) the gap between their camera depth ranges (camera_min_m.z .. camera_max_m.z) is at
 //     most min_depth_gap_m and they overlap laterally (camera x) over at least half the narrower, or
 //     (fragment) it has at most max_fragment_fraction of the host's voxels and the depth gap is at
 //     most min_depth_gap_m + depth_sigmas sigma_Z(Z), Z the nearer of the two centres' depths.
 // The output keeps the hosts in input order (ids renumbered). The merged cluster: voxels (key order), frame points,
-// centroid (point-weighted), colour means (voxel-weighted, hue circular), key box, density and
-// size_world_m from the key box, truncated if any member is, Obstacle3d with the union of the camera
-// boxes (position_m its centre, size_m its extent), of the pixel boxes, and the lowest and highest
+// centroid and position_m (point-weighted), colour means (voxel-weighted, hue circular), key box,
+// density and size_world_m from the key box, truncated if any member is, the union of the camera
+// boxes (size_m its extent) and of the pixel boxes, and the lowest and highest
 // heights. Disabled (clusters returned unchanged) when the error model has no focal_px or baseline_m.
 // Counted work: scalar_ops = 4 C + 16 P (P host tests, at most C (C - 1) / 2) + 40 M (merges) + 12 C_out,
 // memory_bytes = sizeof(VoxelCluster) 2 C.

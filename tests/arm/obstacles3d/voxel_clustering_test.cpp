@@ -124,15 +124,18 @@ TEST(VoxelClustering, ObstacleFieldsComeFromTheFramesPoints) {
   Eigen::Vector3f low = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), high = -low;
   int u0 = 10000, v0 = 10000, u1 = -1, v1 = -1;
   float min_height = 1e9f, max_height = -1e9f;
-  Eigen::Vector3d world_sum = Eigen::Vector3d::Zero();
+  Eigen::Vector3d world_sum = Eigen::Vector3d::Zero(), camera_sum = Eigen::Vector3d::Zero();
   for (const ObstaclePoint& point : points) {
+    camera_sum += point.camera_m.cast<double>();
     low = low.cwiseMin(point.camera_m), high = high.cwiseMax(point.camera_m);
     u0 = std::min<int>(u0, point.u_px), v0 = std::min<int>(v0, point.v_px), u1 = std::max<int>(u1, point.u_px), v1 = std::max<int>(v1, point.v_px);
     min_height = std::min(min_height, point.height_above_ground_m), max_height = std::max(max_height, point.height_above_ground_m);
     world_sum += point.vehicle_m.cast<double>();
   }
-  EXPECT_TRUE(obstacle.position_m.isApprox(((low + high) / 2).cast<double>(), 1e-6));
+  EXPECT_TRUE(obstacle.position_m.isApprox(camera_sum / double(points.size()), 1e-6));  // the points' mean
   EXPECT_TRUE(obstacle.size_m.isApprox((high - low).cast<double>(), 1e-6));
+  EXPECT_TRUE(result.clusters[0].camera_min_m.isApprox(low.cast<double>(), 1e-6));
+  EXPECT_TRUE(result.clusters[0].camera_max_m.isApprox(high.cast<double>(), 1e-6));
   EXPECT_EQ(obstacle.bbox_px, (std::array<int, 4>{u0, v0, u1, v1}));
   EXPECT_FLOAT_EQ(static_cast<float>(obstacle.min_height_m), min_height);
   EXPECT_FLOAT_EQ(static_cast<float>(obstacle.max_height_m), max_height);
@@ -206,6 +209,8 @@ VoxelCluster camera_box_cluster(const Eigen::Vector3d& low_m, const Eigen::Vecto
   cluster.hsl_mean = Hsl{0, 0, 0.5};
   cluster.density = 1.0;
   cluster.obstacle.position_m = (low_m + high_m) / 2;
+  cluster.camera_min_m = low_m;
+  cluster.camera_max_m = high_m;
   cluster.obstacle.size_m = high_m - low_m;
   cluster.obstacle.bbox_px = bbox_px;
   cluster.obstacle.min_height_m = 0.2;
@@ -230,9 +235,12 @@ TEST(VoxelClustering, StereoFragmentsMergeIntoTheirObjectAndSeparateObjectsDoNot
   EXPECT_EQ(merged.frame_points, 420);
   // Point-weighted centroid: (400 x 25.25 + 20 x 27.25) / 420 on x.
   EXPECT_NEAR(merged.centroid_world_m.x(), (400 * 25.25 + 20 * 27.25) / 420.0, 1e-9);
-  // The union of the camera boxes: x -1.0..0.9, z 25.0..27.5; of the pixel boxes: 300..338.
-  EXPECT_NEAR(merged.obstacle.position_m.x(), -0.05, 1e-9);
+  // Point-weighted position: the car's centre x 0, the sliver's -0.95. The union of the camera boxes: x -1.0..0.9,
+  // z 25.0..27.5; of the pixel boxes: 300..338.
+  EXPECT_NEAR(merged.obstacle.position_m.x(), 20 * -0.95 / 420.0, 1e-9);
   EXPECT_NEAR(merged.obstacle.size_m.z(), 2.5, 1e-9);
+  EXPECT_NEAR(merged.camera_min_m.x(), -1.0, 1e-9);
+  EXPECT_NEAR(merged.camera_max_m.z(), 27.5, 1e-9);
   EXPECT_EQ(merged.obstacle.bbox_px[0], 300);
   EXPECT_EQ(merged.obstacle.bbox_px[2], 338);
   EXPECT_EQ(result.clusters[1].frame_points, 60);  // the pedestrian stays itself
