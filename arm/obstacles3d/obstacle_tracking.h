@@ -53,13 +53,16 @@
 // (P_vh the filter's 2x2 covariance of v_h: the speed must also be significantly non-zero, which
 // keeps a young track's uncertain velocity from voting; chi-square, 2 degrees of freedom), else
 // "static". The track turns moving after moving_consistency_frames consecutive moving votes and back
-// to static after as many consecutive static votes (hysteresis: one noisy frame does not flip it).
+// to static after as many consecutive static votes (a hysteresis when > 1).
 // Votes start at the second update (moving_min_updates = 2: a velocity exists once two positions were
-// seen; the chi-square test keeps a young track's poorly known velocity from voting), so that with 3
-// acceptance frames and 2 consistent votes a moving track is reported moving from its first reported
-// frame. The defaults (0.7 m/s, chi-square 4.61 = 90 %, 2 frames) were chosen on the preset sequences
-// of bench/obstacles3d_eval (docs/obstacles3d.md gives the figures): a pedestrian walks at 1.2-1.5
-// m/s; initial_speed_sigma_mps = 12 lets a new track of a car at urban speed reach its speed in a few
+// seen; the chi-square test keeps a young track's poorly known velocity from voting), so that a moving
+// track can be reported moving from its first reported frame (after 3 acceptance frames). The
+// defaults were chosen on the preset sequences of bench/obstacles3d_eval (docs/obstacles3d-voxels.md
+// gives the figures): 0.7 m/s (a pedestrian walks at 1.2-1.5 m/s), chi-square 2.0 (63 %: the filter's
+// covariance is conservative, its stereo term is a single point's error, not a centroid's), one
+// consistent vote (no hysteresis: with 2 or 3 the first frames of every track, and of every track a
+// fragment restarted, were reported static; the static objects' false flags stayed at 1-2 % either
+// way). initial_speed_sigma_mps = 12 lets a new track of a car at urban speed reach its speed in a few
 // frames instead of being pulled towards 0 by the prior.
 //
 // Counted work (ArmWork) per update, with T tracks before the update, C clusters, G candidate pairs,
@@ -116,7 +119,7 @@ struct ObstacleTrackingParameters {
   double initial_speed_sigma_mps = 12.0; // (0, 100]: a car at urban speed is within one sigma
   double max_position_distance_m = 3.0; // gate on |z - H s_predicted|, (0, 100]
   double position_weight = 1.0;         // per metre, >= 0
-  double size_weight = 0.5;             // per metre of L1 size difference, >= 0
+  double size_weight = 0.25;            // per metre of L1 size difference, >= 0
   double colour_weight = 1.0;           // per unit of eq. 3.17, >= 0
   double density_weight = 1.0;          // per unit of density, >= 0
   double max_association_distance = 6.0;  // > 0
@@ -124,8 +127,8 @@ struct ObstacleTrackingParameters {
   int ghost_frames = 5;                 // [0, 1000]
   double moving_speed_mps = 0.7;        // horizontal ground speed threshold, [0, 100]
   int moving_min_updates = 2;           // a track votes from its moving_min_updates-th association on, [2, 1000]
-  int moving_consistency_frames = 2;    // [1, 1000]
-  double moving_significance_chi2 = 4.61;  // chi-square, 2 degrees of freedom, 0.90; [0, 1000]
+  int moving_consistency_frames = 1;    // [1, 1000]
+  double moving_significance_chi2 = 2.0;  // chi-square, 2 degrees of freedom, 0.63; [0, 1000]
   FragmentMergeParameters fragment_merge;  // voxel_clustering.h: stereo fragments merged before association (uses stereo_error)
   CameraMount camera_mount;             // camera axes of the outputs (default: level, looking along the vehicle's x)
 };
