@@ -265,8 +265,8 @@ bool parts_of_one_object(const VoxelCluster& host, const VoxelCluster& part, boo
   const Eigen::Vector3d &low_b = part.camera_min_m, &high_b = part.camera_max_m;
   const double gap_m = std::max({0.0, low_b.z() - high_a.z(), low_a.z() - high_b.z()});
   const double lateral_overlap_m = std::min(high_a.x(), high_b.x()) - std::max(low_a.x(), low_b.x());
-  const double narrower_m = std::min(high_a.x() - low_a.x(), high_b.x() - low_b.x());
-  if (gap_m <= p.min_depth_gap_m && lateral_overlap_m >= 0.5 * narrower_m) return true;  // one surface: stacked parts
+  const double wider_m = std::max(high_a.x() - low_a.x(), high_b.x() - low_b.x());
+  if (gap_m <= p.min_depth_gap_m && lateral_overlap_m >= 0.5 * wider_m) return true;  // one surface: stacked parts of about one width
   if (!fragment) return false;
   const double depth_m = std::max(0.1, std::min(host.obstacle.position_m.z(), part.obstacle.position_m.z()));
   return gap_m <= p.min_depth_gap_m + p.depth_sigmas * stereo.depth_sigma_m(depth_m);
@@ -277,6 +277,7 @@ bool parts_of_one_object(const VoxelCluster& host, const VoxelCluster& part, boo
 void validate_fragment_merge_parameters(const FragmentMergeParameters& p) {
   require_parameter(p.pixel_margin_px >= 0 && p.pixel_margin_px <= 1000, "pixel_margin_px", "[0, 1000] px", p.pixel_margin_px);
   require_parameter(p.depth_sigmas >= 0 && p.depth_sigmas <= 100, "depth_sigmas", "[0, 100]", p.depth_sigmas);
+  require_parameter(p.max_fragment_width_px >= 1 && p.max_fragment_width_px <= 100000, "max_fragment_width_px", "[1, 100000] px", p.max_fragment_width_px);
   require_parameter(p.max_fragment_fraction >= 0 && p.max_fragment_fraction <= 1, "max_fragment_fraction", "[0, 1]", p.max_fragment_fraction);
   require_parameter(p.min_depth_gap_m >= 0 && p.min_depth_gap_m <= 100, "min_depth_gap_m", "[0, 100] m", p.min_depth_gap_m);
 }
@@ -299,7 +300,8 @@ FragmentMergeResult merge_stereo_fragments(const std::vector<VoxelCluster>& clus
       if (!enabled) break;
       ++result.pair_tests;
       const VoxelCluster& host = clusters[static_cast<size_t>(h)];
-      const bool fragment = double(cluster.voxels.size()) <= parameters.max_fragment_fraction * double(host.voxels.size());
+      const bool fragment = double(cluster.voxels.size()) <= parameters.max_fragment_fraction * double(host.voxels.size()) &&
+                            cluster.obstacle.bbox_px[2] - cluster.obstacle.bbox_px[0] + 1 <= parameters.max_fragment_width_px;
       if (parts_of_one_object(host, cluster, fragment, stereo, parameters)) {
         host_of[static_cast<size_t>(i)] = h;
         break;

@@ -121,9 +121,11 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
 // A cluster is a part of a host when their left-image pixel boxes overlap once grown by
 // pixel_margin_px, and either
 //     (same surface) the gap between their camera depth ranges (camera_min_m.z .. camera_max_m.z) is at
-//     most min_depth_gap_m and they overlap laterally (camera x) over at least half the narrower, or
-//     (fragment) it has at most max_fragment_fraction of the host's voxels and the depth gap is at
-//     most min_depth_gap_m + depth_sigmas sigma_Z(Z), Z the nearer of the two centres' depths.
+//     most min_depth_gap_m and they overlap laterally (camera x) over at least half the wider (parts of about one width), or
+//     (fragment) it has at most max_fragment_fraction of the host's voxels, its pixel box is at most
+//     max_fragment_width_px wide (a sliver: a silhouette's smear or a side seen at a grazing angle; a
+//     pedestrian beside a car is wider and stays apart) and the depth gap is at most
+//     min_depth_gap_m + depth_sigmas sigma_Z(Z), Z the nearer of the two centres' depths.
 // The output keeps the hosts in input order (ids renumbered). The merged cluster: voxels (key order), frame points,
 // centroid and position_m (point-weighted), colour means (voxel-weighted, hue circular), key box,
 // density and size_world_m from the key box, truncated if any member is, the union of the camera
@@ -137,6 +139,7 @@ struct FragmentMergeParameters {
   double depth_sigmas = 2.0;     // [0, 100]
   double min_depth_gap_m = 0.5;  // [0, 100]: two voxels at 0.25 m
   double max_fragment_fraction = 0.25;  // [0, 1]: a fragment has at most this share of its host's voxels
+  int max_fragment_width_px = 8;        // [1, 100000]: and is at most this wide in the image (a sliver)
 };
 
 struct FragmentMergeResult {

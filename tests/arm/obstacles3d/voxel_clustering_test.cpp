@@ -263,6 +263,11 @@ TEST(VoxelClustering, StackedPartsOfOneSurfaceMergeWhateverTheirSizes) {
   EXPECT_NEAR(result.clusters[0].obstacle.size_m.y(), 1.8, 1e-9);
   EXPECT_EQ(result.clusters[1].frame_points, 150);  // the other pedestrian
   EXPECT_NEAR(result.clusters[1].obstacle.position_m.x(), -1.85, 1e-9);
+  // A pedestrian (0.5 m, 14 px wide, 8 voxels) in front of a crossing car's side (4 m wide, 40 voxels) at the same
+  // depth: neither a sliver (wider than 8 px) nor a part of about the car's width (overlap 0.5 m < half of 4 m).
+  const VoxelCluster car_side = camera_box_cluster({-2.0, -0.2, 15.0}, {2.0, 1.3, 15.5}, {186, 232, 453, 282}, 40, 400, {15.25, 0, 0.6});
+  const VoxelCluster walker = camera_box_cluster({0.0, -0.3, 14.8}, {0.5, 1.5, 15.2}, {319, 229, 336, 289}, 8, 60, {15.0, -0.25, 0.9});
+  EXPECT_EQ(merge_stereo_fragments({car_side, walker}, stereo, 0.25).clusters.size(), 2u);
   FragmentMergeParameters bad;
   bad.max_fragment_fraction = 2;
   EXPECT_THROW(validate_fragment_merge_parameters(bad), std::invalid_argument);
