@@ -139,7 +139,7 @@ struct FragmentMergeParameters {
   double depth_sigmas = 2.0;     // [0, 100]
   double min_depth_gap_m = 0.5;  // [0, 100]: two voxels at 0.25 m
   double max_fragment_fraction = 0.25;  // [0, 1]: a fragment has at most this share of its host's voxels
-  int max_fragment_width_px = 8;        // [1, 100000]: and is at most this wide in the image (a sliver)
+  int max_fragment_width_px = 16;       // [1, 100000]: and is at most this wide in the image (a sliver)
 };
 
 struct FragmentMergeResult {
