@@ -58,7 +58,7 @@
 // seen; the chi-square test keeps a young track's poorly known velocity from voting), so that a moving
 // track can be reported moving from its first reported frame (after 3 acceptance frames). The
 // defaults were chosen on the preset sequences of bench/obstacles3d_eval (docs/obstacles3d-voxels.md
-// gives the figures): 0.7 m/s (a pedestrian walks at 1.2-1.5 m/s), chi-square 2.0 (63 %: the filter's
+// gives the figures): 0.7 m/s (a pedestrian walks at 1.2-1.5 m/s), chi-square 3.0 (78 %: the filter's
 // covariance is conservative, its stereo term is a single point's error, not a centroid's), one
 // consistent vote (no hysteresis: with 2 or 3 the first frames of every track, and of every track a
 // fragment restarted, were reported static; the static objects' false flags stayed at 1-2 % either
@@ -128,7 +128,7 @@ struct ObstacleTrackingParameters {
   double moving_speed_mps = 0.7;        // horizontal ground speed threshold, [0, 100]
   int moving_min_updates = 2;           // a track votes from its moving_min_updates-th association on, [2, 1000]
   int moving_consistency_frames = 1;    // [1, 1000]
-  double moving_significance_chi2 = 2.0;  // chi-square, 2 degrees of freedom, 0.63; [0, 1000]
+  double moving_significance_chi2 = 3.0;  // chi-square, 2 degrees of freedom, 0.78; [0, 1000]
   FragmentMergeParameters fragment_merge;  // voxel_clustering.h: stereo fragments merged before association (uses stereo_error)
   CameraMount camera_mount;             // camera axes of the outputs (default: level, looking along the vehicle's x)
 };
