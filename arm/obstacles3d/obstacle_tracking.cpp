@@ -71,8 +71,10 @@ void validate_tracking_parameters(const ObstacleTrackingParameters& p) {
   require_parameter(p.acceptance_frames >= 1 && p.acceptance_frames <= 1000, "acceptance_frames", "[1, 1000]", p.acceptance_frames);
   require_parameter(p.ghost_frames >= 0 && p.ghost_frames <= 1000, "ghost_frames", "[0, 1000]", p.ghost_frames);
   require_parameter(p.moving_speed_mps >= 0 && p.moving_speed_mps <= 100, "moving_speed_mps", "[0, 100] m/s", p.moving_speed_mps);
+  require_parameter(p.moving_min_updates >= 2 && p.moving_min_updates <= 1000, "moving_min_updates", "[2, 1000]", p.moving_min_updates);
   require_parameter(p.moving_consistency_frames >= 1 && p.moving_consistency_frames <= 1000, "moving_consistency_frames", "[1, 1000]",
           p.moving_consistency_frames);
+  validate_fragment_merge_parameters(p.fragment_merge);
   require_parameter(p.moving_significance_chi2 >= 0 && p.moving_significance_chi2 <= 1000, "moving_significance_chi2", "[0, 1000]",
           p.moving_significance_chi2);
 }
@@ -122,9 +124,15 @@ void ObstacleTracker3d::report(Track3d& track, const VoxelCluster& cluster, cons
   track.obstacle.moving = track.moving;
 }
 
-const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>& clusters, const Eigen::Isometry3d& world_from_current) {
+const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>& input_clusters, const Eigen::Isometry3d& world_from_current) {
   const ObstacleTrackingParameters& p = parameters_;
   result_ = TrackingResult{};
+  // The voxel edge from a cluster's key box and its extent in metres (size_world_m = extent voxel_size_m).
+  const double voxel_size_m =
+      input_clusters.empty() ? 0.25 : input_clusters.front().size_world_m.x() / double(input_clusters.front().max_key.x - input_clusters.front().min_key.x + 1);
+  const FragmentMergeResult fragments = merge_stereo_fragments(input_clusters, p.stereo_error, voxel_size_m, p.fragment_merge);
+  const std::vector<VoxelCluster>& clusters = fragments.clusters;
+  result_.merged_fragments = fragments.merged;
   const Eigen::Matrix3d world_from_camera = world_from_current.linear() * camera_from_vehicle_.transpose();
   const Eigen::Matrix3d camera_from_world = world_from_camera.transpose();
   const uint64_t previous_tracks = tracks_.size();
@@ -174,7 +182,7 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
       track.queue = TrackQueue::tracked;
       ++result_.confirmed;
     }
-    if (track.updates >= p.acceptance_frames && !cluster.truncated) {
+    if (track.updates >= p.moving_min_updates && !cluster.truncated) {
       const Eigen::Vector2d velocity = track.filter.velocity_mps().head<2>();
       const Eigen::Matrix2d velocity_covariance = track.filter.covariance().block<2, 2>(3, 3);
       const bool fast = velocity.norm() > p.moving_speed_mps &&
@@ -237,6 +245,8 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
   const uint64_t log_g = g > 1 ? static_cast<uint64_t>(std::bit_width(g - 1)) : 0;
   result_.work.scalar_ops = 16 + 150 * t + 60 * c + 40 * t * c + 4 * g * log_g + 4 * g + 400 * u + 60 * n + 30 * o + 8 * t;
   result_.work.memory_bytes = sizeof(Track3d) * 2 * (t + n) + sizeof(VoxelCluster) * c;
+  result_.work.scalar_ops += fragments.work.scalar_ops;
+  result_.work.memory_bytes += fragments.work.memory_bytes;
   return result_;
 }
 

@@ -21,6 +21,12 @@
 // (Bucy and Joseph 1968), as arm/tasks/obstacle_tracker.cpp does. A new track starts at (z, 0) with
 // P = diag(R, initial_speed_sigma_mps^2 I).
 //
+// Fragments: before the association the clusters go through merge_stereo_fragments (voxel_clustering.h,
+// fragment_merge, with stereo_error): the slivers stereo cuts off an object at its silhouette, and the
+// stacked parts colour splits it into, join their object, so that one object feeds one track (a
+// fragment would start a track of its own at velocity 0 every few frames). The merged clusters are the
+// clusters below (their count C) and the reported obstacles.
+//
 // Association (Algorithm 3.2.3.4, greedy): every track is predicted one period; for each (track,
 // cluster) pair the distance
 //     d = position_weight |z - H s_predicted| + size_weight |size_t - size_c|_1
@@ -39,7 +45,7 @@
 // Output: one Obstacle3d per tracked-queue track associated this frame (the cluster's fields, track_id,
 // velocity_mps, moving), in increasing track id; acceptance and ghost tracks are not reported.
 //
-// Moving versus static: at each association of a track with at least acceptance_frames updates with
+// Moving versus static: at each association of a track with at least moving_min_updates updates with
 // a cluster that is not truncated (voxel_clustering.h: cut by the map bounds or the image border, so
 // its centroid moves with the cut), the horizontal world velocity v_h = (v_x, v_y) (the vertical one
 // is the cluster's height jitter, not motion on the ground) votes "moving" when
@@ -47,7 +53,17 @@
 // (P_vh the filter's 2x2 covariance of v_h: the speed must also be significantly non-zero, which
 // keeps a young track's uncertain velocity from voting; chi-square, 2 degrees of freedom), else
 // "static". The track turns moving after moving_consistency_frames consecutive moving votes and back
-// to static after as many consecutive static votes (hysteresis: one noisy frame does not flip it).
+// to static after as many consecutive static votes (a hysteresis when > 1).
+// Votes start at the second update (moving_min_updates = 2: a velocity exists once two positions were
+// seen; the chi-square test keeps a young track's poorly known velocity from voting), so that a moving
+// track can be reported moving from its first reported frame (after 3 acceptance frames). The
+// defaults were chosen on the preset sequences of bench/obstacles3d_eval (docs/obstacles3d-voxels.md
+// gives the figures): 0.7 m/s (a pedestrian walks at 1.2-1.5 m/s), chi-square 3.0 (78 %: the filter's
+// covariance is conservative, its stereo term is a single point's error, not a centroid's), one
+// consistent vote (no hysteresis: with 2 or 3 the first frames of every track, and of every track a
+// fragment restarted, were reported static; the static objects' false flags stayed at 1-2 % either
+// way). initial_speed_sigma_mps = 12 lets a new track of a car at urban speed reach its speed in a few
+// frames instead of being pulled towards 0 by the prior.
 //
 // Counted work (ArmWork) per update, with T tracks before the update, C clusters, G candidate pairs,
 // U associations, N new tracks, O reported obstacles:
@@ -55,8 +71,8 @@
 //                  and stereo terms) + 40 T C (distance: innovation 6, norms 12, colour 16, gate 6)
 //                  + 4 G ceil(log2 G) + 4 G (sort, greedy pass) + 400 U (3x3 innovation inverse, 6x3
 //                  gain, Joseph form on 6x6, votes and their 2x2 significance test) + 60 N (track start) + 30 O (velocity rotation, output)
-//                  + 8 T (queue moves);
-//   memory_bytes = sizeof(Track3d) 2 (T + N) + sizeof(VoxelCluster) C.
+//                  + 8 T (queue moves) + the fragment merge's (voxel_clustering.h, on the input clusters);
+//   memory_bytes = sizeof(Track3d) 2 (T + N) + sizeof(VoxelCluster) C + the fragment merge's.
 #pragma once
 
 #include <cstdint>
@@ -100,18 +116,20 @@ struct ObstacleTrackingParameters {
   double accel_sigma_mps2 = 2.0;        // process noise, [0, 100]
   double centroid_sigma_m = 0.2;        // cluster centroid jitter (voxel quantisation, partial views), (0, 10]
   StereoErrorModel stereo_error;        // focal_px or baseline_m 0: no stereo term
-  double initial_speed_sigma_mps = 5.0; // (0, 100]
+  double initial_speed_sigma_mps = 12.0; // (0, 100]: a car at urban speed is within one sigma
   double max_position_distance_m = 3.0; // gate on |z - H s_predicted|, (0, 100]
   double position_weight = 1.0;         // per metre, >= 0
-  double size_weight = 0.5;             // per metre of L1 size difference, >= 0
+  double size_weight = 0.25;            // per metre of L1 size difference, >= 0
   double colour_weight = 1.0;           // per unit of eq. 3.17, >= 0
   double density_weight = 1.0;          // per unit of density, >= 0
-  double max_association_distance = 4.0;  // > 0
+  double max_association_distance = 6.0;  // > 0
   int acceptance_frames = 3;            // [1, 1000]
   int ghost_frames = 5;                 // [0, 1000]
-  double moving_speed_mps = 1.0;        // horizontal ground speed threshold, [0, 100]
-  int moving_consistency_frames = 3;    // [1, 1000]
-  double moving_significance_chi2 = 9.21;  // chi-square, 2 degrees of freedom, 0.99; [0, 1000]
+  double moving_speed_mps = 0.7;        // horizontal ground speed threshold, [0, 100]
+  int moving_min_updates = 2;           // a track votes from its moving_min_updates-th association on, [2, 1000]
+  int moving_consistency_frames = 1;    // [1, 1000]
+  double moving_significance_chi2 = 3.0;  // chi-square, 2 degrees of freedom, 0.78; [0, 1000]
+  FragmentMergeParameters fragment_merge;  // voxel_clustering.h: stereo fragments merged before association (uses stereo_error)
   CameraMount camera_mount;             // camera axes of the outputs (default: level, looking along the vehicle's x)
 };
 
@@ -149,6 +167,7 @@ struct TrackingResult {
   int64_t revived = 0;     // ghost -> tracked
   int64_t deleted = 0;     // ghost too long
   int64_t candidate_pairs = 0;
+  int64_t merged_fragments = 0;  // input clusters merged into another as stereo fragments
   ArmWork work;
 };
 

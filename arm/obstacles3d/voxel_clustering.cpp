@@ -24,14 +24,14 @@ struct ColourMean {
   double hue_cos_sum = 0, hue_sin_sum = 0, saturation_sum = 0, lightness_sum = 0;
   int count = 0;
 
-  void add(const Eigen::Vector3d& rgb, const Hsl& hsl) {
-    rgb_sum += rgb;
+  void add(const Eigen::Vector3d& rgb, const Hsl& hsl, int weight = 1) {
+    rgb_sum += weight * rgb;
     const double angle = 2.0 * std::numbers::pi * hsl.hue;
-    hue_cos_sum += std::cos(angle);
-    hue_sin_sum += std::sin(angle);
-    saturation_sum += hsl.saturation;
-    lightness_sum += hsl.lightness;
-    ++count;
+    hue_cos_sum += weight * std::cos(angle);
+    hue_sin_sum += weight * std::sin(angle);
+    saturation_sum += weight * hsl.saturation;
+    lightness_sum += weight * hsl.lightness;
+    count += weight;
   }
   Eigen::Vector3d rgb() const { return count > 0 ? Eigen::Vector3d(rgb_sum / count) : Eigen::Vector3d::Zero(); }
   Hsl hsl() const {
@@ -186,11 +186,12 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
     std::sort(cluster_members.begin(), cluster_members.end());  // increasing key order (candidates are sorted)
     VoxelCluster cluster;
     ColourMean mean;
-    Eigen::Vector3d world_sum = Eigen::Vector3d::Zero();
+    Eigen::Vector3d world_sum = Eigen::Vector3d::Zero(), camera_sum = Eigen::Vector3d::Zero();
     Eigen::Vector3f camera_min = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
     Eigen::Vector3f camera_max = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
     float min_height = std::numeric_limits<float>::max(), max_height = std::numeric_limits<float>::lowest();
     std::array<int, 4> box{std::numeric_limits<int>::max(), std::numeric_limits<int>::max(), -1, -1};
+    float max_disparity_px = 0;
     cluster.min_key = cluster.max_key = candidates[cluster_members.front()].voxel->key;
     for (const int member : cluster_members) {
       const Candidate& candidate = candidates[member];
@@ -200,10 +201,12 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
       mean.add(candidate.rgb, candidate.hsl);
       cluster.frame_points += voxel.frame_point_count;
       world_sum += voxel.frame_world_sum_m;
+      camera_sum += voxel.frame_camera_sum_m;
       camera_min = camera_min.cwiseMin(voxel.frame_camera_min_m);
       camera_max = camera_max.cwiseMax(voxel.frame_camera_max_m);
       min_height = std::min(min_height, voxel.frame_min_height_m);
       max_height = std::max(max_height, voxel.frame_max_height_m);
+      max_disparity_px = std::max(max_disparity_px, voxel.frame_max_disparity_px);
       box = {std::min(box[0], voxel.frame_bbox_px[0]), std::min(box[1], voxel.frame_bbox_px[1]), std::max(box[2], voxel.frame_bbox_px[2]),
              std::max(box[3], voxel.frame_bbox_px[3])};
       cluster.min_key = VoxelKey{std::min(cluster.min_key.x, voxel.key.x), std::min(cluster.min_key.y, voxel.key.y),
@@ -224,14 +227,16 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
     cluster.hsl_mean = mean.hsl();
     const int margin = parameters.border_margin_px;
     if (parameters.image_width_px > 0 && parameters.image_height_px > 0 &&
-        (box[0] <= margin || box[1] <= margin || box[2] >= parameters.image_width_px - 1 - margin ||
+        (box[0] <= margin + max_disparity_px || box[1] <= margin || box[2] >= parameters.image_width_px - 1 - margin ||
          box[3] >= parameters.image_height_px - 1 - margin)) {
       cluster.truncated = true;
     }
     Obstacle3d& obstacle = cluster.obstacle;
     obstacle.id = static_cast<int>(result.clusters.size());
     obstacle.bbox_px = box;
-    obstacle.position_m = ((camera_min + camera_max) / 2.0f).cast<double>();
+    cluster.camera_min_m = camera_min.cast<double>();
+    cluster.camera_max_m = camera_max.cast<double>();
+    obstacle.position_m = camera_sum / double(std::max<int64_t>(1, cluster.frame_points));
     obstacle.size_m = (camera_max - camera_min).cast<double>();
     obstacle.min_height_m = min_height;
     obstacle.max_height_m = max_height;
@@ -244,6 +249,133 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
                            36 * static_cast<uint64_t>(result.similarity_tests) + 16 * k + 8 * static_cast<uint64_t>(result.aggregated_clusters) +
                            40 * static_cast<uint64_t>(result.flood_fill_clusters) + 30 * k;
   result.work.memory_bytes = sizeof(Voxel) * (v + 2 * k);
+  return result;
+}
+
+namespace {
+
+// Whether `part` belongs to `host` (FragmentMergeParameters in voxel_clustering.h): `fragment` says
+// whether part is small enough to be a stereo fragment of host.
+bool parts_of_one_object(const VoxelCluster& host, const VoxelCluster& part, bool fragment, const StereoErrorModel& stereo,
+                         const FragmentMergeParameters& p) {
+  const std::array<int, 4>&box_a = host.obstacle.bbox_px, &box_b = part.obstacle.bbox_px;
+  const int margin = p.pixel_margin_px;
+  if (box_a[0] > box_b[2] + margin || box_b[0] > box_a[2] + margin || box_a[1] > box_b[3] + margin || box_b[1] > box_a[3] + margin) return false;
+  const Eigen::Vector3d &low_a = host.camera_min_m, &high_a = host.camera_max_m;
+  const Eigen::Vector3d &low_b = part.camera_min_m, &high_b = part.camera_max_m;
+  const double gap_m = std::max({0.0, low_b.z() - high_a.z(), low_a.z() - high_b.z()});
+  const double lateral_overlap_m = std::min(high_a.x(), high_b.x()) - std::max(low_a.x(), low_b.x());
+  const double wider_m = std::max(high_a.x() - low_a.x(), high_b.x() - low_b.x());
+  if (gap_m <= p.min_depth_gap_m && lateral_overlap_m >= 0.5 * wider_m) return true;  // one surface: stacked parts of about one width
+  if (!fragment) return false;
+  const double depth_m = std::max(0.1, std::min(host.obstacle.position_m.z(), part.obstacle.position_m.z()));
+  return gap_m <= p.min_depth_gap_m + p.depth_sigmas * stereo.depth_sigma_m(depth_m);
+}
+
+}  // namespace
+
+void validate_fragment_merge_parameters(const FragmentMergeParameters& p) {
+  require_parameter(p.pixel_margin_px >= 0 && p.pixel_margin_px <= 1000, "pixel_margin_px", "[0, 1000] px", p.pixel_margin_px);
+  require_parameter(p.depth_sigmas >= 0 && p.depth_sigmas <= 100, "depth_sigmas", "[0, 100]", p.depth_sigmas);
+  require_parameter(p.max_fragment_width_px >= 1 && p.max_fragment_width_px <= 100000, "max_fragment_width_px", "[1, 100000] px", p.max_fragment_width_px);
+  require_parameter(p.max_fragment_fraction >= 0 && p.max_fragment_fraction <= 1, "max_fragment_fraction", "[0, 1]", p.max_fragment_fraction);
+  require_parameter(p.min_depth_gap_m >= 0 && p.min_depth_gap_m <= 100, "min_depth_gap_m", "[0, 100] m", p.min_depth_gap_m);
+}
+
+FragmentMergeResult merge_stereo_fragments(const std::vector<VoxelCluster>& clusters, const StereoErrorModel& stereo, double voxel_size_m,
+                                           const FragmentMergeParameters& parameters) {
+  const int count = static_cast<int>(clusters.size());
+  FragmentMergeResult result;
+  // Hosts in decreasing voxel count (ties: input order); each cluster joins the first host it is a
+  // fragment of, tested against the host's own cluster (no chains), or becomes a host.
+  std::vector<int> order(clusters.size());
+  for (int i = 0; i < count; ++i) order[static_cast<size_t>(i)] = i;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return clusters[static_cast<size_t>(a)].voxels.size() > clusters[static_cast<size_t>(b)].voxels.size(); });
+  std::vector<int> host_of(clusters.size(), -1);
+  std::vector<int> hosts;
+  const bool enabled = parameters.enabled && stereo.focal_px > 0 && stereo.baseline_m > 0;
+  for (const int i : order) {
+    const VoxelCluster& cluster = clusters[static_cast<size_t>(i)];
+    for (const int h : hosts) {
+      if (!enabled) break;
+      ++result.pair_tests;
+      const VoxelCluster& host = clusters[static_cast<size_t>(h)];
+      const bool fragment = double(cluster.voxels.size()) <= parameters.max_fragment_fraction * double(host.voxels.size()) &&
+                            cluster.obstacle.bbox_px[2] - cluster.obstacle.bbox_px[0] + 1 <= parameters.max_fragment_width_px;
+      if (parts_of_one_object(host, cluster, fragment, stereo, parameters)) {
+        host_of[static_cast<size_t>(i)] = h;
+        break;
+      }
+    }
+    if (host_of[static_cast<size_t>(i)] < 0) {
+      host_of[static_cast<size_t>(i)] = i;
+      hosts.push_back(i);
+    }
+  }
+  auto root = [&](int i) { return host_of[static_cast<size_t>(i)]; };
+  std::vector<int> output_of(clusters.size(), -1);
+  std::vector<ColourMean> colours;
+  std::vector<std::array<Eigen::Vector3d, 2>> camera_boxes;
+  // Hosts first (input order: the output keeps the clusters' order), then the fragments into them.
+  for (int pass = 0, step = 0; step < 2 * count; ++step) {
+    pass = step < count ? 0 : 1;
+    const int i = step % count;
+    const VoxelCluster& cluster = clusters[static_cast<size_t>(i)];
+    const int r = root(i);
+    if ((r == i) != (pass == 0)) continue;
+    const Eigen::Vector3d &low = cluster.camera_min_m, &high = cluster.camera_max_m;
+    const int weight = static_cast<int>(cluster.voxels.size());
+    if (output_of[static_cast<size_t>(r)] < 0) {
+      output_of[static_cast<size_t>(r)] = static_cast<int>(result.clusters.size());
+      result.clusters.push_back(cluster);
+      colours.emplace_back();
+      colours.back().add(cluster.rgb_mean, cluster.hsl_mean, weight);
+      camera_boxes.push_back({low, high});
+      continue;
+    }
+    ++result.merged;
+    const size_t o = static_cast<size_t>(output_of[static_cast<size_t>(r)]);
+    VoxelCluster& merged = result.clusters[o];
+    const int64_t points = merged.frame_points + cluster.frame_points;
+    merged.centroid_world_m = (merged.centroid_world_m * double(merged.frame_points) + cluster.centroid_world_m * double(cluster.frame_points)) /
+                              double(std::max<int64_t>(1, points));
+    merged.obstacle.position_m =
+        (merged.obstacle.position_m * double(merged.frame_points) + cluster.obstacle.position_m * double(cluster.frame_points)) /
+        double(std::max<int64_t>(1, points));
+    merged.frame_points = points;
+    merged.voxels.insert(merged.voxels.end(), cluster.voxels.begin(), cluster.voxels.end());
+    merged.min_key = VoxelKey{std::min(merged.min_key.x, cluster.min_key.x), std::min(merged.min_key.y, cluster.min_key.y),
+                              std::min(merged.min_key.z, cluster.min_key.z)};
+    merged.max_key = VoxelKey{std::max(merged.max_key.x, cluster.max_key.x), std::max(merged.max_key.y, cluster.max_key.y),
+                              std::max(merged.max_key.z, cluster.max_key.z)};
+    merged.truncated = merged.truncated || cluster.truncated;
+    colours[o].add(cluster.rgb_mean, cluster.hsl_mean, weight);
+    camera_boxes[o][0] = camera_boxes[o][0].cwiseMin(low);
+    camera_boxes[o][1] = camera_boxes[o][1].cwiseMax(high);
+    Obstacle3d& obstacle = merged.obstacle;
+    const std::array<int, 4>& box = cluster.obstacle.bbox_px;
+    obstacle.bbox_px = {std::min(obstacle.bbox_px[0], box[0]), std::min(obstacle.bbox_px[1], box[1]), std::max(obstacle.bbox_px[2], box[2]),
+                        std::max(obstacle.bbox_px[3], box[3])};
+    obstacle.min_height_m = std::min(obstacle.min_height_m, cluster.obstacle.min_height_m);
+    obstacle.max_height_m = std::max(obstacle.max_height_m, cluster.obstacle.max_height_m);
+  }
+  for (size_t o = 0; o < result.clusters.size(); ++o) {
+    VoxelCluster& merged = result.clusters[o];
+    std::sort(merged.voxels.begin(), merged.voxels.end());
+    merged.rgb_mean = colours[o].rgb();
+    merged.hsl_mean = colours[o].hsl();
+    const Eigen::Vector3d extent_voxels(double(merged.max_key.x) - merged.min_key.x + 1, double(merged.max_key.y) - merged.min_key.y + 1,
+                                        double(merged.max_key.z) - merged.min_key.z + 1);
+    merged.density = double(merged.voxels.size()) / extent_voxels.prod();
+    merged.size_world_m = extent_voxels * voxel_size_m;
+    merged.camera_min_m = camera_boxes[o][0];
+    merged.camera_max_m = camera_boxes[o][1];
+    merged.obstacle.size_m = camera_boxes[o][1] - camera_boxes[o][0];
+    merged.obstacle.id = static_cast<int>(o);
+  }
+  const uint64_t c = clusters.size(), m = static_cast<uint64_t>(result.merged), t = static_cast<uint64_t>(result.pair_tests);
+  result.work.scalar_ops = 4 * c + 16 * t + 40 * m + 12 * result.clusters.size();
+  result.work.memory_bytes = sizeof(VoxelCluster) * 2 * c;
   return result;
 }
 

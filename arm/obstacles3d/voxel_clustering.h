@@ -27,15 +27,20 @@
 // density (voxels / the volume of its key bounding box, in voxels) below min_density, are removed.
 //
 // Obstacle3d per cluster (obstacle_points.h), from the current frame's points of its voxels:
-// position_m = the centre of the points' camera-frame bounding box, size_m its extent (width x,
-// height y, length z), min/max_height_m the lowest and highest point above the terrain, bbox_px the
+// position_m = the mean of the points' camera-frame positions (not the centre of their bounding box:
+// stereo smears an object's depth into a tail behind it, sigma_Z growing as Z^2, and the box centre
+// follows the tail), size_m the extent of their camera-frame bounding box (width x, height y, length
+// z; the box is kept as camera_min_m / camera_max_m), min/max_height_m the lowest and highest point above the terrain, bbox_px the
 // union of the points' pixels; id = index in the result, track_id = -1, velocity 0, moving = false
 // (obstacle_tracking.h fills those).
 //
 // Truncation. A cluster is marked truncated when one of its voxels lies within one voxel of the map
 // bounds (VoxelMap::near_bounds: the clipping may cut the object) or, when the image size is given,
 // its pixel box comes within border_margin_px of the image border (the object leaves the field of
-// view). A truncated cluster's centroid moves as the cut moves, not as the object does: the tracker
+// view). On the left the border is further in: a left-image pixel u with disparity d is matched at
+// u - d in the right image, so an object is cut where u - d < 0, i.e. within d of the left border (a
+// point near that border is only seen by the left camera): the left test is x0 <= border_margin_px + the
+// cluster's largest disparity. A truncated cluster's centroid moves as the cut moves, not as the object does: the tracker
 // takes no motion decision from it.
 //
 // Counted work (ArmWork) per call, with V voxels in the map, K candidates, E neighbour probes
@@ -83,6 +88,8 @@ struct VoxelCluster {
   double density = 0;                                           // voxels / key-box volume, (0, 1]
   bool truncated = false;                                       // cut by the map bounds or the image border (header)
   Eigen::Vector3d size_world_m = Eigen::Vector3d::Zero();       // key box extent, metres
+  Eigen::Vector3d camera_min_m = Eigen::Vector3d::Zero();       // this frame's points' camera-frame bounding box
+  Eigen::Vector3d camera_max_m = Eigen::Vector3d::Zero();
   Obstacle3d obstacle;
 };
 
@@ -102,5 +109,50 @@ struct ClusteringResult {
 void validate_clustering_parameters(const VoxelClusteringParameters& parameters);
 
 ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParameters& parameters = {});
+
+// Stereo fragments (after the clustering, before the tracking). Stereo smears an object's depth at
+// its silhouette (the matching window straddles the edge: "edge fattening") and its depth noise grows
+// as sigma_Z = Z^2 sigma_d / (f B) (obstacle_points.h), about 1 m at 25 m for a 640x480, 60 degree,
+// 0.3 m rig: the voxels of one car then split into the main cluster and thin slivers a few voxels
+// away in depth, which no 26-neighbourhood reaches; a tracker sees them as objects of their own that
+// appear and vanish; colour also splits one object into stacked parts (a pedestrian's legs and
+// torso). The clusters are taken in decreasing voxel count; each joins the first earlier host it is a
+// part of, tested against that host's own cluster (no chains through fragments), or becomes a host.
+// A cluster is a part of a host when their left-image pixel boxes overlap once grown by
+// pixel_margin_px, and either
+//     (same surface) the gap between their camera depth ranges (camera_min_m.z .. camera_max_m.z) is at
+//     most min_depth_gap_m and they overlap laterally (camera x) over at least half the wider (parts of about one width), or
+//     (fragment) it has at most max_fragment_fraction of the host's voxels, its pixel box is at most
+//     max_fragment_width_px wide (a sliver: a silhouette's smear or a side seen at a grazing angle; a
+//     pedestrian beside a car is wider and stays apart) and the depth gap is at most
+//     min_depth_gap_m + depth_sigmas sigma_Z(Z), Z the nearer of the two centres' depths.
+// The output keeps the hosts in input order (ids renumbered). The merged cluster: voxels (key order), frame points,
+// centroid and position_m (point-weighted), colour means (voxel-weighted, hue circular), key box,
+// density and size_world_m from the key box, truncated if any member is, the union of the camera
+// boxes (size_m its extent) and of the pixel boxes, and the lowest and highest
+// heights. Disabled (clusters returned unchanged) when the error model has no focal_px or baseline_m.
+// Counted work: scalar_ops = 4 C + 16 P (P host tests, at most C (C - 1) / 2) + 40 M (merges) + 12 C_out,
+// memory_bytes = sizeof(VoxelCluster) 2 C.
+struct FragmentMergeParameters {
+  bool enabled = true;
+  int pixel_margin_px = 2;       // [0, 1000]
+  double depth_sigmas = 2.0;     // [0, 100]
+  double min_depth_gap_m = 0.5;  // [0, 100]: two voxels at 0.25 m
+  double max_fragment_fraction = 0.25;  // [0, 1]: a fragment has at most this share of its host's voxels
+  int max_fragment_width_px = 16;       // [1, 100000]: and is at most this wide in the image (a sliver)
+};
+
+struct FragmentMergeResult {
+  std::vector<VoxelCluster> clusters;
+  int64_t pair_tests = 0;
+  int64_t merged = 0;  // input clusters folded into an earlier one
+  ArmWork work;
+};
+
+// Throws std::invalid_argument for a parameter out of range (name, expected, value).
+void validate_fragment_merge_parameters(const FragmentMergeParameters& parameters);
+
+FragmentMergeResult merge_stereo_fragments(const std::vector<VoxelCluster>& clusters, const StereoErrorModel& stereo, double voxel_size_m,
+                                           const FragmentMergeParameters& parameters = {});
 
 }  // namespace lpstereo::arm::obstacles3d

@@ -207,6 +207,7 @@ const VoxelMapStatus& VoxelMap::update(const std::vector<ObstaclePoint>& points,
       voxel.frame_camera_min_m = voxel.frame_camera_max_m = point.camera_m;
       voxel.frame_height_sum_m = 0;
       voxel.frame_min_height_m = voxel.frame_max_height_m = point.height_above_ground_m;
+      voxel.frame_max_disparity_px = point.disparity_px;
       voxel.frame_bbox_px = {point.u_px, point.v_px, point.u_px, point.v_px};
       ++status_.voxels_observed;
     }
@@ -221,6 +222,7 @@ const VoxelMapStatus& VoxelMap::update(const std::vector<ObstaclePoint>& points,
     voxel.frame_height_sum_m += point.height_above_ground_m;
     voxel.frame_min_height_m = std::min(voxel.frame_min_height_m, point.height_above_ground_m);
     voxel.frame_max_height_m = std::max(voxel.frame_max_height_m, point.height_above_ground_m);
+    voxel.frame_max_disparity_px = std::max(voxel.frame_max_disparity_px, point.disparity_px);
     voxel.frame_bbox_px = {std::min<int>(voxel.frame_bbox_px[0], point.u_px), std::min<int>(voxel.frame_bbox_px[1], point.v_px),
                            std::max<int>(voxel.frame_bbox_px[2], point.u_px), std::max<int>(voxel.frame_bbox_px[3], point.v_px)};
     ++status_.points_inserted;

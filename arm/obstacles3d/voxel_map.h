@@ -20,7 +20,7 @@
 //   centroid, ColourStatistics (RGB and HSL means and variances);
 //   over the current frame only (reset when the voxel is first hit in a frame): the frame's point count,
 //   world and camera-frame sums and extents, height above the terrain (from the points' own
-//   height_above_ground_m), left-image pixel box. Clustering and the Obstacle3d fields use these.
+//   height_above_ground_m), left-image pixel box, largest disparity. Clustering and the Obstacle3d fields use these.
 //
 // Life rule (the thesis: "new voxels are created only when a previously empty volume of the space is
 // now occupied by a new 3D point; similarly, voxels are removed if no 3D points fall into it"):
@@ -143,6 +143,7 @@ struct Voxel {
   Eigen::Vector3f frame_camera_max_m = Eigen::Vector3f::Zero();
   double frame_height_sum_m = 0;
   float frame_min_height_m = 0, frame_max_height_m = 0;
+  float frame_max_disparity_px = 0;  // largest disparity of the frame's points (voxel_clustering.h: left-border truncation)
   std::array<int, 4> frame_bbox_px{-1, -1, -1, -1};  // x0, y0, x1, y1 inclusive
 
   Eigen::Vector3d centroid_world_m() const { return point_count > 0 ? Eigen::Vector3d(world_sum_m / double(point_count)) : Eigen::Vector3d::Zero(); }

@@ -97,6 +97,26 @@ TEST(ObstacleTracking, AStaticObjectFromAMovingCameraIsStaticAndACrossingOneIsMo
   EXPECT_EQ(moving_seen, 1);
 }
 
+TEST(ObstacleTracking, AtUrbanSpeedAStaticObjectHasNoGroundVelocityAndAPedestrianCrossesAt1p5Mps) {
+  // The camera at 8 m/s (the urban preset's speed): after 15 frames it drove 11.2 m, the static box is then
+  // 6.8-7.8 m ahead. The ego-motion must cancel the camera's 8 m/s exactly: the static box's ground velocity
+  // is 0 and the crossing box's is its own 1.5 m/s towards world +y = camera -x.
+  const double camera_speed_mps = 8.0, crossing_speed_mps = 1.5;
+  const SceneRun run = run_scene(15, camera_speed_mps, crossing_speed_mps, true);
+  ASSERT_EQ(run.last_obstacles.size(), 2u);
+  for (const Obstacle3d& obstacle : run.last_obstacles) {
+    if (obstacle.position_m.x() < -2.5) {  // the static box, 3-4 m to the left
+      EXPECT_FALSE(obstacle.moving);
+      EXPECT_LT(obstacle.velocity_mps.norm(), 0.3) << obstacle.velocity_mps.transpose();
+    } else {
+      EXPECT_TRUE(obstacle.moving);
+      EXPECT_NEAR(obstacle.velocity_mps.x(), -crossing_speed_mps, 0.2);
+      EXPECT_NEAR(obstacle.velocity_mps.z(), 0.0, 0.2);
+      EXPECT_NEAR(obstacle.velocity_mps.y(), 0.0, 0.2);
+    }
+  }
+}
+
 TEST(ObstacleTracking, WithoutEgoMotionAStaticObjectSeenFromAMovingCameraLooksMoving) {
   // The fallback assumes a static camera: the static box then approaches at the camera's speed.
   const SceneRun run = run_scene(25, 5.0, 0.0, false);
@@ -216,13 +236,15 @@ TEST(ObstacleTracking, CountedWorkFollowsTheHeaderModel) {
   // Frame 1: T = 0 tracks, C = 2 clusters, no pairs, N = 2 new tracks, nothing reported (acceptance).
   const std::vector<VoxelCluster> clusters = {cluster_at(Eigen::Vector3d(10, 2, 0.75), false), cluster_at(Eigen::Vector3d(20, -3, 0.75), false)};
   ArmWork work = tracker.update(clusters, Eigen::Isometry3d::Identity()).work;
-  EXPECT_EQ(work.scalar_ops, 16u + 60u * 2 + 60u * 2);
-  EXPECT_EQ(work.memory_bytes, sizeof(Track3d) * 2 * 2 + sizeof(VoxelCluster) * 2);
+  // The fragment merge (off: the default error model has no focal length) adds 4 C + 12 C_out and reads and
+  // writes each cluster once.
+  EXPECT_EQ(work.scalar_ops, 16u + 60u * 2 + 60u * 2 + 4u * 2 + 12u * 2);
+  EXPECT_EQ(work.memory_bytes, sizeof(Track3d) * 2 * 2 + sizeof(VoxelCluster) * 2 + sizeof(VoxelCluster) * 2 * 2);
   // Frame 2: T = 2, C = 2, G = 2 candidate pairs (the two are 10 m apart, beyond the 3 m gate), U = 2, O = 0.
   const TrackingResult& result = tracker.update(clusters, Eigen::Isometry3d::Identity());
   ASSERT_EQ(result.candidate_pairs, 2);
   ASSERT_EQ(result.associations, 2);
-  EXPECT_EQ(result.work.scalar_ops, 16u + 150u * 2 + 60u * 2 + 40u * 2 * 2 + 4u * 2 * 1 + 4u * 2 + 400u * 2 + 8u * 2);
+  EXPECT_EQ(result.work.scalar_ops, 16u + 150u * 2 + 60u * 2 + 40u * 2 * 2 + 4u * 2 * 1 + 4u * 2 + 400u * 2 + 8u * 2 + 4u * 2 + 12u * 2);
 }
 
 TEST(ObstacleTracking, EmptyInputAndBadParameters) {

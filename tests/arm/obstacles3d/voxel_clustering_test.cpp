@@ -124,15 +124,18 @@ TEST(VoxelClustering, ObstacleFieldsComeFromTheFramesPoints) {
   Eigen::Vector3f low = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), high = -low;
   int u0 = 10000, v0 = 10000, u1 = -1, v1 = -1;
   float min_height = 1e9f, max_height = -1e9f;
-  Eigen::Vector3d world_sum = Eigen::Vector3d::Zero();
+  Eigen::Vector3d world_sum = Eigen::Vector3d::Zero(), camera_sum = Eigen::Vector3d::Zero();
   for (const ObstaclePoint& point : points) {
+    camera_sum += point.camera_m.cast<double>();
     low = low.cwiseMin(point.camera_m), high = high.cwiseMax(point.camera_m);
     u0 = std::min<int>(u0, point.u_px), v0 = std::min<int>(v0, point.v_px), u1 = std::max<int>(u1, point.u_px), v1 = std::max<int>(v1, point.v_px);
     min_height = std::min(min_height, point.height_above_ground_m), max_height = std::max(max_height, point.height_above_ground_m);
     world_sum += point.vehicle_m.cast<double>();
   }
-  EXPECT_TRUE(obstacle.position_m.isApprox(((low + high) / 2).cast<double>(), 1e-6));
+  EXPECT_TRUE(obstacle.position_m.isApprox(camera_sum / double(points.size()), 1e-6));  // the points' mean
   EXPECT_TRUE(obstacle.size_m.isApprox((high - low).cast<double>(), 1e-6));
+  EXPECT_TRUE(result.clusters[0].camera_min_m.isApprox(low.cast<double>(), 1e-6));
+  EXPECT_TRUE(result.clusters[0].camera_max_m.isApprox(high.cast<double>(), 1e-6));
   EXPECT_EQ(obstacle.bbox_px, (std::array<int, 4>{u0, v0, u1, v1}));
   EXPECT_FLOAT_EQ(static_cast<float>(obstacle.min_height_m), min_height);
   EXPECT_FLOAT_EQ(static_cast<float>(obstacle.max_height_m), max_height);
@@ -167,6 +170,107 @@ TEST(VoxelClustering, ClustersCutByTheMapBoundsOrTheImageBorderAreTruncated) {
   ASSERT_EQ(result.clusters.size(), 3u);
   EXPECT_TRUE(find(12.25).truncated);
   EXPECT_FALSE(find(15.25).truncated);
+}
+
+TEST(VoxelClustering, OnTheLeftAClusterIsCutWithinItsDisparityOfTheBorder) {
+  // make_point's rig: f = 500 px, B = 0.3 m, so a point at depth Z has disparity 150 / Z px. A box 5.0-5.5 m
+  // ahead and 2.2-3.0 m left reaches u = 319.5 - 500 * 3 / 5 = 19.5 px with disparity up to 150 / 5 = 30 px: its
+  // left part is not in the right image (u - d < 0), so it is cut although 19 px from the border. The
+  // same box 1.0-1.8 m left starts at u = 319.5 - 500 * 1.8 / 5 = 139.5 px: whole.
+  std::vector<ObstaclePoint> points;
+  add_box(points, {5.0, 2.2, 0.5}, {5.5, 3.0, 1.0}, kRed);
+  add_box(points, {5.0, 1.0, 0.5}, {5.5, 1.8, 1.0}, kBlue);
+  VoxelClusteringParameters parameters;
+  parameters.image_width_px = 640;
+  parameters.image_height_px = 480;
+  const ClusteringResult result = cluster_points(points, parameters);
+  ASSERT_EQ(result.clusters.size(), 2u);
+  for (const VoxelCluster& cluster : result.clusters) {
+    const bool left = cluster.centroid_world_m.y() > 2.0;
+    EXPECT_EQ(cluster.truncated, left) << "cluster at y = " << cluster.centroid_world_m.y() << ", x0 = " << cluster.obstacle.bbox_px[0];
+    if (left) {
+      EXPECT_GT(cluster.obstacle.bbox_px[0], parameters.border_margin_px);  // the plain border test alone would keep it
+      EXPECT_LE(cluster.obstacle.bbox_px[0], parameters.border_margin_px + 30);
+    }
+  }
+}
+
+// A hand-made cluster for the fragment merge: its camera box [low, high], pixel box, voxel and point counts.
+VoxelCluster camera_box_cluster(const Eigen::Vector3d& low_m, const Eigen::Vector3d& high_m, std::array<int, 4> bbox_px, int voxels,
+                                int64_t points, const Eigen::Vector3d& centroid_world_m) {
+  VoxelCluster cluster;
+  for (int i = 0; i < voxels; ++i) cluster.voxels.push_back(VoxelKey{i, 0, 0});
+  cluster.min_key = VoxelKey{0, 0, 0};
+  cluster.max_key = VoxelKey{voxels - 1, 0, 0};
+  cluster.size_world_m = Eigen::Vector3d(voxels * 0.25, 0.25, 0.25);
+  cluster.frame_points = points;
+  cluster.centroid_world_m = centroid_world_m;
+  cluster.rgb_mean = Eigen::Vector3d(0.5, 0.5, 0.5);
+  cluster.hsl_mean = Hsl{0, 0, 0.5};
+  cluster.density = 1.0;
+  cluster.obstacle.position_m = (low_m + high_m) / 2;
+  cluster.camera_min_m = low_m;
+  cluster.camera_max_m = high_m;
+  cluster.obstacle.size_m = high_m - low_m;
+  cluster.obstacle.bbox_px = bbox_px;
+  cluster.obstacle.min_height_m = 0.2;
+  cluster.obstacle.max_height_m = 1.4;
+  return cluster;
+}
+
+TEST(VoxelClustering, StereoFragmentsMergeIntoTheirObjectAndSeparateObjectsDoNot) {
+  StereoErrorModel stereo;
+  stereo.focal_px = 500;
+  stereo.baseline_m = 0.3;  // sigma_Z(25 m) = 625 * 0.25 / 150 = 1.04 m
+  // A car's rear at 25 m (40 voxels), a sliver 1.5 m behind it at its left edge (4 voxels, 1/10 of the car's): the gap
+  // 1.5 m <= 0.5 m + 2 x 1.04 m, the boxes touch; a pedestrian 8 m behind the car (gap 8 m > 2.6 m) overlapping it in the image.
+  const VoxelCluster car = camera_box_cluster({-0.9, -0.2, 25.0}, {0.9, 1.2, 25.5}, {302, 240, 338, 268}, 40, 400, {25.25, 0, 0.5});
+  const VoxelCluster sliver = camera_box_cluster({-1.0, 0.0, 27.0}, {-0.9, 1.0, 27.5}, {300, 244, 302, 264}, 4, 20, {27.25, 0.95, 0.5});
+  const VoxelCluster pedestrian = camera_box_cluster({0.5, -0.3, 33.5}, {1.0, 1.2, 34.0}, {327, 238, 335, 265}, 8, 60, {33.75, -0.75, 0.5});
+  const FragmentMergeResult result = merge_stereo_fragments({car, sliver, pedestrian}, stereo, 0.25);
+  ASSERT_EQ(result.clusters.size(), 2u);
+  EXPECT_EQ(result.merged, 1);
+  const VoxelCluster& merged = result.clusters[0];
+  EXPECT_EQ(merged.voxels.size(), 44u);
+  EXPECT_EQ(merged.frame_points, 420);
+  // Point-weighted centroid: (400 x 25.25 + 20 x 27.25) / 420 on x.
+  EXPECT_NEAR(merged.centroid_world_m.x(), (400 * 25.25 + 20 * 27.25) / 420.0, 1e-9);
+  // Point-weighted position: the car's centre x 0, the sliver's -0.95. The union of the camera boxes: x -1.0..0.9,
+  // z 25.0..27.5; of the pixel boxes: 300..338.
+  EXPECT_NEAR(merged.obstacle.position_m.x(), 20 * -0.95 / 420.0, 1e-9);
+  EXPECT_NEAR(merged.obstacle.size_m.z(), 2.5, 1e-9);
+  EXPECT_NEAR(merged.camera_min_m.x(), -1.0, 1e-9);
+  EXPECT_NEAR(merged.camera_max_m.z(), 27.5, 1e-9);
+  EXPECT_EQ(merged.obstacle.bbox_px[0], 300);
+  EXPECT_EQ(merged.obstacle.bbox_px[2], 338);
+  EXPECT_EQ(result.clusters[1].frame_points, 60);  // the pedestrian stays itself
+  // Without the error model the merge is off.
+  EXPECT_EQ(merge_stereo_fragments({car, sliver, pedestrian}, StereoErrorModel{}, 0.25).clusters.size(), 3u);
+}
+
+TEST(VoxelClustering, StackedPartsOfOneSurfaceMergeWhateverTheirSizes) {
+  StereoErrorModel stereo;
+  stereo.focal_px = 500;
+  stereo.baseline_m = 0.3;
+  // A pedestrian split by colour into legs and torso of similar sizes at the same depth (20 m), one above the
+  // other; a second pedestrian 0.4 m to the right of the first at the same depth: the pixel boxes are 10 px apart.
+  const VoxelCluster torso = camera_box_cluster({-3.0, -0.3, 20.0}, {-2.5, 0.6, 20.5}, {244, 232, 257, 254}, 10, 80, {20.25, 2.75, 1.2});
+  const VoxelCluster legs = camera_box_cluster({-3.0, 0.6, 20.0}, {-2.5, 1.5, 20.5}, {244, 254, 257, 277}, 9, 70, {20.25, 2.75, 0.4});
+  const VoxelCluster other = camera_box_cluster({-2.1, -0.3, 20.0}, {-1.6, 1.5, 20.5}, {267, 232, 280, 277}, 19, 150, {20.25, 1.85, 0.8});
+  const FragmentMergeResult result = merge_stereo_fragments({torso, legs, other}, stereo, 0.25);
+  ASSERT_EQ(result.clusters.size(), 2u);
+  EXPECT_EQ(result.clusters[0].frame_points, 150);  // torso + legs
+  EXPECT_NEAR(result.clusters[0].obstacle.size_m.y(), 1.8, 1e-9);
+  EXPECT_EQ(result.clusters[1].frame_points, 150);  // the other pedestrian
+  EXPECT_NEAR(result.clusters[1].obstacle.position_m.x(), -1.85, 1e-9);
+  // A pedestrian (0.5 m, 14 px wide, 8 voxels) in front of a crossing car's side (4 m wide, 40 voxels) at the same
+  // depth: neither a sliver (wider than 8 px) nor a part of about the car's width (overlap 0.5 m < half of 4 m).
+  const VoxelCluster car_side = camera_box_cluster({-2.0, -0.2, 15.0}, {2.0, 1.3, 15.5}, {186, 232, 453, 282}, 40, 400, {15.25, 0, 0.6});
+  const VoxelCluster walker = camera_box_cluster({0.0, -0.3, 14.8}, {0.5, 1.5, 15.2}, {319, 229, 336, 289}, 8, 60, {15.0, -0.25, 0.9});
+  EXPECT_EQ(merge_stereo_fragments({car_side, walker}, stereo, 0.25).clusters.size(), 2u);
+  FragmentMergeParameters bad;
+  bad.max_fragment_fraction = 2;
+  EXPECT_THROW(validate_fragment_merge_parameters(bad), std::invalid_argument);
 }
 
 TEST(VoxelClustering, EmptyMapAndBadParameters) {
