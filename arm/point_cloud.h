@@ -22,6 +22,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "dag/plane.h"
 #include "dag/tile_executor.h"
@@ -69,6 +70,13 @@ class CameraToVehicle {
   Eigen::Vector3d apply(const Eigen::Vector3d& camera_m) const { return rotation_ * camera_m + translation_m_; }
   const Eigen::Matrix3d& rotation() const { return rotation_; }  // R C
   const Eigen::Vector3d& translation_m() const { return translation_m_; }
+  // The same transform as an isometry (the obstacle methods' vehicle_from_camera).
+  Eigen::Isometry3d vehicle_from_camera() const {
+    Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+    transform.linear() = rotation_;
+    transform.translation() = translation_m_;
+    return transform;
+  }
 
  private:
   Eigen::Matrix3d rotation_;

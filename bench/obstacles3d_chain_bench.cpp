@@ -160,9 +160,7 @@ int run(int argc, char** argv) {
   candidate_parameters.threads = kThreads;
   arm::terrain::TraversabilityParameters traversability_parameters;
   traversability_parameters.obstacle_height_m = candidate_parameters.obstacle_height_m;
-  Eigen::Isometry3d vehicle_from_camera = Eigen::Isometry3d::Identity();
-  vehicle_from_camera.linear() = to_vehicle.rotation();
-  vehicle_from_camera.translation() = to_vehicle.translation_m();
+  const Eigen::Isometry3d vehicle_from_camera = to_vehicle.vehicle_from_camera();
   o3::AugmentedStixelParameters stixel_parameters;
   stixel_parameters.grid = o3::OccupancyGridParameters::defaults(o3::GridKind::polar, width);
   stixel_parameters.grid.error_model.focal_px = focal_px;

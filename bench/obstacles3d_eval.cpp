@@ -220,9 +220,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   mount.position_m = Eigen::Vector3d(0, 0, base.camera_height_m);
   const arm::CameraToVehicle to_vehicle(mount);
   const o3::CandidateParameters candidate_parameters;  // the command's defaults (--obstacle-height-m 0.2)
-  Eigen::Isometry3d vehicle_from_camera = Eigen::Isometry3d::Identity();
-  vehicle_from_camera.linear() = to_vehicle.rotation();
-  vehicle_from_camera.translation() = to_vehicle.translation_m();
+  const Eigen::Isometry3d vehicle_from_camera = to_vehicle.vehicle_from_camera();
 
   arm::StereoOdometryParameters odometry_parameters;  // the command's (tools/obstacles3d_command.cpp)
   odometry_parameters.focal_px = focal_px;

@@ -212,7 +212,6 @@ int Obstacles3dCommand::run() const {
   // parameters before any frame is read, and again when the mount is estimated from a frame.
   struct Method {
     std::unique_ptr<arm::CameraToVehicle> to_vehicle;
-    Eigen::Isometry3d vehicle_from_camera = Eigen::Isometry3d::Identity();
     std::unique_ptr<o3::OccupancyGrid> grid;
     std::unique_ptr<o3::AugmentedStixels> stixels;
     std::unique_ptr<o3::VoxelMap> voxel_map;
@@ -222,13 +221,11 @@ int Obstacles3dCommand::run() const {
   const auto build_method = [&](const arm::CameraMount& for_mount) {
     Method built;
     built.to_vehicle = std::make_unique<arm::CameraToVehicle>(for_mount);
-    built.vehicle_from_camera.linear() = built.to_vehicle->rotation();
-    built.vehicle_from_camera.translation() = built.to_vehicle->translation_m();
     try {
       o3::OccupancyGridParameters grid_parameters = o3::OccupancyGridParameters::defaults(grid_kind_of(method_), width);
       grid_parameters.error_model = error_model;
       grid_parameters.principal_u_px = geometry.cx_left_px;
-      grid_parameters.vehicle_from_camera = built.vehicle_from_camera;
+      grid_parameters.vehicle_from_camera = built.to_vehicle->vehicle_from_camera();
       if (method_ == "stixels") {
         o3::AugmentedStixelParameters stixel_parameters;
         stixel_parameters.grid = grid_parameters;
@@ -317,7 +314,8 @@ int Obstacles3dCommand::run() const {
     o3::EgoMotion ego_motion;
     if (i > 0 && motion.statistics.valid) {
       ego_motion.available = true;
-      ego_motion.previous_from_current = method.vehicle_from_camera * motion.increment * method.vehicle_from_camera.inverse();
+      const Eigen::Isometry3d vehicle_from_camera = method.to_vehicle->vehicle_from_camera();
+      ego_motion.previous_from_current = vehicle_from_camera * motion.increment * vehicle_from_camera.inverse();
     } else if (i > 0) {
       if (static_frames == 0) {
         std::fprintf(stderr, "obstacles3d: frame %d: visual odometry failed (%d inliers): no ego-motion, static camera assumed "

@@ -153,9 +153,7 @@ PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShap
   polar.error_model.focal_px = p.focal_px;
   polar.error_model.baseline_m = p.baseline_m;
   polar.principal_u_px = u0_px;
-  polar.vehicle_from_camera = Eigen::Isometry3d::Identity();
-  polar.vehicle_from_camera.linear() = to_vehicle.rotation();
-  polar.vehicle_from_camera.translation() = to_vehicle.translation_m();
+  polar.vehicle_from_camera = to_vehicle.vehicle_from_camera();
   polar.threads = 1;  // one ARM core; the scheduler places the task
   p.stixels.min_points = param_int(params, "min_points", 3, 1, 1 << 20);
   p.stixels.max_height_gap_m = param_double(params, "max_height_gap_m", 0.5, 0.0, 100.0);

@@ -205,8 +205,7 @@ TEST(AugmentedStixelsTask, BoxAndHangingSignOverFlatTerrain) {
   parameters.grid.error_model.focal_px = kFocalPx;
   parameters.grid.error_model.baseline_m = kBaselineM;
   parameters.grid.principal_u_px = 19.5;
-  parameters.grid.vehicle_from_camera.linear() = to_vehicle.rotation();
-  parameters.grid.vehicle_from_camera.translation() = to_vehicle.translation_m();
+  parameters.grid.vehicle_from_camera = to_vehicle.vehicle_from_camera();
   o3::AugmentedStixels stixels(parameters);
   stixels.update(candidates, o3::EgoMotion{});
   EXPECT_EQ(static_cast<int>(stixels.stixels().size()), header[arm::kStixelHeaderTotal]);
