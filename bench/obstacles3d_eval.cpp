@@ -35,10 +35,14 @@
 //                   moving objects matched by a confirmed track.
 //
 // Usage: obstacles3d_eval [--frames N] [--seeds N] [--scenes urban,country,mining,floating]
-//        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N]
-// (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2.)
+//        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
+//        [--misses FILE.csv]
+// (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2;
+// --first-seed: seeds S .. S + N - 1, default 1; --misses: one CSV row per missed object and per false
+// positive of every method, with the nearest obstacle, for finding out why.)
 // Exit 0 when every line is met, 1 otherwise (the issue wants >= 300 frames and several seeds).
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -82,6 +86,16 @@ struct Settings {
   bool true_ego_motion = false;  // --ego-motion truth; default vo (arm::StereoOdometry, as the command)
   bool colour = true;            // --grey: candidates coloured from the grey image instead
   int threads = 2;
+  int first_seed = 1;
+  std::string misses_path;  // --misses: the CSV of misses and false positives, empty: none
+};
+
+// Where the rows of --misses go, and which sequence frame is being scored.
+struct MissLog {
+  std::FILE* file = nullptr;
+  std::string scene;
+  uint32_t seed = 0;
+  int frame = 0;
 };
 
 struct Tally {  // per method
@@ -133,14 +147,38 @@ bool in_gate(const o3::Obstacle3d& obstacle, const io::SequenceObjectTruth& obje
          std::abs(obstacle.position_m.z() - object.truth.position_m[2]) <= gate.depth_m;
 }
 
+// One --misses row: scene, seed, frame, method, kind (miss | false_positive), then the object's truth
+// (class, id, camera-frame x z, visible pixels; empty for a false positive) and an obstacle (for a
+// miss: the nearest one by ground distance, in or out of the gate; for a false positive: itself), its
+// x z, size w h l, min and max height above the terrain.
+void log_row(const MissLog& log, const char* method, const char* kind, const io::SequenceObjectTruth* object, const o3::Obstacle3d* obstacle) {
+  if (log.file == nullptr) return;
+  std::fprintf(log.file, "%s,%u,%d,%s,%s,", log.scene.c_str(), log.seed, log.frame, method, kind);
+  if (object != nullptr) {
+    std::fprintf(log.file, "%s,%d,%.2f,%.2f,%lld,", io::synth_class_name(object->truth.object.object_class), object->truth.id,
+                 object->truth.position_m[0], object->truth.position_m[2], static_cast<long long>(object->truth.visible_pixels));
+  } else {
+    std::fprintf(log.file, ",,,,,");
+  }
+  if (obstacle != nullptr) {
+    std::fprintf(log.file, "%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f\n", obstacle->position_m.x(), obstacle->position_m.z(), obstacle->size_m.x(),
+                 obstacle->size_m.y(), obstacle->size_m.z(), obstacle->min_height_m, obstacle->max_height_m);
+  } else {
+    std::fprintf(log.file, ",,,,,,\n");
+  }
+}
+
 void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoSequenceFrame& frame, const o3::StereoErrorModel& error_model,
-                 const Settings& settings, bool is_voxels, Tally& tally) {
+                 const Settings& settings, bool is_voxels, const char* method, const MissLog& log, Tally& tally) {
   ++tally.frames;
   for (const o3::Obstacle3d& obstacle : obstacles) {
     if (obstacle.position_m.z() > settings.range_m) continue;
     bool matched = false;
     for (const io::SequenceObjectTruth& object : frame.objects) matched = matched || in_gate(obstacle, object, gate_of(object, error_model));
-    if (!matched) ++tally.false_positives;
+    if (!matched) {
+      ++tally.false_positives;
+      log_row(log, method, "false_positive", nullptr, &obstacle);
+    }
   }
   for (const io::SequenceObjectTruth& object : frame.objects) {
     if (object.truth.visible_pixels < settings.min_pixels || object.truth.position_m[2] > settings.range_m) continue;
@@ -155,7 +193,16 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
       if (distance < nearest_distance) nearest_distance = distance, nearest = &obstacle;
       if (!highest_lower_edge || obstacle.min_height_m > highest_lower_edge->min_height_m) highest_lower_edge = &obstacle;
     }
-    if (!nearest) continue;
+    if (!nearest) {
+      const o3::Obstacle3d* nearest_anywhere = nullptr;
+      double nearest_anywhere_m = 1e9;
+      for (const o3::Obstacle3d& obstacle : obstacles) {
+        const double distance = std::hypot(obstacle.position_m.x() - object.truth.position_m[0], obstacle.position_m.z() - object.truth.position_m[2]);
+        if (distance < nearest_anywhere_m) nearest_anywhere_m = distance, nearest_anywhere = &obstacle;
+      }
+      log_row(log, method, "miss", &object, nearest_anywhere);
+      continue;
+    }
     ++tally.detected;
     const io::SynthClass object_class = object.truth.object.object_class;
     if (is_floating(object_class)) {
@@ -192,7 +239,7 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
   }
 }
 
-std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Settings& settings) {
+std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Settings& settings, std::FILE* log_file) {
   io::StereoSequenceOptions options = io::preset_stereo_sequence(scene, seed);
   options.frames = settings.frames;
   options.base.colour = settings.colour;
@@ -263,8 +310,10 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   o3::ObstacleTracker3d tracker(tracking);
 
   std::vector<Tally> tallies(kMethods);
+  MissLog log{log_file, scene, seed, 0};
   io::SynthCameraPose previous_pose = first.pose;
   for (int n = 0; n < settings.frames; ++n) {
+    log.frame = n;
     started = Clock::now();
     const io::StereoSequenceFrame frame = n == 0 ? first : io::render_sequence_frame(options, n);
     render_s += seconds_since(started);
@@ -298,14 +347,15 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     previous_pose = frame.pose;
     for (int g = 0; g < 3; ++g) {
       grids[static_cast<size_t>(g)]->update(candidates, ego_motion);
-      score_frame(grids[static_cast<size_t>(g)]->obstacles(), frame, error_model, settings, false, tallies[static_cast<size_t>(g)]);
+      score_frame(grids[static_cast<size_t>(g)]->obstacles(), frame, error_model, settings, false, kMethodNames[g], log,
+                  tallies[static_cast<size_t>(g)]);
     }
     stixels.update(candidates, ego_motion);
-    score_frame(stixels.obstacles(), frame, error_model, settings, false, tallies[3]);
+    score_frame(stixels.obstacles(), frame, error_model, settings, false, kMethodNames[3], log, tallies[3]);
     voxel_map.update(candidates, ego_motion);
     const o3::ClusteringResult clusters = o3::cluster_voxels(voxel_map, clustering);
     const o3::TrackingResult& tracks = tracker.update(clusters.clusters, voxel_map.world_from_current());
-    score_frame(tracks.obstacles, frame, error_model, settings, true, tallies[4]);
+    score_frame(tracks.obstacles, frame, error_model, settings, true, kMethodNames[4], log, tallies[4]);
     pipeline_s += seconds_since(started);
   }
   std::printf("%-9s seed %u: %d frames rendered in %.1f s (%.2f s a frame), processed and scored in %.1f s (%.2f s a frame), wall clock\n",
@@ -355,34 +405,49 @@ int main(int argc, char** argv) {
       settings.colour = false;
     } else if (arg == "--threads" && has_value) {
       settings.threads = std::atoi(argv[++i]);
+    } else if (arg == "--first-seed" && has_value) {
+      settings.first_seed = std::atoi(argv[++i]);
+    } else if (arg == "--misses" && has_value) {
+      settings.misses_path = argv[++i];
     } else {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
-                   "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N]\n",
+                   "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] "
+                   "[--misses FILE.csv]\n",
                    arg.c_str());
       return 2;
     }
   }
   if (settings.frames < 2 || settings.seeds < 1 || settings.scenes.empty() || !(settings.range_m > 0) || settings.threads < 1 ||
-      settings.threads > 64) {
+      settings.threads > 64 || settings.first_seed < 0) {
     std::fprintf(stderr,
-                 "obstacles3d_eval: expected --frames >= 2, --seeds >= 1, a scene, --range-m > 0 and --threads in [1, 64], got %d, %d, %zu, "
-                 "%.2f, %d\n",
-                 settings.frames, settings.seeds, settings.scenes.size(), settings.range_m, settings.threads);
+                 "obstacles3d_eval: expected --frames >= 2, --seeds >= 1, a scene, --range-m > 0, --threads in [1, 64] and --first-seed >= 0, "
+                 "got %d, %d, %zu, %.2f, %d, %d\n",
+                 settings.frames, settings.seeds, settings.scenes.size(), settings.range_m, settings.threads, settings.first_seed);
     return 2;
   }
-  std::printf("obstacles3d_eval: %d frames per sequence (the issue wants >= 300), %d seed(s), 640x480, ego-motion %s, candidates "
+  std::FILE* log_file = nullptr;
+  if (!settings.misses_path.empty()) {
+    log_file = std::fopen(settings.misses_path.c_str(), "w");
+    if (log_file == nullptr) {
+      std::fprintf(stderr, "obstacles3d_eval: --misses: cannot write '%s': %s\n", settings.misses_path.c_str(), std::strerror(errno));
+      return 2;
+    }
+    std::fprintf(log_file, "scene,seed,frame,method,kind,class,id,truth_x_m,truth_z_m,visible_pixels,obstacle_x_m,obstacle_z_m,width_m,"
+                           "height_m,length_m,min_height_m,max_height_m\n");
+  }
+  std::printf("obstacles3d_eval: %d frames per sequence (the issue wants >= 300), seeds %d..%d, 640x480, ego-motion %s, candidates "
               "coloured from the %s image, %d thread(s);\n"
               "objects counted when >= %lld visible pixels and <= %.0f m; gate |dx| <= 1 m + w/2, |dz| <= max(1 m, 3 sigma_Z) + l/2\n",
-              settings.frames, settings.seeds,
+              settings.frames, settings.first_seed, settings.first_seed + settings.seeds - 1,
               settings.true_ego_motion ? "TRUE (the sequence's camera motion)" : "from visual odometry (as the command)",
               settings.colour ? "left colour" : "grey", settings.threads, static_cast<long long>(settings.min_pixels), settings.range_m);
 
   std::vector<std::vector<Tally>> per_scene(settings.scenes.size(), std::vector<Tally>(kMethods));
   try {
     for (size_t s = 0; s < settings.scenes.size(); ++s) {
-      for (int seed = 1; seed <= settings.seeds; ++seed) {
-        const std::vector<Tally> tallies = evaluate(settings.scenes[s], static_cast<uint32_t>(seed), settings);
+      for (int seed = settings.first_seed; seed < settings.first_seed + settings.seeds; ++seed) {
+        const std::vector<Tally> tallies = evaluate(settings.scenes[s], static_cast<uint32_t>(seed), settings, log_file);
         std::printf("%-9s seed %d:", settings.scenes[s].c_str(), seed);
         for (int m = 0; m < kMethods; ++m) {
           const Tally& t = tallies[static_cast<size_t>(m)];
@@ -396,6 +461,14 @@ int main(int argc, char** argv) {
     }
   } catch (const std::exception& error) {
     std::fprintf(stderr, "obstacles3d_eval: %s\n", error.what());
+    if (log_file != nullptr) {  // no half-written file
+      std::fclose(log_file);
+      std::remove(settings.misses_path.c_str());
+    }
+    return 2;
+  }
+  if (log_file != nullptr && std::fclose(log_file) != 0) {
+    std::fprintf(stderr, "obstacles3d_eval: --misses: writing '%s' failed\n", settings.misses_path.c_str());
     return 2;
   }
 
