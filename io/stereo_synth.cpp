@@ -426,7 +426,7 @@ void hit_object(const Placed& p, Vec o, Vec d, ObjectHit& best) {
   }
 }
 
-Rgb object_albedo(const Placed& p, const ObjectHit& hit, double footprint) {
+Rgb object_albedo(const Placed& p, const ObjectHit& hit, double footprint, synth_detail::NoiseCell (&cells)[4]) {
   const double f = hit.height / p.object.height_m;  // 0 at the base, 1 at the top
   Rgb base = p.colour;
   switch (p.object.object_class) {
@@ -443,7 +443,7 @@ Rgb object_albedo(const Placed& p, const ObjectHit& hit, double footprint) {
     case SynthClass::ball_on_post: if (hit.part == 1) base = {150, 150, 155}; break;  // galvanised supports
     default: break;
   }
-  return base * (1.0 + texture(kObject, hit.s, hit.r, p.seed, footprint));
+  return base * (1.0 + texture(kObject, hit.s, hit.r, p.seed, footprint, cells));
 }
 
 struct Sample {
@@ -480,6 +480,8 @@ class Renderer {
       camera_.position = {options.camera_x_m, road_.ground_y(options.camera_x_m, options.camera_z_m) - options.camera_height_m,
                           options.camera_z_m};
     }
+    origins_[0] = camera_.origin(0, options.baseline_m);
+    origins_[1] = camera_.origin(1, options.baseline_m);
     SplitMix colours{uint64_t{options.seed} * 7777u + 5};
     for (size_t i = 0; i < options.objects.size(); ++i) place(options.objects[i], i, colours);
   }
@@ -488,9 +490,21 @@ class Renderer {
   const Road& road() const { return road_; }
   const std::vector<Placed>& placed() const { return placed_; }
 
-  Sample trace(int view, double u, double v, int pixel_u, int pixel_v) const {
-    const Vec o = camera_.origin(view, options_.baseline_m);
-    const Vec d = camera_.ray(u, v);
+  // Per thread: the noise cells of the textures (one set per surface; objects share one) and of the
+  // background wall's outline. Only speeds the lookups up: the values are the same bits.
+  struct TextureCache {
+    synth_detail::NoiseCell asphalt[4], verge[4], object[4], wall[4], sky[4];
+    synth_detail::NoiseCell wall_top;
+    SynthGroundTruth::NoiseCache normal;  // the height field's, for ground_normal
+  };
+
+  // The sample along the ray from view `view`'s centre in direction d (camera_.ray) through pixel
+  // (pixel_u, pixel_v) (the objects' pixel bounds), whose ground hit road_.hit() is t_road. Without
+  // `shade` only depth and id (the colour stays black). `sky` (may be null): the sky's colour along d
+  // when known (the sky depends on the direction alone, so the two views share it) or to be filled in.
+  Sample trace(int view, Vec d, int pixel_u, int pixel_v, double t_road, bool shade, TextureCache& cache,
+               std::optional<Rgb>* sky = nullptr) const {
+    const Vec o = origins_[view];
     const double length = std::sqrt(dot(d, d));
     const double footprint_per_t = length / camera_.focal_px;  // metres per pixel per unit depth
     const uint64_t seed = options_.seed;
@@ -505,63 +519,75 @@ class Renderer {
       hit_object(placed_[i], o, d, object);
       if (object.t < before) object_index = static_cast<int>(i);
     }
-    const double t_road = road_.hit(o, d);
     double t_wall = kInfinity, wall_y = 0;
-    if (d.z > 0) {
+    // A ground hit before the wall's plane decides every comparison below whether or not the ray
+    // meets the wall (its outline), so the outline's noise is looked up only when it can matter.
+    if (d.z > 0 && !(t_road < (road_.end_m - o.z) / d.z)) {
       t_wall = (road_.end_m - o.z) / d.z;
       wall_y = o.y + t_wall * d.y;
       const double x = o.x + t_wall * d.x;
-      const double top = road_.y_at(road_.end_m) - (30 + 20 * value_noise(x / 80.0, 0.5, seed + 11));
+      const double top = road_.y_at(road_.end_m) - (30 + 20 * value_noise(x / 80.0, 0.5, seed + 11, cache.wall_top));
       // With a height field the wall reaches down to the field's lowest point (a ditch runs under it).
       const double bottom = road_.y_at(road_.end_m) + (field_ ? std::max(0.0, -field_->min_elevation_m()) : 0.0);
       if (wall_y < top || wall_y > bottom + 1e-9) t_wall = kInfinity;
     }
 
     if (object_index >= 0 && object.t <= t_road && object.t <= t_wall) {
+      sample.depth = object.t;
+      sample.id = object_index + 1;
+      if (!shade) return sample;
       const Placed& p = placed_[static_cast<size_t>(object_index)];
       const double grazing = std::max(std::abs(dot(object.normal, d)) / length, 0.1);
       const double footprint = object.t * footprint_per_t / std::sqrt(grazing);
-      const double shade = 0.55 + 0.45 * std::max(0.0, dot(object.normal, kLight));
-      sample.colour = object_albedo(p, object, footprint) * shade;
-      sample.depth = object.t;
-      sample.id = object_index + 1;
+      const double shade_factor = 0.55 + 0.45 * std::max(0.0, dot(object.normal, kLight));
+      sample.colour = object_albedo(p, object, footprint, cache.object) * shade_factor;
     } else if (t_road < t_wall) {
-      const double x = o.x + t_road * d.x, z = o.z + t_road * d.z;
-      const double grazing = std::max(std::abs(field_ ? dot(ground_normal(x, z), d) : d.y) / length, 0.02);
-      const double footprint = t_road * footprint_per_t / std::sqrt(grazing);
-      sample.colour = road_albedo(x, z, footprint);
       sample.depth = t_road;
+      if (!shade) return sample;
+      const double x = o.x + t_road * d.x, z = o.z + t_road * d.z;
+      const double grazing = std::max(std::abs(field_ ? dot(ground_normal(x, z, cache.normal), d) : d.y) / length, 0.02);
+      const double footprint = t_road * footprint_per_t / std::sqrt(grazing);
+      sample.colour = road_albedo(x, z, footprint, cache);
     } else if (t_wall < kInfinity) {
+      sample.depth = t_wall;
+      if (!shade) return sample;
       const double x = o.x + t_wall * d.x;
       const double footprint = t_wall * footprint_per_t;
-      sample.colour = Rgb{95, 105, 90} * (1.0 + texture(kWall, x, wall_y, seed + 101, footprint));
-      sample.depth = t_wall;
+      sample.colour = Rgb{95, 105, 90} * (1.0 + texture(kWall, x, wall_y, seed + 101, footprint, cache.wall));
     } else {
+      if (!shade) return sample;
+      if (sky != nullptr && sky->has_value()) {
+        sample.colour = **sky;
+        return sample;
+      }
       // Sky: a texture of the direction only, so both views see it at the same pixel (disparity 0).
       const double azimuth = std::atan2(d.x, d.z) * 1000, elevation = std::atan2(-d.y, std::hypot(d.x, d.z)) * 1000;
-      sample.colour = Rgb{185, 200, 220} * (1.0 + texture(kSky, azimuth, elevation, seed + 202, 1000.0 / camera_.focal_px));
+      sample.colour = Rgb{185, 200, 220} * (1.0 + texture(kSky, azimuth, elevation, seed + 202, 1000.0 / camera_.focal_px, cache.sky));
+      if (sky != nullptr) *sky = sample.colour;
     }
     return sample;
   }
 
+  // View `view`'s centre (camera_.origin), computed once.
+  Vec origin(int view) const { return origins_[view]; }
+
  private:
   // The unit normal of the height-field ground at (x, z), from central differences (1 cm).
-  Vec ground_normal(double x, double z) const {
+  Vec ground_normal(double x, double z, SynthGroundTruth::NoiseCache& cache) const {
     const double step = 0.01;
-    SynthGroundTruth::NoiseCache cache;  // the four points mostly share their noise cells
     const double dydx = (road_.ground_y(x + step, z, cache) - road_.ground_y(x - step, z, cache)) / (2 * step);
     const double dydz = (road_.ground_y(x, z + step, cache) - road_.ground_y(x, z - step, cache)) / (2 * step);
     return normalized({-dydx, 1, -dydz});
   }
 
-  Rgb road_albedo(double x, double z, double footprint) const {
+  Rgb road_albedo(double x, double z, double footprint, TextureCache& cache) const {
     const double ax = std::abs(x);
-    if (ax > 5.6) return Rgb{80, 105, 65} * (1.0 + texture(kVerge, x, z, options_.seed + 303, footprint));
+    if (ax > 5.6) return Rgb{80, 105, 65} * (1.0 + texture(kVerge, x, z, options_.seed + 303, footprint, cache.verge));
     // Lane markings 0.15 m wide: solid road edges at +-5.25 m, dashed lane lines at +-1.75 m
     // (3 m dashes every 9 m); the left camera is centred in the middle lane.
     const bool edge = std::abs(ax - 5.25) < 0.075;
     const bool lane = std::abs(ax - 1.75) < 0.075 && std::fmod(std::max(z, 0.0), 9.0) < 3.0;
-    const double grain = 1.0 + texture(kAsphalt, x, z, options_.seed + 404, footprint);
+    const double grain = 1.0 + texture(kAsphalt, x, z, options_.seed + 404, footprint, cache.asphalt);
     return (edge || lane) ? Rgb{225, 225, 220} * (0.85 + 0.15 * grain) : Rgb{100, 100, 104} * grain;
   }
 
@@ -640,6 +666,7 @@ class Renderer {
   Road road_{};
   std::optional<SynthGroundTruth> field_;
   std::vector<Placed> placed_;
+  Vec origins_[2];
 };
 
 }  // namespace
@@ -918,19 +945,39 @@ StereoSynthScene render_stereo_synth(const StereoSynthOptions& options, const st
 
   const synth_detail::SensorModel sensors[2] = {{options.noise_sigma, 1.0, 0.0},
                                                 {options.noise_sigma, options.right_gain, options.right_offset}};
+  // Per row and view: every ray's direction (samples^2 per pixel, then for the left view the pixel
+  // centre's ray of the ground truth) and its ground hit, then each pixel's samples in the order of
+  // their sum. The centre's ray needs no colour (trace without shading), and the right view's samples
+  // take the sky's colour from the left view's (the same directions).
+  const int per_pixel[2] = {samples * samples + 1, samples * samples};
   auto render_row = [&](int v) {
     std::vector<Rgb> row(static_cast<size_t>(width));
+    std::vector<Vec> directions(static_cast<size_t>(width * per_pixel[0]));
+    std::vector<double> t_road(directions.size());
+    // The left view's sky colour per sample ray; the right view's ray of the same sample has the
+    // same direction, and the sky depends on the direction alone.
+    std::vector<std::optional<Rgb>> sky(static_cast<size_t>(width * samples * samples));
+    Renderer::TextureCache cache;
     for (int view = 0; view < 2; ++view) {
+      Vec* d = directions.data();
       for (int u = 0; u < width; ++u) {
-        Rgb sum;
         for (int j = 0; j < samples; ++j) {
-          for (int i = 0; i < samples; ++i) {
-            sum = sum + renderer.trace(view, u + (i + 0.5) / samples - 0.5, v + (j + 0.5) / samples - 0.5, u, v).colour;
-          }
+          for (int i = 0; i < samples; ++i) *d++ = renderer.camera().ray(u + (i + 0.5) / samples - 0.5, v + (j + 0.5) / samples - 0.5);
+        }
+        if (view == 0) *d++ = renderer.camera().ray(u, v);
+      }
+      for (int i = 0; i < width * per_pixel[view]; ++i) t_road[static_cast<size_t>(i)] = renderer.road().hit(renderer.origin(view), directions[static_cast<size_t>(i)]);
+      for (int u = 0; u < width; ++u) {
+        const size_t first = static_cast<size_t>(u * per_pixel[view]);
+        Rgb sum;
+        for (int k = 0; k < samples * samples; ++k) {
+          sum = sum + renderer.trace(view, directions[first + k], u, v, t_road[first + k], true, cache,
+                                     &sky[static_cast<size_t>(u * samples * samples + k)]).colour;
         }
         row[static_cast<size_t>(u)] = sum * (1.0 / (samples * samples));
         if (view == 0) {  // ground truth from the ray through the pixel centre
-          const Sample centre = renderer.trace(0, u, v, u, v);
+          const size_t c = first + static_cast<size_t>(samples * samples);
+          const Sample centre = renderer.trace(0, directions[c], u, v, t_road[c], false, cache);
           scene.disparity_px.at<float>(v, u) = std::isfinite(centre.depth) ? static_cast<float>(fb / centre.depth)
                                                                             : std::numeric_limits<float>::infinity();
           scene.object_ids.at<uint16_t>(v, u) = static_cast<uint16_t>(centre.id);

@@ -66,18 +66,22 @@ inline double value_noise(double x, double y, uint64_t seed) {
   return value_noise_in_cell(corner, x, y, fx, fy);
 }
 
-// value_noise through a cache of the last cell's corners (one cache per seed): the same value, bit
-// for bit; for a ray march whose consecutive steps mostly stay in a cell of the coarse octaves.
+// value_noise through a cache of the last cell's corners: the same value, bit for bit; for a ray
+// march whose consecutive steps mostly stay in a cell of the coarse octaves, and for the textures of
+// neighbouring samples. The cell remembers its seed, so one cache may serve several seeds (it refills
+// on a change).
 struct NoiseCell {
   int64_t ix = 0, iy = 0;
   bool filled = false;
   double corner[4] = {0, 0, 0, 0};
+  uint64_t seed = 0;
 };
-inline double value_noise(double x, double y, uint64_t seed, NoiseCell& cell) {
+// Always inlined: the ray march calls it four times per step, and a call would be most of its cost.
+[[gnu::always_inline]] inline double value_noise(double x, double y, uint64_t seed, NoiseCell& cell) {
   const double fx = std::floor(x), fy = std::floor(y);
   const auto ix = static_cast<int64_t>(fx), iy = static_cast<int64_t>(fy);
-  if (!cell.filled || ix != cell.ix || iy != cell.iy) {
-    cell = {ix, iy, true, {lattice(ix, iy, seed), lattice(ix + 1, iy, seed), lattice(ix, iy + 1, seed), lattice(ix + 1, iy + 1, seed)}};
+  if (!cell.filled || ix != cell.ix || iy != cell.iy || seed != cell.seed) {
+    cell = {ix, iy, true, {lattice(ix, iy, seed), lattice(ix + 1, iy, seed), lattice(ix, iy + 1, seed), lattice(ix + 1, iy + 1, seed)}, seed};
   }
   return value_noise_in_cell(cell.corner, x, y, fx, fy);
 }
@@ -99,6 +103,17 @@ inline double texture(const Texture& t, double s, double r, uint64_t seed, doubl
   for (int k = 0; k < t.octaves; ++k) {
     const double weight = octave_weight(t.cells[k], footprint);
     if (weight > 0) sum += weight * t.amplitudes[k] * value_noise(s / t.cells[k], r / t.cells[k], seed + 7919u * static_cast<uint64_t>(k));
+  }
+  return sum;
+}
+
+// texture() through one noise cell per octave (`cells`, one set per surface and thread): the same
+// value, bit for bit.
+inline double texture(const Texture& t, double s, double r, uint64_t seed, double footprint, NoiseCell (&cells)[4]) {
+  double sum = 0;
+  for (int k = 0; k < t.octaves; ++k) {
+    const double weight = octave_weight(t.cells[k], footprint);
+    if (weight > 0) sum += weight * t.amplitudes[k] * value_noise(s / t.cells[k], r / t.cells[k], seed + 7919u * static_cast<uint64_t>(k), cells[k]);
   }
   return sum;
 }

@@ -638,6 +638,32 @@ TEST(StereoSynthGround, CachedValueNoiseIsTheSameBitsAsThePlainOne) {
   EXPECT_NE(io::synth_detail::value_noise(10.5, 0.5, 5, cell), first);
 }
 
+// The renderer's textures go through one noise cell per octave and surface (io/synth_render.h),
+// shared by every object's seed: the cached texture gives the plain one's bits at every footprint
+// (octaves fading in and out), along a path through several cells, and a cell filled for one seed is
+// refilled, not reused, for another seed at the same cell.
+TEST(StereoSynthGround, CachedTextureIsTheSameBitsAsThePlainOneAcrossSeeds) {
+  const io::synth_detail::Texture texture{{0.012, 0.035, 0.1, 0.3}, {0.25, 0.2, 0.15, 0.1}, 4};
+  io::synth_detail::NoiseCell cells[4];
+  int compared = 0, differing_seeds = 0;
+  for (int i = 0; i < 600; ++i) {
+    const double s = -1.0 + i * 0.004, r = 0.3 + 0.1 * std::sin(i * 0.03);
+    const double footprint = 0.001 + 0.0005 * (i % 40);  // from every octave to only the coarsest
+    for (const uint64_t seed : {uint64_t{17}, uint64_t{18}, uint64_t{1000003}}) {
+      const double cached = io::synth_detail::texture(texture, s, r, seed, footprint, cells);
+      const double plain = io::synth_detail::texture(texture, s, r, seed, footprint);
+      ASSERT_EQ(std::memcmp(&cached, &plain, sizeof cached), 0) << s << ", " << r << ", seed " << seed;
+      ++compared;
+    }
+    // Same point, same cells, other seed: a stale cell would give seed 17's value for seed 18.
+    if (io::synth_detail::texture(texture, s, r, 17, 0.001, cells) != io::synth_detail::texture(texture, s, r, 18, 0.001, cells)) {
+      ++differing_seeds;
+    }
+  }
+  EXPECT_EQ(compared, 1800);
+  EXPECT_GT(differing_seeds, 590);
+}
+
 TEST(StereoSynthGround, GroundJsonHoldsTheTrueHeight) {
   lpstereo::testing::ScratchDirectory scratch("lpstereo_synth");
   StereoSynthOptions options = field_options();
