@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "arm/terrain/terrain_model.h"
 
@@ -186,6 +187,37 @@ TEST(ClassifyPoints, StereoMarginPushesGroundLikePointsBackOntoTheSurface) {
   stereo.focal_baseline_px_m = 166;
   stereo.optical_axis = Eigen::Vector3d(2, 0, 0);
   EXPECT_THROW(classify_points(points, terrain, 0.2, stereo), std::invalid_argument);
+}
+
+// Support: with a 2 px margin (10, 0, 0.30) falls back (worked above); beside a sure obstacle point
+// (10.1, 0.1, 0.80) in the same 0.5 m cell it is an obstacle again with support_reach_cells 0, while
+// the same height at (10, -3) with no sure point within a cell stays terrain; one cell away
+// ((10.6, 0.1), the next forward cell) it needs reach 1; off (-1) both fall back.
+TEST(ClassifyPoints, SupportKeepsLowPointsBesideSureOnes) {
+  HeightGrid grid = plane_grid(0.0, 0.0);
+  grid.height_m.setZero();
+  const TerrainEstimate terrain = fit_terrain(grid, parameters_for_plane());
+  ASSERT_TRUE(terrain.known) << terrain.reason;
+  StereoRayModel stereo;
+  stereo.camera_centre_m = Eigen::Vector3d(0, 0, 1.5);
+  stereo.optical_axis = Eigen::Vector3d::UnitX();
+  stereo.focal_baseline_px_m = 166;
+  stereo.disparity_margin_px = 2.0;
+  const std::vector<Eigen::Vector3d> same_cell = {{10, 0, 0.30}, {10.1, 0.1, 0.80}, {10, -3, 0.30}};
+  const std::vector<Eigen::Vector3d> next_cell = {{10, 0, 0.30}, {10.6, 0.1, 0.80}};
+  const auto classes = [&](const std::vector<Eigen::Vector3d>& points, int reach) {
+    stereo.support_reach_cells = reach;
+    std::vector<int> result;
+    for (PointClass c : classify_points(points, terrain, 0.2, stereo)) result.push_back(int(c));
+    return result;
+  };
+  const int obstacle = int(PointClass::obstacle), ground = int(PointClass::terrain);
+  EXPECT_EQ(classes(same_cell, -1), (std::vector<int>{ground, obstacle, ground}));
+  EXPECT_EQ(classes(same_cell, 0), (std::vector<int>{obstacle, obstacle, ground}));
+  EXPECT_EQ(classes(next_cell, 0), (std::vector<int>{ground, obstacle}));
+  EXPECT_EQ(classes(next_cell, 1), (std::vector<int>{obstacle, obstacle}));
+  stereo.support_reach_cells = -2;
+  EXPECT_THROW(classify_points(same_cell, terrain, 0.2, stereo), std::invalid_argument);
 }
 
 }  // namespace
