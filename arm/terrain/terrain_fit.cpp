@@ -34,7 +34,7 @@
 //   gives 6.9 cm RMS against the true ground and 93 % obstacle precision, factor 3 (default) 2.8 cm
 //   and 100 %; obstacles stand far above 3 mean errors, so the thesis's deviation test gets
 //   better too (2 m boxes: 2.2 % -> 0.5 % with 25 x 25; bench/terrain_bench.cpp prints both).
-//   Step rule (equalisation_step_m > 0, default 0.45 m; not in the thesis): a sample more than
+//   Step rule (equalisation_step_m > 0; off by default, 0.45 m measured; not in the thesis): a sample more than
 //   equalisation_step_m above the surface is equalised only within equalisation_step_reach_cells
 //   (default 4: 2 m) of an edge cell, a valid cell more than equalisation_step_m above a valid
 //   4-neighbour of the input grid (computed once, before the iterations). The thesis equalises
