@@ -19,6 +19,12 @@
 //                      id image) and the exact 3D point of that pixel is more than 20 cm above the true
 //                      ground; found when classify_points says obstacle. Precision and recall over the
 //                      measured points the surface covers (the line: both >= 95 %).
+//                      Classified by classify_points with a StereoRayModel: a 1 px disparity margin
+//                      with support in the point's own cell (--disparity-margin, --support-reach;
+//                      --disparity-margin 0 for the plain height test).
+// --fp-bands prints, per scene, where the false obstacle points on ground pixels are (5 m bands: their
+// own height error, the surface's, how many lie within 2 m of the berm line y = 7 m) and why (nearest
+// object pixel, disparity error).
 // The mount is checked first on the exact ground truth: its ground pixels, through the same
 // triangulation formula and CameraToVehicle, must lie on SynthGroundTruth (max error: "mount").
 // Diagnostics beside the two lines, to tell the stereo's share from the fit's: "bias" (mean signed
@@ -34,6 +40,7 @@
 //        [--control N] [--initial-control N] [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A]
 //        [--threshold-factor F] [--alpha-step A] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
 //        [--noise-quantile Q] [--discontinuity-radius R] [--discontinuity-jump J] [--disparity-margin M] [--exact-points]
+//        [--support-reach N] [--equalisation-step-m S] [--step-reach N] [--fp-bands]
 // The disparity range is 80 at 640 px wide and scales with the width (160 at 1280).
 // Exit 0 when every scene meets both lines, 1 otherwise.
 #include <algorithm>
@@ -74,12 +81,22 @@ struct Settings {
   // disparity before triangulation (radius 0: off).
   int discontinuity_radius_px = 3;
   double discontinuity_jump_px = 2.0;
-  double disparity_margin_px = 0.0;  // --disparity-margin: terrain::StereoRayModel (0: the plain classify_points)
+  // --disparity-margin: terrain::StereoRayModel (0: the plain classify_points); --support-reach: its
+  // support_reach_cells (-1: off). 1 px with support in the point's own cell: see docs/terrain.md.
+  double disparity_margin_px = 1.0;
+  int support_reach_cells = 0;
+  bool false_positive_bands = false;  // --fp-bands: the false obstacle points on ground pixels per 5 m band
   bool bands = false;         // --bands: the surface's RMS error per 5 m band forward x road / beside it
   bool exact_points = false;  // --exact-points: the exact points of every pixel instead of the stereo ones
   double noise_sigma = 1.0;
   int census_width = 5;  // the disparity engine's census window (5 or 9)
-  terrain::TerrainFitParameters fit;
+  // The fit's defaults but the step rule on (0.45 m within 4 cells; --equalisation-step-m 0 for the
+  // thesis's equalisation everywhere): docs/terrain.md has the figures with and without.
+  terrain::TerrainFitParameters fit = [] {
+    terrain::TerrainFitParameters parameters;
+    parameters.equalisation_step_m = 0.45;
+    return parameters;
+  }();
   terrain::TerrainGridSpec grid;  // 0..34 m forward, +-11 m lateral, 0.5 m cells (the thesis's area)
 };
 
@@ -291,8 +308,11 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
   stereo.optical_axis = to_vehicle.rotation() * Eigen::Vector3d::UnitZ();
   stereo.focal_baseline_px_m = scene.focal_px * options.baseline_m;
   stereo.disparity_margin_px = settings.disparity_margin_px;
+  stereo.support_reach_cells = settings.support_reach_cells;
   const std::vector<terrain::PointClass> classes = settings.disparity_margin_px > 0 ? terrain::classify_points(measured, estimate, 0.2, stereo)
                                                                                   : terrain::classify_points(measured, estimate, 0.2);
+  int64_t fp_count[7] = {}, fp_berm[7] = {}, fp_near[4] = {}, fp_disparity[4] = {};
+  double fp_point_error[7] = {}, fp_surface_error[7] = {};
   for (size_t k = 0; k < measured.size(); ++k) {
     if (classes[k] == terrain::PointClass::outside) continue;
     const int u = pixel_of[k] % width, v = pixel_of[k] / width;
@@ -307,6 +327,40 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
     result.false_positive += !obstacle && found ? 1 : 0;
     result.false_positive_ground_pixel += !obstacle && found && scene.object_ids.at<uint16_t>(v, u) == 0 ? 1 : 0;
     result.false_negative += obstacle && !found ? 1 : 0;
+    if (settings.false_positive_bands && !obstacle && found && scene.object_ids.at<uint16_t>(v, u) == 0) {
+      // Why a ground point is taken for an obstacle: its own height error (point above the true
+      // ground) against the surface's error below the truth there.
+      const Eigen::Vector3d& p = measured[k];
+      const int band = std::min(6, static_cast<int>(p.x() / 5));
+      fp_count[band] += 1;
+      fp_point_error[band] += p.z() - ground_height(p);
+      fp_surface_error[band] += estimate.surface.height_m(p.x(), p.y()) - ground_height(p);
+      fp_berm[band] += std::abs(p.y() - 7.0) < 2.0 ? 1 : 0;
+      int nearest = 99;
+      for (int du = -12; du <= 12; ++du) {
+        for (int dv = -12; dv <= 12; ++dv) {
+          const int uu = u + du, vv = v + dv;
+          if (uu < 0 || uu >= width || vv < 0 || vv >= height || scene.object_ids.at<uint16_t>(vv, uu) == 0) continue;
+          nearest = std::min(nearest, std::max(std::abs(du), std::abs(dv)));
+        }
+      }
+      fp_near[nearest <= 3 ? 0 : nearest <= 6 ? 1 : nearest <= 12 ? 2 : 3] += 1;
+      const double truth_disparity = scene.disparity_px.at<float>(v, u);
+      const double measured_disparity = scene.focal_px * options.baseline_m / (p - to_vehicle.translation_m()).dot(to_vehicle.rotation() * Eigen::Vector3d::UnitZ());
+      const double error_px = measured_disparity - truth_disparity;
+      fp_disparity[error_px < 0.5 ? 0 : error_px < 1 ? 1 : error_px < 2 ? 2 : 3] += 1;
+    }
+  }
+  if (settings.false_positive_bands) {
+    std::printf("    FP ground: object within 3 px %lld, 4-6 px %lld, 7-12 px %lld, further %lld; disparity error < 0.5 px %lld, 0.5-1 %lld, 1-2 %lld, >= 2 %lld\n",
+                (long long)fp_near[0], (long long)fp_near[1], (long long)fp_near[2], (long long)fp_near[3], (long long)fp_disparity[0],
+                (long long)fp_disparity[1], (long long)fp_disparity[2], (long long)fp_disparity[3]);
+    for (int band = 0; band < 7; ++band) {
+      if (fp_count[band] == 0) continue;
+      std::printf("    FP ground %2d-%2d m: %6lld points, mean point error %+6.1f cm, mean surface error %+6.1f cm, within 2 m of y = 7 m %lld\n",
+                  5 * band, 5 * band + 5, static_cast<long long>(fp_count[band]), 100 * fp_point_error[band] / fp_count[band],
+                  100 * fp_surface_error[band] / fp_count[band], static_cast<long long>(fp_berm[band]));
+    }
   }
   return result;
 }
@@ -350,9 +404,13 @@ int main(int argc, char** argv) {
     else if (a == "--discontinuity-radius") settings.discontinuity_radius_px = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--discontinuity-jump") settings.discontinuity_jump_px = number_argument(i, argc, argv);
     else if (a == "--disparity-margin") settings.disparity_margin_px = number_argument(i, argc, argv);
+    else if (a == "--support-reach") settings.support_reach_cells = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--equalisation-step-m") settings.fit.equalisation_step_m = number_argument(i, argc, argv);
+    else if (a == "--step-reach") settings.fit.equalisation_step_reach_cells = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--thesis-cell-rule") settings.grid.cell_rule = terrain::TerrainGridSpec::CellRule::thesis;
     else if (a == "--noise-quantile") settings.grid.noise_floor_quantile = number_argument(i, argc, argv);
     else if (a == "--bands") settings.bands = true;
+    else if (a == "--fp-bands") settings.false_positive_bands = true;
     else if (a == "--noise-sigma") settings.noise_sigma = number_argument(i, argc, argv);
     else {
       std::fprintf(stderr, "%s: unknown option (see the header of bench/terrain_synth_eval.cpp)\n", argv[i]);
@@ -362,11 +420,13 @@ int main(int argc, char** argv) {
   const terrain::TerrainFitParameters& f = settings.fit;
   std::printf("terrain_synth_eval: %dx%d, hfov 60 deg, baseline 0.30 m, camera 1.5 m, pitch 0.06 rad, noise %.1f, 4 rays/px; "
               "area %.0fx%.0f m, cell %.2f m; fit: degree %dx%d, control %dx%d (from %dx%d), %d iterations, threshold factor %.2f, "
-              "alpha %.2f + %.2f/iteration, equalisation tolerance %.3f m and %.1f th; obstacle threshold 0.20 m\n",
+              "alpha %.2f + %.2f/iteration, equalisation tolerance %.3f m and %.1f th, step rule %.2f m within %d cells; obstacle threshold 0.20 m, "
+              "disparity margin %.2f px, support %d cells\n",
               settings.width, settings.height, settings.noise_sigma, settings.grid.forward_max_m - settings.grid.forward_min_m,
               settings.grid.lateral_max_m - settings.grid.lateral_min_m, settings.grid.cell_m, f.degree_forward, f.degree_lateral,
               f.control_forward, f.control_lateral, f.initial_control_forward, f.initial_control_lateral, f.max_iterations,
-              f.threshold_factor, f.alpha_initial, f.alpha_step, f.equalisation_tolerance_m, f.equalisation_threshold_factor);
+              f.threshold_factor, f.alpha_initial, f.alpha_step, f.equalisation_tolerance_m, f.equalisation_threshold_factor,
+              f.equalisation_step_m, f.equalisation_step_reach_cells, settings.disparity_margin_px, settings.support_reach_cells);
   std::printf("%-26s %4s %10s %10s %9s %9s %11s %10s %7s %7s %9s %9s %8s %7s %9s %8s %8s %8s %9s %6s\n", "scene", "seed", "rms<=20m", "rms<=34m", "bias<=20m",
               "grid<=20m", "points<=20", "exact<=20", "cells20", "cells34", "precision", "recall", "obstacle", "FP", "FP ground", "gnd>20cm", "edge px", "mount", "fit", "lines");
   const SceneKind kinds[] = {{"hills", "hills", 0.0},

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "arm/terrain/terrain_model.h"
 
@@ -147,16 +148,26 @@ TEST(ClassifyPoints, ByHeightAboveTheSurface) {
 //   (20, 0, 0.80): pushed z = 1.5 - 0.7 x 1.13699 = 0.7041 > 0.2: obstacle;
 //   (6, 0, 0.30):  d = 27.67 px, scale 27.67 / 26.67 = 1.0375, z = 1.5 - 1.2 x 1.0375 = 0.255: obstacle;
 //   (200, 0, 0.5) is outside the area: outside either way.
-TEST(ClassifyPoints, StereoMarginPushesGroundLikePointsBackOntoTheSurface) {
+// The flat surface z = 0 of these tests, and their camera: 1.5 m up looking along x, f B = 166 px m.
+TerrainEstimate flat_terrain() {
   HeightGrid grid = plane_grid(0.0, 0.0);
   grid.height_m.setZero();
-  const TerrainEstimate terrain = fit_terrain(grid, parameters_for_plane());
-  ASSERT_TRUE(terrain.known) << terrain.reason;
+  return fit_terrain(grid, parameters_for_plane());
+}
+
+StereoRayModel camera_1_5_m_up(double disparity_margin_px) {
   StereoRayModel stereo;
   stereo.camera_centre_m = Eigen::Vector3d(0, 0, 1.5);
   stereo.optical_axis = Eigen::Vector3d::UnitX();
   stereo.focal_baseline_px_m = 166;
-  stereo.disparity_margin_px = 1.0;
+  stereo.disparity_margin_px = disparity_margin_px;
+  return stereo;
+}
+
+TEST(ClassifyPoints, StereoMarginPushesGroundLikePointsBackOntoTheSurface) {
+  const TerrainEstimate terrain = flat_terrain();
+  ASSERT_TRUE(terrain.known) << terrain.reason;
+  StereoRayModel stereo = camera_1_5_m_up(1.0);
   // Hand computation of the first case, independent of the implementation's form.
   const double pushed_z = 1.5 - 1.2 * (8.3 / 7.3);
   EXPECT_NEAR(pushed_z, 0.1356, 1e-4);
@@ -186,6 +197,31 @@ TEST(ClassifyPoints, StereoMarginPushesGroundLikePointsBackOntoTheSurface) {
   stereo.focal_baseline_px_m = 166;
   stereo.optical_axis = Eigen::Vector3d(2, 0, 0);
   EXPECT_THROW(classify_points(points, terrain, 0.2, stereo), std::invalid_argument);
+}
+
+// Support: with a 2 px margin (10, 0, 0.30) falls back (worked above); beside a sure obstacle point
+// (10.1, 0.1, 0.80) in the same 0.5 m cell it is an obstacle again with support_reach_cells 0, while
+// the same height at (10, -3) with no sure point within a cell stays terrain; one cell away
+// ((10.6, 0.1), the next forward cell) it needs reach 1; off (-1) both fall back.
+TEST(ClassifyPoints, SupportKeepsLowPointsBesideSureOnes) {
+  const TerrainEstimate terrain = flat_terrain();
+  ASSERT_TRUE(terrain.known) << terrain.reason;
+  StereoRayModel stereo = camera_1_5_m_up(2.0);
+  const std::vector<Eigen::Vector3d> same_cell = {{10, 0, 0.30}, {10.1, 0.1, 0.80}, {10, -3, 0.30}};
+  const std::vector<Eigen::Vector3d> next_cell = {{10, 0, 0.30}, {10.6, 0.1, 0.80}};
+  const auto classes = [&](const std::vector<Eigen::Vector3d>& points, int reach) {
+    stereo.support_reach_cells = reach;
+    std::vector<int> result;
+    for (PointClass c : classify_points(points, terrain, 0.2, stereo)) result.push_back(int(c));
+    return result;
+  };
+  const int obstacle = int(PointClass::obstacle), ground = int(PointClass::terrain);
+  EXPECT_EQ(classes(same_cell, -1), (std::vector<int>{ground, obstacle, ground}));
+  EXPECT_EQ(classes(same_cell, 0), (std::vector<int>{obstacle, obstacle, ground}));
+  EXPECT_EQ(classes(next_cell, 0), (std::vector<int>{ground, obstacle}));
+  EXPECT_EQ(classes(next_cell, 1), (std::vector<int>{obstacle, obstacle}));
+  stereo.support_reach_cells = -2;
+  EXPECT_THROW(classify_points(same_cell, terrain, 0.2, stereo), std::invalid_argument);
 }
 
 }  // namespace
