@@ -15,7 +15,12 @@
 // based). Options measure the methods apart from the odometry (--ego-motion truth: the sequence's
 // true camera motion) or on grey (--grey: the grey image as the colour).
 //
-// Measured (objects: visible_pixels >= --min-pixels and base-centre depth <= --range-m):
+// Measured (objects: >= --min-pixels measurable pixels and base-centre depth <= --range-m; a pixel of
+// the object is measurable when its true disparity lies in the engine's range [min, min + count - 1]
+// and its match u - d is inside the right image: objects nearer than f B / 63 px (2.6 m here) or
+// seen only in the left border that the right camera does not see cannot be measured by any stereo
+// method, and are counted apart as "unmeasurable"; --all-visible counts every object with
+// visible_pixels >= --min-pixels instead):
 //   detection rate  an object counts as detected in a frame when an obstacle's centre lies within its
 //                   gate: |dx| <= 1 m + width / 2 and |dz| <= max(1 m, 3 sigma_Z(z)) + length / 2
 //                   (camera frame, truth = base centre; sigma_Z = z^2 0.25 px / (f B)). Line: polar and
@@ -36,7 +41,7 @@
 //
 // Usage: obstacles3d_eval [--frames N] [--seeds N] [--scenes urban,country,mining,floating]
 //        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
-//        [--misses FILE.csv]
+//        [--misses FILE.csv] [--all-visible]
 // (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2;
 // --first-seed: seeds S .. S + N - 1, default 1; --misses: one CSV row per missed object and per false
 // positive of every method, with the nearest obstacle, for finding out why.)
@@ -82,6 +87,7 @@ struct Settings {
   int seeds = 1;
   std::vector<std::string> scenes{"urban", "country", "mining", "floating"};
   int64_t min_pixels = 200;
+  bool all_visible = false;  // --all-visible: count objects by visible, not measurable, pixels
   double range_m = 30;
   bool true_ego_motion = false;  // --ego-motion truth; default vo (arm::StereoOdometry, as the command)
   bool colour = true;            // --grey: candidates coloured from the grey image instead
@@ -100,6 +106,7 @@ struct MissLog {
 
 struct Tally {  // per method
   int64_t visible = 0, detected = 0, false_positives = 0, frames = 0;
+  int64_t unmeasurable = 0;  // visible and in range, but too few measurable pixels: not counted
   // floating objects
   int64_t floating_seen = 0, floating_within = 0, free_checked = 0, free_kept = 0;
   std::vector<double> floating_error_m;
@@ -108,6 +115,7 @@ struct Tally {  // per method
   std::vector<double> velocity_error_mps;
   void add(const Tally& o) {
     visible += o.visible, detected += o.detected, false_positives += o.false_positives, frames += o.frames;
+    unmeasurable += o.unmeasurable;
     floating_seen += o.floating_seen, floating_within += o.floating_within, free_checked += o.free_checked, free_kept += o.free_kept;
     floating_error_m.insert(floating_error_m.end(), o.floating_error_m.begin(), o.floating_error_m.end());
     moving_total += o.moving_total, moving_flagged += o.moving_flagged, static_total += o.static_total, static_flagged += o.static_flagged;
@@ -133,6 +141,24 @@ bool is_floating(io::SynthClass c) {
   return c == io::SynthClass::board_on_poles || c == io::SynthClass::hanging_sign || c == io::SynthClass::ball_on_post;
 }
 
+// Per object id (the object_ids value), the pixels of the left view whose true disparity the engine
+// can find: d in [min_disparity, min_disparity + num_disparities - 1] and u - d >= 0.
+std::vector<int64_t> measurable_pixels(const io::StereoSynthScene& scene, int min_disparity, int num_disparities) {
+  std::vector<int64_t> counts;
+  const double max_disparity = min_disparity + num_disparities - 1;
+  for (int v = 0; v < scene.object_ids.rows; ++v) {
+    for (int u = 0; u < scene.object_ids.cols; ++u) {
+      const uint16_t id = scene.object_ids.at<uint16_t>(v, u);
+      if (id == 0) continue;
+      const double d = scene.disparity_px.at<float>(v, u);
+      if (!std::isfinite(d) || d < min_disparity || d > max_disparity || u - d < 0) continue;
+      if (counts.size() <= id) counts.resize(id + 1u, 0);
+      ++counts[id];
+    }
+  }
+  return counts;
+}
+
 struct Gate {
   double lateral_m, depth_m;
 };
@@ -151,14 +177,16 @@ bool in_gate(const o3::Obstacle3d& obstacle, const io::SequenceObjectTruth& obje
 // (class, id, camera-frame x z, visible pixels; empty for a false positive) and an obstacle (for a
 // miss: the nearest one by ground distance, in or out of the gate; for a false positive: itself), its
 // x z, size w h l, min and max height above the terrain.
-void log_row(const MissLog& log, const char* method, const char* kind, const io::SequenceObjectTruth* object, const o3::Obstacle3d* obstacle) {
+void log_row(const MissLog& log, const char* method, const char* kind, const io::SequenceObjectTruth* object, int64_t measurable,
+             const o3::Obstacle3d* obstacle) {
   if (log.file == nullptr) return;
   std::fprintf(log.file, "%s,%u,%d,%s,%s,", log.scene.c_str(), log.seed, log.frame, method, kind);
   if (object != nullptr) {
-    std::fprintf(log.file, "%s,%d,%.2f,%.2f,%lld,", io::synth_class_name(object->truth.object.object_class), object->truth.id,
-                 object->truth.position_m[0], object->truth.position_m[2], static_cast<long long>(object->truth.visible_pixels));
+    std::fprintf(log.file, "%s,%d,%.2f,%.2f,%lld,%lld,", io::synth_class_name(object->truth.object.object_class), object->truth.id,
+                 object->truth.position_m[0], object->truth.position_m[2], static_cast<long long>(object->truth.visible_pixels),
+                 static_cast<long long>(measurable));
   } else {
-    std::fprintf(log.file, ",,,,,");
+    std::fprintf(log.file, ",,,,,,");
   }
   if (obstacle != nullptr) {
     std::fprintf(log.file, "%.2f,%.2f,%.2f,%.2f,%.2f,%.2f,%.2f\n", obstacle->position_m.x(), obstacle->position_m.z(), obstacle->size_m.x(),
@@ -169,7 +197,8 @@ void log_row(const MissLog& log, const char* method, const char* kind, const io:
 }
 
 void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoSequenceFrame& frame, const o3::StereoErrorModel& error_model,
-                 const Settings& settings, bool is_voxels, const char* method, const MissLog& log, Tally& tally) {
+                 const std::vector<int64_t>& measurable, const Settings& settings, bool is_voxels, const char* method, const MissLog& log,
+                 Tally& tally) {
   ++tally.frames;
   for (const o3::Obstacle3d& obstacle : obstacles) {
     if (obstacle.position_m.z() > settings.range_m) continue;
@@ -177,11 +206,17 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
     for (const io::SequenceObjectTruth& object : frame.objects) matched = matched || in_gate(obstacle, object, gate_of(object, error_model));
     if (!matched) {
       ++tally.false_positives;
-      log_row(log, method, "false_positive", nullptr, &obstacle);
+      log_row(log, method, "false_positive", nullptr, 0, &obstacle);
     }
   }
   for (const io::SequenceObjectTruth& object : frame.objects) {
     if (object.truth.visible_pixels < settings.min_pixels || object.truth.position_m[2] > settings.range_m) continue;
+    const size_t id = static_cast<size_t>(object.truth.id);
+    const int64_t measurable_count = id < measurable.size() ? measurable[id] : 0;
+    if (!settings.all_visible && measurable_count < settings.min_pixels) {
+      ++tally.unmeasurable;
+      continue;
+    }
     ++tally.visible;
     const Gate gate = gate_of(object, error_model);
     const o3::Obstacle3d* nearest = nullptr;
@@ -200,7 +235,7 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
         const double distance = std::hypot(obstacle.position_m.x() - object.truth.position_m[0], obstacle.position_m.z() - object.truth.position_m[2]);
         if (distance < nearest_anywhere_m) nearest_anywhere_m = distance, nearest_anywhere = &obstacle;
       }
-      log_row(log, method, "miss", &object, nearest_anywhere);
+      log_row(log, method, "miss", &object, measurable_count, nearest_anywhere);
       continue;
     }
     ++tally.detected;
@@ -345,17 +380,19 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
           vehicle_from_camera * io::camera_previous_from_current(previous_pose, frame.pose) * vehicle_from_camera.inverse();
     }
     previous_pose = frame.pose;
+    const std::vector<int64_t> measurable =
+        measurable_pixels(frame.scene, disparity_parameters.min_disparity, disparity_parameters.num_disparities);
     for (int g = 0; g < 3; ++g) {
       grids[static_cast<size_t>(g)]->update(candidates, ego_motion);
-      score_frame(grids[static_cast<size_t>(g)]->obstacles(), frame, error_model, settings, false, kMethodNames[g], log,
+      score_frame(grids[static_cast<size_t>(g)]->obstacles(), frame, error_model, measurable, settings, false, kMethodNames[g], log,
                   tallies[static_cast<size_t>(g)]);
     }
     stixels.update(candidates, ego_motion);
-    score_frame(stixels.obstacles(), frame, error_model, settings, false, kMethodNames[3], log, tallies[3]);
+    score_frame(stixels.obstacles(), frame, error_model, measurable, settings, false, kMethodNames[3], log, tallies[3]);
     voxel_map.update(candidates, ego_motion);
     const o3::ClusteringResult clusters = o3::cluster_voxels(voxel_map, clustering);
     const o3::TrackingResult& tracks = tracker.update(clusters.clusters, voxel_map.world_from_current());
-    score_frame(tracks.obstacles, frame, error_model, settings, true, kMethodNames[4], log, tallies[4]);
+    score_frame(tracks.obstacles, frame, error_model, measurable, settings, true, kMethodNames[4], log, tallies[4]);
     pipeline_s += seconds_since(started);
   }
   std::printf("%-9s seed %u: %d frames rendered in %.1f s (%.2f s a frame), processed and scored in %.1f s (%.2f s a frame), wall clock\n",
@@ -401,6 +438,8 @@ int main(int argc, char** argv) {
         return 2;
       }
       settings.true_ego_motion = source == "truth";
+    } else if (arg == "--all-visible") {
+      settings.all_visible = true;
     } else if (arg == "--grey") {
       settings.colour = false;
     } else if (arg == "--threads" && has_value) {
@@ -412,7 +451,7 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
-                   "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] "
+                   "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
                    "[--misses FILE.csv]\n",
                    arg.c_str());
       return 2;
@@ -433,15 +472,17 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "obstacles3d_eval: --misses: cannot write '%s': %s\n", settings.misses_path.c_str(), std::strerror(errno));
       return 2;
     }
-    std::fprintf(log_file, "scene,seed,frame,method,kind,class,id,truth_x_m,truth_z_m,visible_pixels,obstacle_x_m,obstacle_z_m,width_m,"
+    std::fprintf(log_file, "scene,seed,frame,method,kind,class,id,truth_x_m,truth_z_m,visible_pixels,measurable_pixels,obstacle_x_m,obstacle_z_m,width_m,"
                            "height_m,length_m,min_height_m,max_height_m\n");
   }
   std::printf("obstacles3d_eval: %d frames per sequence (the issue wants >= 300), seeds %d..%d, 640x480, ego-motion %s, candidates "
               "coloured from the %s image, %d thread(s);\n"
-              "objects counted when >= %lld visible pixels and <= %.0f m; gate |dx| <= 1 m + w/2, |dz| <= max(1 m, 3 sigma_Z) + l/2\n",
+              "objects counted when >= %lld %s pixels and <= %.0f m; gate |dx| <= 1 m + w/2, |dz| <= max(1 m, 3 sigma_Z) + l/2\n",
               settings.frames, settings.first_seed, settings.first_seed + settings.seeds - 1,
               settings.true_ego_motion ? "TRUE (the sequence's camera motion)" : "from visual odometry (as the command)",
-              settings.colour ? "left colour" : "grey", settings.threads, static_cast<long long>(settings.min_pixels), settings.range_m);
+              settings.colour ? "left colour" : "grey", settings.threads, static_cast<long long>(settings.min_pixels),
+              settings.all_visible ? "visible" : "measurable (true disparity in the engine's range, match inside the right image)",
+              settings.range_m);
 
   std::vector<std::vector<Tally>> per_scene(settings.scenes.size(), std::vector<Tally>(kMethods));
   try {
@@ -486,6 +527,11 @@ int main(int argc, char** argv) {
     }
     std::printf("\n");
   }
+  std::printf("%-10s", "unmeasured");
+  for (size_t s = 0; s < settings.scenes.size(); ++s) {
+    std::printf("   %6lld object-frames ", static_cast<long long>(per_scene[s][0].unmeasurable));
+  }
+  std::printf("\n(unmeasured: visible and in range but too few measurable pixels, not counted; --all-visible counts them)\n");
   std::printf("line: polar and stixels >= 99 %% on every scene\n");
 
   for (size_t s = 0; s < settings.scenes.size(); ++s) {
