@@ -54,9 +54,13 @@
 // at 31 m), so objects on one bearing a few metres apart share a cluster, and one obstacle from all
 // its points would have its centre between them. So each cluster's cells that hold this frame's
 // points (their means) are split into 8-connected groups, and every group of at least
-// min_obstacle_points points gives an Obstacle3d (GridCluster: obstacle_index, obstacle_count):
-// position = centre of their camera-frame bounding box, size = its extent, min/max height above the
-// terrain, bbox_px from their pixels. A cluster with no such group (held only by memory, or a few
+// min_obstacle_points inlier points gives an Obstacle3d (GridCluster: obstacle_index, obstacle_count):
+// position = centre of the inliers' camera-frame bounding box, size = its extent, min/max height
+// above the terrain, bbox_px from their pixels. Inliers: in each column of the group, the row of
+// highest evidence D is the mode of the smoothed point density (Badino's obstacle position along a
+// column); a point whose row coordinate lies more than window_sigmas of its own row sigma (plus half
+// a cell) from its column's mode is a mismatch smeared along its ray (a thin pole's or a border's
+// disparity taken from the background) and is left out of the box, which it would stretch by metres. A cluster with no such group (held only by memory, or a few
 // scattered points) is kept (hull, cells) but gives no Obstacle3d (counted in clusters_without_points).
 //
 // Bad input: points with a non-finite position or disparity <= 0 are rejected; points whose mean
@@ -78,7 +82,9 @@
 //     point groups' components the same again (12 ops + 1 byte, 10 per cell holding points);
 //   per cluster: 4 ops per cell corner (is it shared by four member cells?), hull 6 ops per
 //     (remaining corner x hull vertex) visited;
-//   per point again: 10 ops + sizeof(ObstaclePoint) for the obstacles' statistics.
+//   per point again: 10 ops + sizeof(ObstaclePoint) for the obstacles' statistics, and 12 ops for
+//     the inlier test (its row sigma, the distance to its column's mode); 2 ops per group cell for
+//     the column modes (counted in the 10 per member cell).
 #pragma once
 
 #include <cstdint>
