@@ -1,7 +1,8 @@
 // Occupancy grids (arm/obstacles3d/occupancy_grid.h): a single point's likelihood has the window's
 // mass (2 Phi(3) - 1)^2 and peaks at its cell in all three grids; the cartesian covariance equals
 // J diag(sigma_u^2, sigma_d^2) J^T with J a numerical Jacobian of the triangulation; log-odds fusion
-// rises monotonically to the clamp and decays without evidence; ego-motion (a translation in the
+// rises monotonically to the clamp and decays without evidence; a cell long without evidence is
+// occupied after one frame of full evidence (the shallow lower clamp); ego-motion (a translation in the
 // cartesian grid, a yaw in the polar grid, driving forward in the column/disparity grid) moves an
 // occupied cell where a hand derivation says;
 // gift wrapping on hand-made sets (interior, collinear and duplicate points, degenerate sets, and a
@@ -138,6 +139,30 @@ TEST(OccupancyGridFusion, RepeatedObservationsRiseMonotonicallyToTheClamp) {
   for (int frame = 0; frame < 100; ++frame) grid.update({}, EgoMotion{});
   EXPECT_FLOAT_EQ(grid.log_odds()(row, column), static_cast<float>(parameters.log_odds_min));
   EXPECT_FALSE(grid.occupied(row, column));
+}
+
+TEST(OccupancyGridFusion, ACellLongWithoutEvidenceIsOccupiedAfterOneFrameOfFullEvidence) {
+  // 30 frames without evidence take a cell to the lower clamp; then a dense patch (2227 points in
+  // the cell at 5 m, D >> points_for_full_evidence, p(D) -> hit_probability_max) for one frame.
+  // With the default clamp the cell is occupied at once: log_odds_min + logit(hit_max) >
+  // logit(occupied); with a clamp at -4 it would still read free (-4 + 1.73 < 0.62).
+  std::vector<ObstaclePoint> patch;
+  add_patch(patch, 0.02, 0.18, 0.2, 1.5, 5.0, 0.01);  // cell row (5 - 0.5) / 0.2 = 22, column (0.1 + 10) / 0.2 = 50
+  const int row = 22, column = 50;
+  for (double log_odds_min : {OccupancyGridParameters{}.log_odds_min, -4.0}) {
+    OccupancyGridParameters parameters = grid_parameters(GridKind::cartesian);
+    parameters.log_odds_min = log_odds_min;
+    OccupancyGrid grid(parameters);
+    for (int frame = 0; frame < 30; ++frame) grid.update({}, EgoMotion{});
+    EXPECT_FLOAT_EQ(grid.log_odds()(row, column), static_cast<float>(log_odds_min));
+    grid.update(patch, EgoMotion{});
+    EXPECT_GT(grid.evidence()(row, column), 100.0f);
+    const bool expected = log_odds_min + logit(parameters.hit_probability_max) > logit(parameters.occupied_probability);
+    EXPECT_EQ(expected, log_odds_min > -1.116) << log_odds_min;  // logit(0.65) - logit(0.85) = -1.116
+    EXPECT_EQ(grid.occupied(row, column), expected) << "log_odds_min " << log_odds_min;
+    EXPECT_EQ(grid.obstacles().size(), expected ? 1u : 0u) << grid.status();
+  }
+  EXPECT_GT(OccupancyGridParameters{}.log_odds_min, -1.116);
 }
 
 TEST(OccupancyGridEgoMotion, ATranslationMovesTheCartesianCellByTheMotion) {
