@@ -471,24 +471,23 @@ void OccupancyGrid::cluster_and_describe(const std::vector<ObstaclePoint>& point
   work_.memory_bytes += sizeof(ObstaclePoint) * points.size();
 
   // Each group's points along its bearings: a column's row of highest evidence D (the mode of the
-  // point density smoothed by the likelihood, Badino's obstacle position along a column; D summed
-  // with the two neighbouring columns) is where the object is; points further than the likelihood's window (window_sigmas of their own row
+  // point density smoothed by the likelihood, Badino's obstacle position along a column) is where
+  // the object is; points further than the likelihood's window (window_sigmas of their own row
   // sigma, plus half a cell) from their column's mode are mismatches smeared along the ray (a thin
-  // pole's or a board border's disparity taken from the background, 2-5 m behind at 17 m) and do not
-  // move the obstacle's box: its centre from all points fell outside the object's gate.
+  // pole's or a board border's disparity taken from the background, 2-5 m behind at 17 m) and do
+  // not move the obstacle's box: its centre from all points fell outside the object's gate.
+  // D is summed over the column and its two neighbours: a thin pole at a board's end fills one
+  // column with more smear than pole points, and the board beside it marks the depth.
+  auto row_evidence = [&](int row, int column) {
+    double sum = evidence_(row, column);
+    if (column > 0) sum += evidence_(row, column - 1);
+    if (column + 1 < columns_) sum += evidence_(row, column + 1);
+    return sum;
+  };
   std::vector<int> mode_row_of_column(static_cast<size_t>(columns_), -1);
-  std::vector<double> mode_evidence_of_column(static_cast<size_t>(columns_), 0.0);
+  std::vector<double> mode_evidence(static_cast<size_t>(columns_), 0.0);
   std::vector<std::vector<int>> group_inliers(groups.size());
   for (size_t group = 0; group < groups.size(); ++group) {
-    // The evidence of a row summed over the column and its two neighbours: a thin pole at a board's
-    // end fills one column with more smear than pole points, and the board beside it marks the depth.
-    auto row_evidence = [&](int row, int column) {
-      double sum = evidence_(row, column);
-      if (column > 0) sum += evidence_(row, column - 1);
-      if (column + 1 < columns_) sum += evidence_(row, column + 1);
-      return sum;
-    };
-    std::vector<double>& mode_evidence = mode_evidence_of_column;
     for (int cell : groups[group]) {
       const int row = cell / columns_, column = cell % columns_;
       int& mode_row = mode_row_of_column[static_cast<size_t>(column)];
