@@ -61,6 +61,7 @@ constexpr uint64_t kOpsPerPoint = 40, kOpsPerWindowRow = 30, kOpsPerWindowCell =
 constexpr uint64_t kOpsPerSeparableColumn = 14, kOpsPerSeparableRow = 12, kOpsPerSeparableCell = 4;
 constexpr uint64_t kOpsPerCellWarp = 20, kOpsPerCellUpdate = 24, kOpsPerCellCluster = 12;
 constexpr uint64_t kOpsPerMemberCell = 10, kOpsPerHullStep = 6, kOpsPerPointDescribe = 10, kOpsPerCornerTest = 4;
+constexpr uint64_t kOpsPerPointInlier = 12, kOpsPerGroupCellMode = 6;
 
 }  // namespace
 
@@ -469,6 +470,49 @@ void OccupancyGrid::cluster_and_describe(const std::vector<ObstaclePoint>& point
   work_.scalar_ops += kOpsPerPointDescribe * points.size();
   work_.memory_bytes += sizeof(ObstaclePoint) * points.size();
 
+  // Each group's points along its bearings: a column's row of highest evidence D (the mode of the
+  // point density smoothed by the likelihood, Badino's obstacle position along a column) is where
+  // the object is; points further than the likelihood's window (window_sigmas of their own row
+  // sigma, plus half a cell) from their column's mode are mismatches smeared along the ray (a thin
+  // pole's or a board border's disparity taken from the background, 2-5 m behind at 17 m) and do
+  // not move the obstacle's box: its centre from all points fell outside the object's gate.
+  // D is summed over the column and its two neighbours: a thin pole at a board's end fills one
+  // column with more smear than pole points, and the board beside it marks the depth.
+  auto row_evidence = [&](int row, int column) {
+    double sum = evidence_(row, column);
+    if (column > 0) sum += evidence_(row, column - 1);
+    if (column + 1 < columns_) sum += evidence_(row, column + 1);
+    return sum;
+  };
+  std::vector<int> mode_row_of_column(static_cast<size_t>(columns_), -1);
+  std::vector<double> mode_evidence(static_cast<size_t>(columns_), 0.0);
+  std::vector<std::vector<int>> group_inliers(groups.size());
+  for (size_t group = 0; group < groups.size(); ++group) {
+    for (int cell : groups[group]) {
+      const int row = cell / columns_, column = cell % columns_;
+      int& mode_row = mode_row_of_column[static_cast<size_t>(column)];
+      const double value = row_evidence(row, column);
+      if (mode_row < 0 || value > mode_evidence[static_cast<size_t>(column)]) {
+        mode_row = row;
+        mode_evidence[static_cast<size_t>(column)] = value;
+      }
+    }
+    for (int index : group_points[group]) {
+      const ObstaclePoint& point = points[static_cast<size_t>(index)];
+      const int cell = point_cells_[static_cast<size_t>(index)];
+      const int mode_row = mode_row_of_column[static_cast<size_t>(cell % columns_)];
+      const GridGaussian gaussian = measurement_gaussian(point);
+      const double mode_b = parameters_.row_min + (mode_row + 0.5) * parameters_.row_cell;
+      if (std::abs(gaussian.mean(1) - mode_b) <=
+          parameters_.window_sigmas * std::sqrt(gaussian.covariance(1, 1)) + 0.5 * parameters_.row_cell)
+        group_inliers[group].push_back(index);
+    }
+    for (int cell : groups[group]) mode_row_of_column[static_cast<size_t>(cell % columns_)] = -1;
+  }
+  size_t group_cells = 0;
+  for (const std::vector<int>& group : groups) group_cells += group.size();
+  work_.scalar_ops += kOpsPerPointInlier * points.size() + kOpsPerGroupCellMode * group_cells;
+
   for (size_t index = 0; index < components.size(); ++index) {
     GridCluster cluster;
     cluster.cells = std::move(components[index]);
@@ -495,8 +539,8 @@ void OccupancyGrid::cluster_and_describe(const std::vector<ObstaclePoint>& point
     work_.scalar_ops += kOpsPerCornerTest * 4 * cluster.cells.size();
     cluster.hull = gift_wrapping_hull(corners, &work_);
     for (int group : groups_of_cluster[index]) {
-      const std::vector<int>& members = group_points[static_cast<size_t>(group)];
-      cluster.point_count += static_cast<int>(members.size());
+      cluster.point_count += static_cast<int>(group_points[static_cast<size_t>(group)].size());
+      const std::vector<int>& members = group_inliers[static_cast<size_t>(group)];
       if (static_cast<int>(members.size()) < parameters_.min_obstacle_points) continue;
       if (cluster.obstacle_count == 0) cluster.obstacle_index = static_cast<int>(obstacles_.size());
       ++cluster.obstacle_count;

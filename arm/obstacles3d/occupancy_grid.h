@@ -36,6 +36,13 @@
 // Fusion (Thrun, Burgard, Fox, "Probabilistic Robotics", 2005, §9.2; thesis eq. 3.11) with prior 0.5:
 //   l_t = clamp(l_{t-1} + log(p(D) / (1 - p(D))), log_odds_min, log_odds_max),  P = 1 / (1 + e^-l).
 // The clamp keeps a cell able to change its mind within (log_odds_max - log_odds_min) / |step| frames.
+// The lower clamp is shallow (-1, P = 0.27) on purpose: the grid sees only obstacle candidates, so a
+// cell without evidence is not observed free (it may be occluded, outside the view, or just
+// untextured), and one frame of full evidence must make it occupied again:
+// log_odds_min + logit(hit_probability_max) > logit(occupied_probability) (-1 + 1.73 > 0.62). With
+// -4, every cell the moving camera had seen empty for 20 frames needed 3 frames of evidence, so an
+// object appearing there (a pedestrian stepping out, an object uncovered after an occlusion) was
+// missed for its first 2 frames (bench/obstacles3d_eval, urban seed 1: polar 90.9 -> 94.4 %).
 //
 // Ego-motion (before this frame's evidence): the previous grid is resampled into the current
 // frame, each current cell centre c (on the camera's horizontal plane, y = 0) taking the nearest
@@ -54,9 +61,14 @@
 // at 31 m), so objects on one bearing a few metres apart share a cluster, and one obstacle from all
 // its points would have its centre between them. So each cluster's cells that hold this frame's
 // points (their means) are split into 8-connected groups, and every group of at least
-// min_obstacle_points points gives an Obstacle3d (GridCluster: obstacle_index, obstacle_count):
-// position = centre of their camera-frame bounding box, size = its extent, min/max height above the
-// terrain, bbox_px from their pixels. A cluster with no such group (held only by memory, or a few
+// min_obstacle_points inlier points gives an Obstacle3d (GridCluster: obstacle_index, obstacle_count):
+// position = centre of the inliers' camera-frame bounding box, size = its extent, min/max height
+// above the terrain, bbox_px from their pixels. Inliers: in each column of the group, the row of
+// highest evidence D (summed with the two neighbouring columns, so that a thin pole's column, which
+// holds more smear than pole points, takes the depth of the board beside it) is the mode of the
+// smoothed point density (Badino's obstacle position along a column); a point whose row coordinate lies more than window_sigmas of its own row sigma (plus half
+// a cell) from its column's mode is a mismatch smeared along its ray (a thin pole's or a border's
+// disparity taken from the background) and is left out of the box, which it would stretch by metres. A cluster with no such group (held only by memory, or a few
 // scattered points) is kept (hull, cells) but gives no Obstacle3d (counted in clusters_without_points).
 //
 // Bad input: points with a non-finite position or disparity <= 0 are rejected; points whose mean
@@ -78,7 +90,9 @@
 //     point groups' components the same again (12 ops + 1 byte, 10 per cell holding points);
 //   per cluster: 4 ops per cell corner (is it shared by four member cells?), hull 6 ops per
 //     (remaining corner x hull vertex) visited;
-//   per point again: 10 ops + sizeof(ObstaclePoint) for the obstacles' statistics.
+//   per point again: 10 ops + sizeof(ObstaclePoint) for the obstacles' statistics, and 12 ops for
+//     the inlier test (its row sigma, the distance to its column's mode); 6 ops per cell holding
+//     points for the column modes (three columns' evidence summed, the comparison).
 #pragma once
 
 #include <cstdint>
@@ -114,7 +128,7 @@ struct OccupancyGridParameters {
   double hit_probability_max = 0.85;   // p(D -> infinity), in (0.5, 1)
   double miss_probability = 0.45;      // p(D = 0), in (0, 0.5]
   double points_for_full_evidence = 2.0;  // D_full (> 0): expected points for 63 % of the way to hit_max
-  double log_odds_min = -4.0, log_odds_max = 4.0;  // clamp, min < 0 < max
+  double log_odds_min = -1.0, log_odds_max = 4.0;  // clamp, min < 0 < max (see the header comment)
   double occupied_probability = 0.65;  // a cell above it is occupied, in (0.5, 1)
   int min_cluster_cells = 1;           // >= 1
   int min_obstacle_points = 20;        // >= 1: a cluster's point group with fewer gives no obstacle

@@ -1,12 +1,14 @@
 // Occupancy grids (arm/obstacles3d/occupancy_grid.h): a single point's likelihood has the window's
 // mass (2 Phi(3) - 1)^2 and peaks at its cell in all three grids; the cartesian covariance equals
 // J diag(sigma_u^2, sigma_d^2) J^T with J a numerical Jacobian of the triangulation; log-odds fusion
-// rises monotonically to the clamp and decays without evidence; ego-motion (a translation in the
+// rises monotonically to the clamp and decays without evidence; a cell long without evidence is
+// occupied after one frame of full evidence (the shallow lower clamp); ego-motion (a translation in the
 // cartesian grid, a yaw in the polar grid, driving forward in the column/disparity grid) moves an
 // occupied cell where a hand derivation says;
 // gift wrapping on hand-made sets (interior, collinear and duplicate points, degenerate sets, and a
 // random set checked by brute force); connected components; two separated blobs give two obstacles;
 // two objects 6 m apart on one bearing at 25-31 m (one cluster of occupied cells) are two obstacles;
+// points smeared along their rays metres behind a board do not stretch its obstacle;
 // clipping and rejection counted and reported; empty cloud and missing ego-motion reported; bad
 // parameters throw naming the parameter; the counted work's per-cell closed form; 2 threads agree.
 #include <gtest/gtest.h>
@@ -137,6 +139,30 @@ TEST(OccupancyGridFusion, RepeatedObservationsRiseMonotonicallyToTheClamp) {
   for (int frame = 0; frame < 100; ++frame) grid.update({}, EgoMotion{});
   EXPECT_FLOAT_EQ(grid.log_odds()(row, column), static_cast<float>(parameters.log_odds_min));
   EXPECT_FALSE(grid.occupied(row, column));
+}
+
+TEST(OccupancyGridFusion, ACellLongWithoutEvidenceIsOccupiedAfterOneFrameOfFullEvidence) {
+  // 30 frames without evidence take a cell to the lower clamp; then a dense patch (2227 points in
+  // the cell at 5 m, D >> points_for_full_evidence, p(D) -> hit_probability_max) for one frame.
+  // With the default clamp the cell is occupied at once: log_odds_min + logit(hit_max) >
+  // logit(occupied); with a clamp at -4 it would still read free (-4 + 1.73 < 0.62).
+  std::vector<ObstaclePoint> patch;
+  add_patch(patch, 0.02, 0.18, 0.2, 1.5, 5.0, 0.01);  // cell row (5 - 0.5) / 0.2 = 22, column (0.1 + 10) / 0.2 = 50
+  const int row = 22, column = 50;
+  for (double log_odds_min : {OccupancyGridParameters{}.log_odds_min, -4.0}) {
+    OccupancyGridParameters parameters = grid_parameters(GridKind::cartesian);
+    parameters.log_odds_min = log_odds_min;
+    OccupancyGrid grid(parameters);
+    for (int frame = 0; frame < 30; ++frame) grid.update({}, EgoMotion{});
+    EXPECT_FLOAT_EQ(grid.log_odds()(row, column), static_cast<float>(log_odds_min));
+    grid.update(patch, EgoMotion{});
+    EXPECT_GT(grid.evidence()(row, column), 100.0f);
+    const bool expected = log_odds_min + logit(parameters.hit_probability_max) > logit(parameters.occupied_probability);
+    EXPECT_EQ(expected, log_odds_min > -1.116) << log_odds_min;  // logit(0.65) - logit(0.85) = -1.116
+    EXPECT_EQ(grid.occupied(row, column), expected) << "log_odds_min " << log_odds_min;
+    EXPECT_EQ(grid.obstacles().size(), expected ? 1u : 0u) << grid.status();
+  }
+  EXPECT_GT(OccupancyGridParameters{}.log_odds_min, -1.116);
 }
 
 TEST(OccupancyGridEgoMotion, ATranslationMovesTheCartesianCellByTheMotion) {
@@ -353,6 +379,47 @@ TEST(OccupancyGridClusters, TwoObjectsOnOneBearingSixMetresApartAtRangeAreTwoObs
     EXPECT_LE(std::abs(centre.z() - z), depth_gate_m) << "object at " << z << " m: " << grid.status();
   }
   EXPECT_NE(nearest_of[0], nearest_of[1]) << grid.status();
+}
+
+TEST(OccupancyGridClusters, PointsSmearedAlongTheirRaysBehindAnObjectDoNotStretchItsObstacle) {
+  // A board 2 m wide (0.2-1.5 m high) at 12 m with a 5 cm pole at each end; stereo hands each pole
+  // some of the background's disparity, so 25 points per pole and frame lie on the pole's rays
+  // 0.1-4 m behind it (a continuous smear: their cells join the board's). sigma_Z(12 m) = 0.24 m, so
+  // most of the smear lies beyond 3 sigma_Z of the board's depth. The obstacle holding the board
+  // must be centred on it (polar: within 0.5 m in depth, inside the eval's 1 m gate) and less than
+  // 1 m deep; the box of all points runs from 12 to 16 m, centred at 14 m.
+  const StereoErrorModel model = testing::error_model();
+  ASSERT_LT(3 * model.depth_sigma_m(12.0), 0.8);
+  // Polar and column/disparity columns are rays (constant bearing, constant u), so the smear stays in
+  // the pole's columns; a 0.5 px disparity cell is 0.48 m deep at 12 m, so the column/disparity
+  // window (3 sigma_d + half a cell = 1 px) keeps 1 m of it. (A Cartesian column is not a ray: the
+  // smear crosses into columns of its own and stays; not asserted.)
+  struct Case {
+    GridKind kind;
+    double centre_tolerance_m, max_depth_m, width_tolerance_m;
+  };
+  for (const Case& test : {Case{GridKind::polar, 0.5, 1.0, 0.1}, Case{GridKind::column_disparity, 0.7, 1.3, 0.2}}) {
+    const GridKind kind = test.kind;
+    OccupancyGrid grid(grid_parameters(kind));
+    std::vector<ObstaclePoint> points;
+    add_patch(points, -1.0, 1.0, 0.2, 1.5, 12.0, 0.02);
+    for (double pole_x : {-1.0, 0.95}) {
+      for (int i = 0; i < 25; ++i) {
+        const double x = pole_x + 0.05 * (i % 3) / 2, height = 0.2 + 1.3 * i / 24;
+        const double scale = (12.1 + 3.9 * i / 24) / 12.0;  // along the ray through (x, height, 12 m)
+        points.push_back(point_at(x * scale, testing::kCameraHeightM - (testing::kCameraHeightM - height) * scale, 12.0 * scale));
+      }
+    }
+    for (int frame = 0; frame < 3; ++frame) grid.update(points, EgoMotion{});
+    const Obstacle3d* board = nullptr;
+    for (const Obstacle3d& obstacle : grid.obstacles())
+      if (board == nullptr || std::abs(obstacle.position_m.z() - 12.0) < std::abs(board->position_m.z() - 12.0)) board = &obstacle;
+    ASSERT_NE(board, nullptr) << grid_kind_name(kind) << ": " << grid.status();
+    EXPECT_NEAR(board->position_m.z(), 12.0, test.centre_tolerance_m) << grid_kind_name(kind) << ": " << grid.status();
+    EXPECT_LT(board->size_m.z(), test.max_depth_m) << grid_kind_name(kind);
+    EXPECT_NEAR(board->position_m.x(), 0.0, test.width_tolerance_m) << grid_kind_name(kind);
+    EXPECT_NEAR(board->size_m.x(), 2.0, test.width_tolerance_m) << grid_kind_name(kind);
+  }
 }
 
 TEST(OccupancyGridBadInput, PointsBeyondTheBoundsAreClippedAndCounted) {
