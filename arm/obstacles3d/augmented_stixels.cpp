@@ -127,9 +127,11 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
         const float lower_percentile_m = by_height[static_cast<size_t>(begin + lower)].first;
         const float median_m = by_height[static_cast<size_t>(begin + segment / 2)].first;
         const double q = parameters_.lower_edge_fraction;
-        stixel.min_height_m = static_cast<float>(lower_percentile_m - q / (0.5 - q) * (median_m - lower_percentile_m) +
-                                                 parameters_.lower_edge_fattening_px * range_sum / segment / parameters_.grid.error_model.focal_px);
         stixel.max_height_m = by_height[static_cast<size_t>(end - 1 - trim)].first;
+        const double edge_m = lower_percentile_m - q / (0.5 - q) * (median_m - lower_percentile_m) +
+                              parameters_.lower_edge_fattening_px * range_sum / segment / parameters_.grid.error_model.focal_px;
+        // Not above the upper edge (a thin part at range: the fattening term can pass its top).
+        stixel.min_height_m = static_cast<float>(std::min<double>(edge_m, stixel.max_height_m));
         stixel.mean_range_m = static_cast<float>(range_sum / segment);
         for (int channel = 0; channel < 3; ++channel)
           stixel.mean_rgb[static_cast<size_t>(channel)] = static_cast<uint8_t>((rgb_sum[channel] + segment / 2) / static_cast<uint64_t>(segment));
