@@ -38,6 +38,7 @@ void AugmentedStixelParameters::validate() const {
     throw_invalid_parameter("height_trim_fraction", "in [0, 0.25)", height_trim_fraction);
   if (!(lower_edge_fraction >= 0 && lower_edge_fraction < 0.5))
     throw_invalid_parameter("lower_edge_fraction", "in [0, 0.5)", lower_edge_fraction);
+  if (min_points_unoccupied < 1) throw_invalid_parameter("min_points_unoccupied", ">= 1", min_points_unoccupied);
   if (!(lower_edge_fattening_px >= 0 && lower_edge_fattening_px <= 16))
     throw_invalid_parameter("lower_edge_fattening_px", "in [0, 16]", lower_edge_fattening_px);
   if (!(max_fragment_fraction >= 0 && max_fragment_fraction < 1))
@@ -88,7 +89,7 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
     const int count = cell_counts_[cell];
     if (count < parameters_.min_points) continue;
     const int row = static_cast<int>(cell) / columns, column = static_cast<int>(cell) % columns;
-    if (parameters_.require_occupied_cell && !grid_.occupied(row, column)) continue;
+    if (parameters_.require_occupied_cell && !grid_.occupied(row, column) && count < parameters_.min_points_unoccupied) continue;
     by_height.clear();
     for (int k = cell_offsets_[cell]; k < cell_offsets_[cell + 1]; ++k) {
       const int index = sorted[static_cast<size_t>(k)];

@@ -16,7 +16,11 @@
 //      then placed by a counting sort (the points split into contiguous chunks over `threads`, chunk
 //      order kept, so the order of a stixel's points never depends on scheduling);
 //   3. stixels: in each cell that is occupied in the grid (require_occupied_cell; otherwise any cell)
-//      and holds at least min_points points, the points sorted by height are split where two
+//      or holds at least min_points_unoccupied points this frame (the grid's log-odds need a few
+//      frames for an object that just came into view: in obstacles3d_eval, 150 frames, seed 1,
+//      30 points gave urban 93.3 % instead of 91.3 %, floating 93.3 % instead of 92.7 %, country
+//      96.7 % instead of 95.1 %, for 0.04, 0.49 and 0.03 more false positives a frame), and holds
+//      at least min_points points, the points sorted by height are split where two
 //      consecutive heights lie more than max_height_gap_m apart (multi-layer stixels, after
 //      Pfeiffer and Franke, "Towards a global optimal multi-layer stixel representation of dense 3D
 //      data", BMVC 2011, thesis 003 ref. [2]: a sign above a low box in the same cells is two
@@ -76,7 +80,8 @@ namespace lpstereo::arm::obstacles3d {
 struct AugmentedStixelParameters {
   OccupancyGridParameters grid = OccupancyGridParameters::defaults(GridKind::polar);  // kind must be polar
   int min_points = 3;                 // >= 1
-  bool require_occupied_cell = true;  // a stixel only where the polar grid says occupied
+  bool require_occupied_cell = true;  // a stixel only where the polar grid says occupied ...
+  int min_points_unoccupied = 30;     // ... or where the cell holds at least this many points (>= 1)
   double height_trim_fraction = 0.02; // in [0, 0.25): the upper edge, the k-th highest
   double lower_edge_fraction = 0.10;  // in [0, 0.5): the lower edge, the k-th lowest (stereo fattening)
   double lower_edge_fattening_px = 1.5;  // >= 0: stereo fattening under an edge, px (added back: px * range / f)

@@ -151,6 +151,42 @@ TEST(AugmentedStixels, HangingBoardLowerEdgeFromFattenedNoisyPointsIsWithin10Cm)
   for (const Obstacle3d& obstacle : stixels.obstacles()) EXPECT_GE(obstacle.min_height_m, edge_m - 0.10) << obstacle.position_m.transpose();
 }
 
+TEST(AugmentedStixels, DenseCellIsAStixelBeforeTheGridCallsItOccupied) {
+  // 20 frames without points 20 m ahead (a box elsewhere, at 10 m, keeps the cloud non-empty): the
+  // grid's log-odds there sink to log_odds_min (miss_probability each frame); then a box 0.6 m wide, 0-1 m, walks in at 20 m: its cells
+  // hold dozens of points each (min_points_unoccupied = 30 and more), so it is an obstacle at
+  // once, while the grid needs a few frames to call its cells occupied (with the dense-cell rule
+  // off there is no obstacle at 20 m yet).
+  std::vector<ObstaclePoint> other;
+  add_patch(other, 2.0, 2.6, 0.0, 1.0, 10.0, 0.02);
+  std::vector<ObstaclePoint> points = other;
+  add_patch(points, -0.3, 0.3, 0.0, 1.0, 20.0, 0.02);
+  AugmentedStixelParameters occupied_only = stixel_parameters();
+  occupied_only.min_points_unoccupied = 1 << 30;
+  AugmentedStixels stixels(stixel_parameters()), grid_only(occupied_only);
+  for (int frame = 0; frame < 20; ++frame) {
+    stixels.update(other, EgoMotion{});
+    grid_only.update(other, EgoMotion{});
+  }
+  stixels.update(points, EgoMotion{});
+  grid_only.update(points, EgoMotion{});
+  auto obstacles_at_20_m = [](const AugmentedStixels& method) {
+    int count = 0;
+    for (const Obstacle3d& obstacle : method.obstacles()) count += std::abs(obstacle.position_m.z() - 20.0) < 1.0 ? 1 : 0;
+    return count;
+  };
+  EXPECT_EQ(obstacles_at_20_m(stixels), 1) << stixels.status();
+  EXPECT_EQ(obstacles_at_20_m(grid_only), 0) << grid_only.status();
+  int unoccupied = 0;
+  for (const AugmentedStixel& stixel : stixels.stixels()) {
+    if (!stixels.grid().occupied(stixel.range_cell, stixel.angle_cell)) {
+      ++unoccupied;
+      EXPECT_GE(stixel.point_count, 30);
+    }
+  }
+  EXPECT_GT(unoccupied, 0);
+}
+
 TEST(AugmentedStixels, ScatteredNoisePointsDoNotBecomeObstacles) {
   // 3000 isolated points a frame (terrain-fit outliers, mismatches) spread over 5-35 m ahead and
   // +-8 m across, new ones every frame: no obstacle.
@@ -334,6 +370,9 @@ TEST(AugmentedStixels, BadParametersThrowNamingTheParameter) {
   parameters = stixel_parameters();
   parameters.lower_edge_fraction = 0.5;
   EXPECT_EQ(message_of(parameters), "lower_edge_fraction: expected in [0, 0.5), got 0.5");
+  parameters = stixel_parameters();
+  parameters.min_points_unoccupied = 0;
+  EXPECT_EQ(message_of(parameters), "min_points_unoccupied: expected >= 1, got 0");
   parameters = stixel_parameters();
   parameters.lower_edge_fattening_px = -1;
   EXPECT_EQ(message_of(parameters), "lower_edge_fattening_px: expected in [0, 16], got -1");
