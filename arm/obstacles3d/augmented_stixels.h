@@ -83,9 +83,9 @@ struct AugmentedStixelParameters {
   bool require_occupied_cell = true;  // a stixel only where the polar grid says occupied ...
   int min_points_unoccupied = 30;     // ... or where the cell holds at least this many points (>= 1)
   double height_trim_fraction = 0.02; // in [0, 0.25): the upper edge, the k-th highest
-  double lower_edge_fraction = 0.10;  // in [0, 0.5): the lower edge, the k-th lowest (stereo fattening)
-  double lower_edge_fattening_px = 1.5;  // >= 0: stereo fattening under an edge, px (added back: px * range / f)
-  double max_height_gap_m = 0.5;      // >= 0: neighbours join when their height intervals are this close
+  double lower_edge_fraction = 0.10;  // in [0, 0.5): q of the lower edge's percentile p_q (step 3)
+  double lower_edge_fattening_px = 1.5;  // in [0, 16]: stereo fattening under an edge, px (added: px * range / f)
+  double max_height_gap_m = 0.5;      // >= 0: a larger gap splits a cell's points; neighbours join when closer
   double max_lower_edge_step_m = 0.3; // >= 0: ... and their lower edges differ by at most this
   double max_fragment_fraction = 0.25;  // in [0, 1): a cluster with at most this fraction of a neighbour's points may be its fragment
   double range_join_sigmas = 1.0;     // in [0, 6]: neighbours along a bearing reach this many sigma_Z
