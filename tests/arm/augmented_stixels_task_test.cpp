@@ -154,10 +154,12 @@ TEST(AugmentedStixelsTask, BoxAndHangingSignOverFlatTerrain) {
   EXPECT_GT(sign_stixels, 0);
 
   // Two obstacles: the box from 0.3 to 1.0 m, the sign from 1.5 to 1.8 m above the terrain. The
-  // lower edge is a robust lower percentile (lower_edge_fraction 0.10 of a stixel's points, whose
-  // heights are the scene's 10 rows in equal numbers): the second row's height, 0.3 + 0.7 / 9 =
-  // 0.378 m for the box and 1.5 + 0.3 / 9 = 1.533 m for the sign.
-  constexpr double kBoxLowerEdgeMm = 300 + 700 / 9.0, kSignLowerEdgeMm = 1500 + 300 / 9.0;
+  // lower edge (augmented_stixels.h, step 3) from a stixel's points, whose heights are the scene's
+  // 10 rows (step d) in equal numbers: p_10 = the second row, lo + d, the median the sixth,
+  // lo + 5 d, so the extrapolated edge p_10 - 0.1 / 0.4 (p_50 - p_10) = lo; plus the fattening
+  // term 1.5 px x range / f: 1.5 x 5 m / 200 px = 37.5 mm for the box, 1.5 x 7.075 m / 200 px =
+  // 53 mm for the sign (ranges as checked above).
+  constexpr double kBoxLowerEdgeMm = 300 + 1.5 * 5000 / kFocalPx, kSignLowerEdgeMm = 1500 + 1.5 * 7075 / kFocalPx;
   const int32_t* obstacle_header = run.obstacles.row<const int32_t>(0);
   ASSERT_EQ(obstacle_header[0], 2);
   EXPECT_EQ(obstacle_header[1], 2);

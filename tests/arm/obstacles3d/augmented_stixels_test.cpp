@@ -6,7 +6,9 @@
 // points give no obstacle; a
 // sign beside a low box, in neighbouring cells, stays a separate obstacle (height gap); stixels carry their
 // points and colours; the trimmed height ignores one stray low point; a sign above a box in the same
-// cells is one interval per stixel (the representation's limit); bad parameters throw; the counted
+// cells is two stixels per cell (multi-layer); a dense near board's lower edge is its edge, not its
+// lowest tenth; a board's top rows cut off by the lower-edge step and a sign's arm past the sign
+// join the board and the sign (fragments); bad parameters throw; the counted
 // work adds the header's binning terms to the grid's.
 #include <gtest/gtest.h>
 
@@ -149,6 +151,42 @@ TEST(AugmentedStixels, HangingBoardLowerEdgeFromFattenedNoisyPointsIsWithin10Cm)
   for (const Obstacle3d& obstacle : stixels.obstacles()) EXPECT_GE(obstacle.min_height_m, edge_m - 0.10) << obstacle.position_m.transpose();
 }
 
+TEST(AugmentedStixels, DenseCellIsAStixelBeforeTheGridCallsItOccupied) {
+  // 20 frames without points 20 m ahead (a box elsewhere, at 10 m, keeps the cloud non-empty): the
+  // grid's log-odds there sink to log_odds_min (miss_probability each frame); then a box 0.6 m wide, 0-1 m, walks in at 20 m: its cells
+  // hold dozens of points each (min_points_unoccupied = 30 and more), so it is an obstacle at
+  // once, while the grid needs a few frames to call its cells occupied (with the dense-cell rule
+  // off there is no obstacle at 20 m yet).
+  std::vector<ObstaclePoint> other;
+  add_patch(other, 2.0, 2.6, 0.0, 1.0, 10.0, 0.02);
+  std::vector<ObstaclePoint> points = other;
+  add_patch(points, -0.3, 0.3, 0.0, 1.0, 20.0, 0.02);
+  AugmentedStixelParameters occupied_only = stixel_parameters();
+  occupied_only.min_points_unoccupied = 1 << 30;
+  AugmentedStixels stixels(stixel_parameters()), grid_only(occupied_only);
+  for (int frame = 0; frame < 20; ++frame) {
+    stixels.update(other, EgoMotion{});
+    grid_only.update(other, EgoMotion{});
+  }
+  stixels.update(points, EgoMotion{});
+  grid_only.update(points, EgoMotion{});
+  auto obstacles_at_20_m = [](const AugmentedStixels& method) {
+    int count = 0;
+    for (const Obstacle3d& obstacle : method.obstacles()) count += std::abs(obstacle.position_m.z() - 20.0) < 1.0 ? 1 : 0;
+    return count;
+  };
+  EXPECT_EQ(obstacles_at_20_m(stixels), 1) << stixels.status();
+  EXPECT_EQ(obstacles_at_20_m(grid_only), 0) << grid_only.status();
+  int unoccupied = 0;
+  for (const AugmentedStixel& stixel : stixels.stixels()) {
+    if (!stixels.grid().occupied(stixel.range_cell, stixel.angle_cell)) {
+      ++unoccupied;
+      EXPECT_GE(stixel.point_count, 30);
+    }
+  }
+  EXPECT_GT(unoccupied, 0);
+}
+
 TEST(AugmentedStixels, ScatteredNoisePointsDoNotBecomeObstacles) {
   // 3000 isolated points a frame (terrain-fit outliers, mismatches) spread over 5-35 m ahead and
   // +-8 m across, new ones every frame: no obstacle.
@@ -162,16 +200,107 @@ TEST(AugmentedStixels, ScatteredNoisePointsDoNotBecomeObstacles) {
   }
 }
 
-TEST(AugmentedStixels, SignOverALowBoxInTheSameCellsIsOneHeightInterval) {
+TEST(AugmentedStixels, SignOverALowBoxInTheSameCellsIsTwoStixelsPerCell) {
   std::vector<ObstaclePoint> points;
   add_patch(points, -0.4, 0.4, 0.0, 0.3, 12.0);   // a low box
   add_patch(points, -0.4, 0.4, 2.0, 2.4, 12.0);   // a sign 1.7 m above it (gap > max_height_gap_m)
   AugmentedStixels stixels(stixel_parameters());
   for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
-  // Same cells hold both: each stixel spans 0-2.4 m, so they join into one obstacle. The thesis'
-  // stixels have one height interval per cell; the sign over the box is one stixel per cell.
+  // Same cells hold both: the gap of 1.7 m (> max_height_gap_m) splits each cell's points into two
+  // stixels (multi-layer), so the free space between 0.3 and 2.0 m is kept: two obstacles.
+  ASSERT_EQ(stixels.obstacles().size(), 2u) << stixels.status();
+  const double low_max = std::min(stixels.obstacles()[0].max_height_m, stixels.obstacles()[1].max_height_m);
+  const double high_min = std::max(stixels.obstacles()[0].min_height_m, stixels.obstacles()[1].min_height_m);
+  const double high_max = std::max(stixels.obstacles()[0].max_height_m, stixels.obstacles()[1].max_height_m);
+  EXPECT_NEAR(low_max, 0.3, 0.1);
+  EXPECT_NEAR(high_min, 2.0, 0.1);
+  EXPECT_NEAR(high_max, 2.4, 0.1);
+  // Every cell with a stixel has one under 0.4 m and one over 1.9 m, in order of height.
+  std::vector<const AugmentedStixel*> previous;
+  int cells = 0;
+  for (size_t i = 0; i < stixels.stixels().size(); ++i) {
+    const AugmentedStixel& stixel = stixels.stixels()[i];
+    const bool first_of_cell = i == 0 || stixels.stixels()[i - 1].angle_cell != stixel.angle_cell ||
+                               stixels.stixels()[i - 1].range_cell != stixel.range_cell;
+    if (first_of_cell) {
+      ++cells;
+      EXPECT_LT(stixel.max_height_m, 0.4f) << stixel.angle_cell << "/" << stixel.range_cell;
+    } else {
+      EXPECT_GT(stixel.min_height_m, 1.9f) << stixel.angle_cell << "/" << stixel.range_cell;
+    }
+  }
+  EXPECT_EQ(static_cast<int>(stixels.stixels().size()), 2 * cells);
+}
+
+TEST(AugmentedStixels, LowerEdgeOfADenseNearBoardIsItsEdgeNotItsLowestTenth) {
+  // A board 1.0-1.7 m above the road at 5 m, exact points: its lowest tenth of points ends 7 cm
+  // above the edge; the extrapolated edge (header, step 3) plus 1.5 px of fattening at 5 m
+  // (1.5 cm) is within 3 cm of 1.0 m.
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -0.5, 0.5, 1.0, 1.7, 5.0);
+  AugmentedStixels stixels(stixel_parameters());
+  for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
   ASSERT_EQ(stixels.obstacles().size(), 1u) << stixels.status();
-  EXPECT_NEAR(stixels.obstacles()[0].max_height_m, 2.4, 0.1);
+  EXPECT_NEAR(stixels.obstacles()[0].min_height_m, 1.0, 0.03);
+  AugmentedStixelParameters plain = stixel_parameters();
+  plain.lower_edge_fattening_px = 0;
+  AugmentedStixels unfattened(plain);
+  for (int frame = 0; frame < 3; ++frame) unfattened.update(points, EgoMotion{});
+  ASSERT_EQ(unfattened.obstacles().size(), 1u) << unfattened.status();
+  // The fattening term is 1.5 px x 5 m / 500 px = 1.5 cm.
+  EXPECT_NEAR(stixels.obstacles()[0].min_height_m - unfattened.obstacles()[0].min_height_m, 1.5 * 5.0 / testing::kFocalPx, 0.002);
+}
+
+TEST(AugmentedStixels, TopRowsOfABoardCutOffByTheLowerEdgeStepJoinTheBoard) {
+  // A board 1.0-1.6 m at 10 m and a strip of its top rows (1.45-1.6 m) whose points landed one
+  // range cell behind (stereo scatter): the strip's lower edge is more than max_lower_edge_step_m
+  // above the board's, so the stixels do not join, but the strip is a fragment (a tenth of the
+  // board's points) and joins the board: one obstacle, whose lower edge stays the board's.
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -0.8, 0.8, 1.0, 1.6, 10.0);
+  add_patch(points, -0.2, 0.2, 1.45, 1.6, 10.25);
+  AugmentedStixels stixels(stixel_parameters());
+  for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+  ASSERT_EQ(stixels.obstacles().size(), 1u) << stixels.status();
+  EXPECT_NEAR(stixels.obstacles()[0].min_height_m, 1.0, 0.1);
+  EXPECT_NEAR(stixels.obstacles()[0].max_height_m, 1.6, 0.1);
+  int strip_stixels = 0;
+  for (const AugmentedStixel& stixel : stixels.stixels()) {
+    if (stixel.min_height_m > 1.3f) ++strip_stixels;
+    EXPECT_EQ(stixel.cluster, 0);
+  }
+  EXPECT_GT(strip_stixels, 0);  // the strip's stixels are there, apart in height from the board's
+  // Without fragments (max_fragment_fraction 0) the strip is an obstacle of its own, hanging at 1.45 m.
+  AugmentedStixelParameters no_fragments = stixel_parameters();
+  no_fragments.max_fragment_fraction = 0;
+  AugmentedStixels apart(no_fragments);
+  for (int frame = 0; frame < 3; ++frame) apart.update(points, EgoMotion{});
+  ASSERT_EQ(apart.obstacles().size(), 2u) << apart.status();
+}
+
+TEST(AugmentedStixels, SignArmPastTheSignJoinsTheSignNotThePost) {
+  // A hanging sign 1.9-2.65 m at 8 m, x in [-0.6, 0.6]; its arm 2.9-3.0 m from x = -0.6 to the
+  // post at x = 1.15 (0.1 m wide, 0-3.0 m). Past the sign the arm's stixels (2.9-3.0 m) are cut
+  // off from the sign's by the lower-edge step and from the post's too: a fragment of both
+  // intervals, it joins the sign (the host with the highest lower edge), so no obstacle reports a
+  // lower edge at the arm's 2.9 m, and the sign's stays at 1.9 m.
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -0.6, 0.6, 1.9, 2.65, 8.0);
+  add_patch(points, -0.6, 1.1, 2.9, 3.0, 8.0);
+  add_patch(points, 1.1, 1.2, 0.0, 3.0, 8.0);
+  AugmentedStixels stixels(stixel_parameters());
+  for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+  ASSERT_EQ(stixels.obstacles().size(), 2u) << stixels.status();
+  int signs = 0;
+  for (const Obstacle3d& obstacle : stixels.obstacles()) {
+    EXPECT_LT(obstacle.min_height_m, 2.5) << obstacle.position_m.transpose();
+    if (obstacle.min_height_m > 1.0) {
+      EXPECT_NEAR(obstacle.min_height_m, 1.9, 0.1);
+      EXPECT_NEAR(obstacle.max_height_m, 3.0, 0.1);
+      ++signs;
+    }
+  }
+  EXPECT_EQ(signs, 1);
 }
 
 TEST(AugmentedStixels, NeighbouringStixelsFarApartInHeightAreSeparateObstacles) {
@@ -241,6 +370,15 @@ TEST(AugmentedStixels, BadParametersThrowNamingTheParameter) {
   parameters = stixel_parameters();
   parameters.lower_edge_fraction = 0.5;
   EXPECT_EQ(message_of(parameters), "lower_edge_fraction: expected in [0, 0.5), got 0.5");
+  parameters = stixel_parameters();
+  parameters.min_points_unoccupied = 0;
+  EXPECT_EQ(message_of(parameters), "min_points_unoccupied: expected >= 1, got 0");
+  parameters = stixel_parameters();
+  parameters.lower_edge_fattening_px = -1;
+  EXPECT_EQ(message_of(parameters), "lower_edge_fattening_px: expected in [0, 16], got -1");
+  parameters = stixel_parameters();
+  parameters.max_fragment_fraction = 1;
+  EXPECT_EQ(message_of(parameters), "max_fragment_fraction: expected in [0, 1), got 1");
   parameters = stixel_parameters();
   parameters.min_obstacle_points = 0;
   EXPECT_EQ(message_of(parameters), "min_obstacle_points: expected >= 1, got 0");
