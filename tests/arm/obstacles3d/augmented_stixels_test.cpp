@@ -153,7 +153,7 @@ TEST(AugmentedStixels, HangingBoardLowerEdgeFromFattenedNoisyPointsIsWithin10Cm)
 
 TEST(AugmentedStixels, DenseCellIsAStixelBeforeTheGridCallsItOccupied) {
   // 20 frames without points 20 m ahead (a box elsewhere, at 10 m, keeps the cloud non-empty): the
-  // grid's log-odds there sink to log_odds_min (miss_probability each frame); then a box 0.6 m wide, 0-1 m, walks in at 20 m: its cells
+  // grid's log-odds there sink to log_odds_min = -4 (miss_probability each frame); then a box 0.6 m wide, 0-1 m, walks in at 20 m: its cells
   // hold dozens of points each (min_points_unoccupied = 30 and more), so it is an obstacle at
   // once, while the grid needs a few frames to call its cells occupied (with the dense-cell rule
   // off there is no obstacle at 20 m yet).
@@ -161,9 +161,13 @@ TEST(AugmentedStixels, DenseCellIsAStixelBeforeTheGridCallsItOccupied) {
   add_patch(other, 2.0, 2.6, 0.0, 1.0, 10.0, 0.02);
   std::vector<ObstaclePoint> points = other;
   add_patch(points, -0.3, 0.3, 0.0, 1.0, 20.0, 0.02);
-  AugmentedStixelParameters occupied_only = stixel_parameters();
+  // A deep lower clamp (-4, the grid's default before it became -1): with the default -1, one frame of
+  // full evidence already makes a cell occupied and the rule would not be exercised.
+  AugmentedStixelParameters dense_rule = stixel_parameters();
+  dense_rule.grid.log_odds_min = -4.0;
+  AugmentedStixelParameters occupied_only = dense_rule;
   occupied_only.min_points_unoccupied = 1 << 30;
-  AugmentedStixels stixels(stixel_parameters()), grid_only(occupied_only);
+  AugmentedStixels stixels(dense_rule), grid_only(occupied_only);
   for (int frame = 0; frame < 20; ++frame) {
     stixels.update(other, EgoMotion{});
     grid_only.update(other, EgoMotion{});
