@@ -98,17 +98,9 @@ struct Texture {
   int octaves;
 };
 
-inline double texture(const Texture& t, double s, double r, uint64_t seed, double footprint) {
-  double sum = 0;
-  for (int k = 0; k < t.octaves; ++k) {
-    const double weight = octave_weight(t.cells[k], footprint);
-    if (weight > 0) sum += weight * t.amplitudes[k] * value_noise(s / t.cells[k], r / t.cells[k], seed + 7919u * static_cast<uint64_t>(k));
-  }
-  return sum;
-}
-
-// texture() through one noise cell per octave (`cells`, one set per surface and thread): the same
-// value, bit for bit.
+// The texture at (s, r): its octaves' value noise, each weighted by octave_weight. `cells` holds one
+// noise cell per octave (one set per surface and thread); a filled cell only speeds the lookups up,
+// the value is the same bits.
 inline double texture(const Texture& t, double s, double r, uint64_t seed, double footprint, NoiseCell (&cells)[4]) {
   double sum = 0;
   for (int k = 0; k < t.octaves; ++k) {
@@ -116,6 +108,12 @@ inline double texture(const Texture& t, double s, double r, uint64_t seed, doubl
     if (weight > 0) sum += weight * t.amplitudes[k] * value_noise(s / t.cells[k], r / t.cells[k], seed + 7919u * static_cast<uint64_t>(k), cells[k]);
   }
   return sum;
+}
+
+// The same through fresh cells (no cache kept between calls).
+inline double texture(const Texture& t, double s, double r, uint64_t seed, double footprint) {
+  NoiseCell cells[4];
+  return texture(t, s, r, seed, footprint, cells);
 }
 
 struct Rgb {
