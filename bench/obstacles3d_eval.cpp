@@ -219,22 +219,20 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
     }
     ++tally.visible;
     const Gate gate = gate_of(object, error_model);
+    // In the gate: the nearest obstacle and the one with the highest lower edge; anywhere: the
+    // nearest (what --misses reports for a miss).
     const o3::Obstacle3d* nearest = nullptr;
     const o3::Obstacle3d* highest_lower_edge = nullptr;
-    double nearest_distance = 1e9;
+    const o3::Obstacle3d* nearest_anywhere = nullptr;
+    double nearest_distance = 1e9, nearest_anywhere_m = 1e9;
     for (const o3::Obstacle3d& obstacle : obstacles) {
-      if (!in_gate(obstacle, object, gate)) continue;
       const double distance = std::hypot(obstacle.position_m.x() - object.truth.position_m[0], obstacle.position_m.z() - object.truth.position_m[2]);
+      if (distance < nearest_anywhere_m) nearest_anywhere_m = distance, nearest_anywhere = &obstacle;
+      if (!in_gate(obstacle, object, gate)) continue;
       if (distance < nearest_distance) nearest_distance = distance, nearest = &obstacle;
       if (!highest_lower_edge || obstacle.min_height_m > highest_lower_edge->min_height_m) highest_lower_edge = &obstacle;
     }
     if (!nearest) {
-      const o3::Obstacle3d* nearest_anywhere = nullptr;
-      double nearest_anywhere_m = 1e9;
-      for (const o3::Obstacle3d& obstacle : obstacles) {
-        const double distance = std::hypot(obstacle.position_m.x() - object.truth.position_m[0], obstacle.position_m.z() - object.truth.position_m[2]);
-        if (distance < nearest_anywhere_m) nearest_anywhere_m = distance, nearest_anywhere = &obstacle;
-      }
       log_row(log, method, "miss", &object, measurable_count, nearest_anywhere);
       continue;
     }
