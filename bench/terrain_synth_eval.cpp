@@ -43,14 +43,16 @@
 // (the same grid and fit on the exact points of every pixel: the fit alone), "FP" and "FP ground"
 // (false obstacle points, and those on ground pixels), "gnd>20cm" (measured ground points more than
 // 20 cm above the true ground within 20 m: stereo errors no surface can hide). --bands prints the
-// surface's RMS per 5 m band for the left verge, the road and the right verge; --exact-points runs
+// surface's RMS per 5 m band for the left verge, the road and the right verge, and the share of the
+// squared error within 20 m near objects (within 2 cells of a cell with object points), on the berm's
+// strip, the ditch's and elsewhere; --error-map the error per cell as a text map; --exact-points runs
 // the whole evaluation on the exact points.
 //
 // Usage: terrain_synth_eval [--seeds N] [--first-seed S] [--scene SPEC] [--width W --height H] [--census 5|9] [--bands]
 //        [--control N] [--initial-control N] [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A]
 //        [--threshold-factor F] [--alpha-step A] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
 //        [--noise-quantile Q] [--discontinuity-radius R] [--discontinuity-jump J] [--disparity-margin M] [--exact-points]
-//        [--support-reach N] [--equalisation-step-m S] [--step-reach N] [--fp-bands]
+//        [--support-reach N] [--equalisation-step-m S] [--step-reach N] [--fp-bands] [--error-map]
 // The disparity range is 80 at 640 px wide and scales with the width (160 at 1280).
 // Exit 0 when every scene meets both lines, 1 otherwise.
 #include <algorithm>
@@ -96,6 +98,7 @@ struct Settings {
   double disparity_margin_px = 1.0;
   int support_reach_cells = 0;
   bool false_positive_bands = false;  // --fp-bands: the false obstacle points on ground pixels per 5 m band
+  bool error_map = false;     // --error-map: the surface's error per cell as a text map (see evaluate)
   bool bands = false;         // --bands: the surface's RMS error per 5 m band forward x road / beside it
   bool exact_points = false;  // --exact-points: the exact points of every pixel instead of the stereo ones
   double noise_sigma = 1.0;
@@ -312,6 +315,70 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
       std::printf("\n");
     }
   }
+  if (settings.bands) {
+    // Where the squared error within 20 m comes from: cells within 2 cells of a cell holding measured
+    // object points, the berm's strip (|y - 7| < 2 m), the ditch's (|y + 6.5| < 1.75 m), the rest.
+    std::vector<uint8_t> near_object(static_cast<size_t>(spec.forward_cells()) * spec.lateral_cells(), 0);
+    for (size_t k = 0; k < measured.size(); ++k) {
+      int i = 0, j = 0;
+      const int u = pixel_of[k] % width, v = pixel_of[k] / width;
+      if (scene.object_ids.at<uint16_t>(v, u) == 0 || !spec.cell_of(measured[k].x(), measured[k].y(), &i, &j)) continue;
+      for (int a = std::max(0, i - 2); a <= std::min(spec.forward_cells() - 1, i + 2); ++a) {
+        for (int b = std::max(0, j - 2); b <= std::min(spec.lateral_cells() - 1, j + 2); ++b) near_object[static_cast<size_t>(a) * spec.lateral_cells() + b] = 1;
+      }
+    }
+    double share_sum[4] = {}, share_bias[4] = {};
+    int share_count[4] = {};
+    for (int i = 0; i < spec.forward_cells(); ++i) {
+      for (int j = 0; j < spec.lateral_cells(); ++j) {
+        const double x = spec.cell_centre_x_m(i), y = spec.cell_centre_y_m(j);
+        const double error = estimate.surface.height_m(x, y) - truth.height_m(-y, x);
+        if (!visible(i, j) || x > 20 || !std::isfinite(error)) continue;
+        const int kind = near_object[static_cast<size_t>(i) * spec.lateral_cells() + j] ? 0 : std::abs(y - 7) < 2 ? 1 : std::abs(y + 6.5) < 1.75 ? 2 : 3;
+        share_sum[kind] += error * error, share_bias[kind] += error, ++share_count[kind];
+      }
+    }
+    const double total = share_sum[0] + share_sum[1] + share_sum[2] + share_sum[3];
+    std::printf("    squared error within 20 m:");
+    const char* kind_names[4] = {"near objects", "berm strip", "ditch strip", "rest"};
+    for (int kind = 0; kind < 4; ++kind) {
+      std::printf("  %s %4.1f %% (rms %4.1f cm, bias %+5.1f cm, %3d cells)", kind_names[kind], 100 * share_sum[kind] / std::max(total, 1e-12),
+                  100 * std::sqrt(share_sum[kind] / std::max(share_count[kind], 1)), 100 * share_bias[kind] / std::max(share_count[kind], 1), share_count[kind]);
+    }
+    std::printf("\n");
+  }
+  if (settings.error_map) {
+    // One line per forward row (far at the top), one character per lateral cell (left at the left):
+    // the surface's error against the truth, '.' not visible; '0' within 5 cm, '+' / '-' 5-15 cm
+    // above / below, 'A' / 'a' 15-30 cm, '#' / '=' more; the grid cell's own state after '|':
+    // 'o' a cell whose measured points include an object pixel's, 'm' measured, 'f' filled, ' ' invalid.
+    std::vector<uint8_t> obstacle_cell(static_cast<size_t>(spec.forward_cells()) * spec.lateral_cells(), 0);
+    for (size_t k = 0; k < measured.size(); ++k) {
+      int i = 0, j = 0;
+      const int u = pixel_of[k] % width, v = pixel_of[k] / width;
+      if (scene.object_ids.at<uint16_t>(v, u) != 0 && spec.cell_of(measured[k].x(), measured[k].y(), &i, &j)) {
+        obstacle_cell[static_cast<size_t>(i) * spec.lateral_cells() + j] = 1;
+      }
+    }
+    for (int i = spec.forward_cells() - 1; i >= 0; --i) {
+      std::string surface_row, grid_row;
+      for (int j = spec.lateral_cells() - 1; j >= 0; --j) {
+        const double x = spec.cell_centre_x_m(i), y = spec.cell_centre_y_m(j);
+        const double error = estimate.surface.height_m(x, y) - truth.height_m(-y, x);
+        char c = '.';
+        if (visible(i, j) && std::isfinite(error)) {
+          const double a = std::abs(error);
+          c = a < 0.05 ? '0' : a < 0.15 ? (error > 0 ? '+' : '-') : a < 0.30 ? (error > 0 ? 'A' : 'a') : (error > 0 ? '#' : '=');
+        }
+        surface_row += c;
+        grid_row += obstacle_cell[static_cast<size_t>(i) * spec.lateral_cells() + j] ? 'o'
+                    : grid.state(i, j) == terrain::kCellMeasured                        ? 'm'
+                    : grid.state(i, j) == terrain::kCellFilled                          ? 'f'
+                                                                                        : ' ';
+      }
+      std::printf("    %5.2f m %s | %s\n", spec.cell_centre_x_m(i), surface_row.c_str(), grid_row.c_str());
+    }
+  }
   result.rms_34_m = std::sqrt(sum_34 / std::max(result.cells_34, 1));
   result.bias_20_m = signed_20 / std::max(result.cells_20, 1);
   result.grid_rms_20_m = std::sqrt(grid_sum_20 / std::max(grid_cells_20, 1));
@@ -474,6 +541,7 @@ int main(int argc, char** argv) {
     else if (a == "--noise-quantile") settings.grid.noise_floor_quantile = number_argument(i, argc, argv);
     else if (a == "--bands") settings.bands = true;
     else if (a == "--fp-bands") settings.false_positive_bands = true;
+    else if (a == "--error-map") settings.error_map = true;
     else if (a == "--noise-sigma") settings.noise_sigma = number_argument(i, argc, argv);
     else {
       std::fprintf(stderr, "%s: unknown option (see the header of bench/terrain_synth_eval.cpp)\n", argv[i]);
