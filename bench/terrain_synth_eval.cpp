@@ -52,7 +52,7 @@
 //        [--control N] [--initial-control N] [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A]
 //        [--threshold-factor F] [--alpha-step A] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
 //        [--noise-quantile Q] [--discontinuity-radius R] [--discontinuity-jump J] [--disparity-margin M] [--exact-points]
-//        [--support-reach N] [--equalisation-step-m S] [--step-reach N] [--fp-bands] [--error-map]
+//        [--support-reach N] [--equalisation-step-m S] [--step-reach N] [--patch-max-cells N] [--fp-bands] [--error-map]
 // The disparity range is 80 at 640 px wide and scales with the width (160 at 1280).
 // Exit 0 when every scene meets both lines, 1 otherwise.
 #include <algorithm>
@@ -104,10 +104,12 @@ struct Settings {
   double noise_sigma = 1.0;
   int census_width = 5;  // the disparity engine's census window (5 or 9)
   // The fit's defaults but the step rule on (0.45 m within 4 cells; --equalisation-step-m 0 for the
-  // thesis's equalisation everywhere): docs/terrain.md has the figures with and without.
+  // thesis's equalisation everywhere) with its patch limit of 16 cells (--patch-max-cells 0: none):
+  // docs/terrain.md has the figures with and without.
   terrain::TerrainFitParameters fit = [] {
     terrain::TerrainFitParameters parameters;
     parameters.equalisation_step_m = 0.45;
+    parameters.equalisation_patch_max_cells = 16;
     return parameters;
   }();
   terrain::TerrainGridSpec grid;  // 0..34 m forward, +-11 m lateral, 0.5 m cells (the thesis's area)
@@ -536,6 +538,7 @@ int main(int argc, char** argv) {
     else if (a == "--disparity-margin") settings.disparity_margin_px = number_argument(i, argc, argv);
     else if (a == "--support-reach") settings.support_reach_cells = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--equalisation-step-m") settings.fit.equalisation_step_m = number_argument(i, argc, argv);
+    else if (a == "--patch-max-cells") settings.fit.equalisation_patch_max_cells = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--step-reach") settings.fit.equalisation_step_reach_cells = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--thesis-cell-rule") settings.grid.cell_rule = terrain::TerrainGridSpec::CellRule::thesis;
     else if (a == "--noise-quantile") settings.grid.noise_floor_quantile = number_argument(i, argc, argv);
@@ -551,13 +554,13 @@ int main(int argc, char** argv) {
   const terrain::TerrainFitParameters& f = settings.fit;
   std::printf("terrain_synth_eval: %dx%d, hfov 60 deg, baseline 0.30 m, camera 1.5 m, pitch 0.06 rad, noise %.1f, 4 rays/px; "
               "area %.0fx%.0f m, cell %.2f m; fit: degree %dx%d, control %dx%d (from %dx%d), %d iterations, threshold factor %.2f, "
-              "alpha %.2f + %.2f/iteration, equalisation tolerance %.3f m and %.1f th, step rule %.2f m within %d cells; obstacle threshold 0.20 m, "
+              "alpha %.2f + %.2f/iteration, equalisation tolerance %.3f m and %.1f th, step rule %.2f m within %d cells, patch limit %d cells; obstacle threshold 0.20 m, "
               "disparity margin %.2f px, support %d cells\n",
               settings.width, settings.height, settings.noise_sigma, settings.grid.forward_max_m - settings.grid.forward_min_m,
               settings.grid.lateral_max_m - settings.grid.lateral_min_m, settings.grid.cell_m, f.degree_forward, f.degree_lateral,
               f.control_forward, f.control_lateral, f.initial_control_forward, f.initial_control_lateral, f.max_iterations,
               f.threshold_factor, f.alpha_initial, f.alpha_step, f.equalisation_tolerance_m, f.equalisation_threshold_factor,
-              f.equalisation_step_m, f.equalisation_step_reach_cells, settings.disparity_margin_px, settings.support_reach_cells);
+              f.equalisation_step_m, f.equalisation_step_reach_cells, f.equalisation_patch_max_cells, settings.disparity_margin_px, settings.support_reach_cells);
   std::printf("%-26s %4s %10s %10s %9s %9s %11s %10s %7s %7s %9s %9s %8s %7s %9s %8s %8s %8s %9s %6s %8s %8s %6s\n", "scene", "seed", "rms<=20m", "rms<=34m", "bias<=20m",
               "grid<=20m", "points<=20", "exact<=20", "cells20", "cells34", "precision", "recall", "obstacle", "FP", "FP ground", "gnd>20cm", "edge px", "mount", "fit", "lines",
               "w-prec", "w-recall", "w-lines");

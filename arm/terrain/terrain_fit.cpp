@@ -155,6 +155,9 @@ void validate(const TerrainFitParameters& p, const HeightGrid& grid) {
   if (p.equalisation_step_reach_cells < 0 || p.equalisation_step_reach_cells > 1000) {
     bad_parameter("equalisation_step_reach_cells", "0..1000", std::to_string(p.equalisation_step_reach_cells));
   }
+  if (p.equalisation_patch_max_cells < 0) {
+    bad_parameter("equalisation_patch_max_cells", ">= 0", std::to_string(p.equalisation_patch_max_cells));
+  }
 }
 
 // A symmetric positive definite band matrix (half-bandwidth p = the degree) in lower band storage:
@@ -452,6 +455,9 @@ TerrainEstimate fit_terrain(const HeightGrid& grid, const TerrainFitParameters& 
                                  format_number(parameters.regularisation) + ")");
   };
   const int iterations = parameters.max_iterations;
+  const bool patch_limited = parameters.equalisation_step_m > 0 && parameters.equalisation_patch_max_cells > 0;
+  std::vector<uint8_t> candidate(patch_limited ? static_cast<size_t>(m0 * m1) : 0);
+  std::vector<int> patch_size(patch_limited ? static_cast<size_t>(m0 * m1) : 0), patch;
   for (int k = 0; k < iterations; ++k) {
     const int n0 = parameters.initial_control_forward +
                    k * (parameters.control_forward - parameters.initial_control_forward) / std::max(1, iterations);
@@ -468,6 +474,38 @@ TerrainEstimate fit_terrain(const HeightGrid& grid, const TerrainFitParameters& 
     const double mean_error = error_sum / valid;
     const double threshold = parameters.threshold_factor * mean_error;
     const double alpha = parameters.alpha_initial + k * parameters.alpha_step;
+    const double equalisation_threshold_m = std::max(parameters.equalisation_tolerance_m, parameters.equalisation_threshold_factor * threshold);
+    // The patch limit: the size of each candidate's 4-connected patch of candidates (samples above
+    // the equalisation threshold), by one flood fill per patch.
+    if (patch_limited) {
+      for (int c = 0; c < m0 * m1; ++c) {
+        const int i = c / m1, j = c % m1;
+        candidate[static_cast<size_t>(c)] =
+            grid.state(i, j) != kCellInvalid && heights(i, j) - at_cells(i, j) > equalisation_threshold_m ? 1 : 0;
+        patch_size[static_cast<size_t>(c)] = 0;
+      }
+      for (int seed = 0; seed < m0 * m1; ++seed) {
+        if (candidate[static_cast<size_t>(seed)] == 0 || patch_size[static_cast<size_t>(seed)] != 0) continue;
+        patch.clear();
+        patch.push_back(seed);
+        patch_size[static_cast<size_t>(seed)] = -1;  // visited
+        for (size_t head = 0; head < patch.size(); ++head) {
+          const int i = patch[head] / m1, j = patch[head] % m1;
+          constexpr int kStep4[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+          for (const auto& step : kStep4) {
+            const int a = i + step[0], b = j + step[1];
+            if (a < 0 || a >= m0 || b < 0 || b >= m1) continue;
+            const size_t next = static_cast<size_t>(a * m1 + b);
+            if (candidate[next] == 0 || patch_size[next] != 0) continue;
+            patch_size[next] = -1;
+            patch.push_back(a * m1 + b);
+          }
+        }
+        for (const int c : patch) patch_size[static_cast<size_t>(c)] = static_cast<int>(patch.size());
+        estimate.work.scalar_ops += static_cast<uint64_t>(10 * patch.size());
+      }
+      estimate.work.scalar_ops += static_cast<uint64_t>(4 * m0 * m1);
+    }
     int equalised = 0;
     for (int i = 0; i < m0; ++i) {
       for (int j = 0; j < m1; ++j) {
@@ -478,8 +516,9 @@ TerrainEstimate fit_terrain(const HeightGrid& grid, const TerrainFitParameters& 
         const double weight = ratio > 0 ? std::min(parameters.maximum_weight, 1.0 + inverse_power(ratio, alpha)) : parameters.maximum_weight;
         weights(i, j) = weight;
         // eq. 3.7, never raising samples below S
-        if (dz > std::max(parameters.equalisation_tolerance_m, parameters.equalisation_threshold_factor * threshold) &&
-            (dz <= parameters.equalisation_step_m || equalisable[static_cast<size_t>(i * m1 + j)] != 0)) {
+        const size_t c = static_cast<size_t>(i * m1 + j);
+        const bool small_patch = !patch_limited || patch_size[c] <= parameters.equalisation_patch_max_cells;
+        if (dz > equalisation_threshold_m && ((dz <= parameters.equalisation_step_m && small_patch) || equalisable[c] != 0)) {
           heights(i, j) -= parameters.equalisation == TerrainFitParameters::Equalisation::never_overshoot
                                ? dz * weight / (weight + 1.0)
                                : dz * (1.0 + 1.0 / weight);

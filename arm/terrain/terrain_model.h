@@ -166,6 +166,13 @@ struct TerrainFitParameters {
   // false positives in urban scenes with it (docs/terrain.md).
   double equalisation_step_m = 0.0;
   int equalisation_step_reach_cells = 4;
+  // Patch limit of the step rule (only with equalisation_step_m > 0; terrain_fit.cpp has the model):
+  // a sample at most equalisation_step_m above the surface and away from every edge cell is equalised
+  // only when its patch, the 4-connected cells above the equalisation threshold in that iteration,
+  // has at most this many cells: a mixed cell of a narrow box or a rough-ground bump forms a small
+  // patch and is cut, the crest of a long berm or a hill forms a large one and is left to the
+  // re-weighting. 0 (default): no limit (every such sample, as before).
+  int equalisation_patch_max_cells = 0;
   // Eq. 3.7: never_overshoot = Z -= dz W / (W + 1) (the thesis's prose: moved towards the surface,
   // never past it); as_printed = Z -= dz (1 + 1/W) (the formula as the text conversion prints it,
   // which puts the sample below the surface; kept to show the difference in bench/terrain_bench).

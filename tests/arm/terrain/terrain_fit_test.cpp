@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
 #include <random>
 
 #include "arm/terrain/terrain_model.h"
@@ -308,6 +309,7 @@ TEST(TerrainFit, ParametersOutOfRangeThrowNamingTheParameter) {
       {"equalisation_threshold_factor", [](TerrainFitParameters& p) { p.equalisation_threshold_factor = -1; }},
       {"equalisation_step_m", [](TerrainFitParameters& p) { p.equalisation_step_m = -0.1; }},
       {"equalisation_step_reach_cells", [](TerrainFitParameters& p) { p.equalisation_step_reach_cells = -1; }},
+      {"equalisation_patch_max_cells", [](TerrainFitParameters& p) { p.equalisation_patch_max_cells = -1; }},
   };
   for (const auto& bad : cases) {
     TerrainFitParameters parameters = base;
@@ -412,6 +414,85 @@ TEST(TerrainFit, StepRuleKeepsASmoothBermAndStillCutsABox) {
   ASSERT_TRUE(plain.known);
   EXPECT_GT(box_deviation(plain), 0.5);
   EXPECT_LT(box_deviation(kept), 0.25 * box_deviation(plain)) << box_deviation(shaved);
+}
+
+// The patch limit of the step rule (equalisation_patch_max_cells, terrain_fit.cpp): on flat ground a
+// long low ridge (0.3 m, raised cosine 3 m wide, along x over the whole area) and an isolated bump of
+// 2 x 2 cells 0.3 m high (the mixed cells of the deviation test's 0.8 m box); nothing steps by more
+// than 0.45 m, so no cell is near an edge. One equalisation against the first (5 x 5) surface: the
+// candidates (more than the equalisation limit above it) are grouped here by a plain 4-connected
+// labelling; those in a patch of at most 16 cells are lowered, those in a larger one keep their height;
+// without the limit (0) every candidate is lowered.
+TEST(TerrainFit, PatchLimitKeepsALongLowRidgeAndCutsAnIsolatedBump) {
+  const double pi = 3.14159265358979323846;
+  const auto ridge = [pi](double y) {
+    const double u = std::abs(y + 6.0) / 1.5;
+    return u < 1 ? 0.15 * (1 + std::cos(pi * u)) : 0.0;
+  };
+  const TerrainGridSpec spec = spec_of(22, 22, 0.5);
+  const HeightGrid grid = grid_of(spec, [&](double x, double y) {
+    return std::abs(x - 11.0) < 0.5 && std::abs(y - 4.0) < 0.5 ? 0.3 : ridge(y);
+  });
+  TerrainFitParameters parameters;
+  parameters.control_forward = parameters.control_lateral = 5;
+  parameters.equalisation_step_m = 0.45;
+  parameters.equalisation_patch_max_cells = 16;
+  parameters.max_iterations = 0;
+  const TerrainEstimate first = fit_terrain(grid, parameters);
+  ASSERT_TRUE(first.known) << first.reason;
+  const Eigen::MatrixXd surface = surface_heights_at_cells(first.surface, grid.spec);
+  const Eigen::MatrixXd dz = grid.height_m - surface;
+  const double limit = std::max(parameters.equalisation_tolerance_m, parameters.equalisation_threshold_factor * dz.cwiseAbs().mean());
+  const int m0 = spec.forward_cells(), m1 = spec.lateral_cells();
+  // Reference labelling: repeated relaxation of the smallest label over 4-neighbours until stable.
+  Eigen::MatrixXi label = Eigen::MatrixXi::Constant(m0, m1, -1);
+  for (int i = 0; i < m0; ++i)
+    for (int j = 0; j < m1; ++j)
+      if (dz(i, j) > limit) label(i, j) = i * m1 + j;
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (int i = 0; i < m0; ++i) {
+      for (int j = 0; j < m1; ++j) {
+        if (label(i, j) < 0) continue;
+        const int neighbours[4][2] = {{i - 1, j}, {i + 1, j}, {i, j - 1}, {i, j + 1}};
+        for (const auto& n : neighbours) {
+          if (n[0] < 0 || n[0] >= m0 || n[1] < 0 || n[1] >= m1 || label(n[0], n[1]) < 0 || label(n[0], n[1]) >= label(i, j)) continue;
+          label(i, j) = label(n[0], n[1]);
+          changed = true;
+        }
+      }
+    }
+  }
+  std::map<int, int> patch_cells;
+  for (int i = 0; i < m0; ++i)
+    for (int j = 0; j < m1; ++j)
+      if (label(i, j) >= 0) ++patch_cells[label(i, j)];
+  parameters.max_iterations = 1;
+  const TerrainEstimate limited = fit_terrain(grid, parameters);
+  parameters.equalisation_patch_max_cells = 0;
+  const TerrainEstimate unlimited = fit_terrain(grid, parameters);
+  ASSERT_TRUE(limited.known && unlimited.known);
+  int small_lowered = 0, large_kept = 0;
+  for (int i = 0; i < m0; ++i) {
+    for (int j = 0; j < m1; ++j) {
+      if (label(i, j) < 0) {
+        EXPECT_EQ(limited.grid.height_m(i, j), grid.height_m(i, j)) << i << " " << j;
+        continue;
+      }
+      EXPECT_LT(unlimited.grid.height_m(i, j), grid.height_m(i, j)) << i << " " << j;
+      if (patch_cells[label(i, j)] <= 16) {
+        EXPECT_LT(limited.grid.height_m(i, j), grid.height_m(i, j)) << i << " " << j;
+        ++small_lowered;
+      } else {
+        EXPECT_EQ(limited.grid.height_m(i, j), grid.height_m(i, j)) << i << " " << j;
+        ++large_kept;
+      }
+    }
+  }
+  // The bump's 4 cells (its patch) and the ridge's crest rows along the whole 22 m (44 cells each).
+  EXPECT_GE(small_lowered, 4);
+  EXPECT_GE(large_kept, 44);
+  EXPECT_LT(limited.grid.height_m(21, 29), 0.3);  // the bump's cell at (10.75 m, 3.75 m)
 }
 
 }  // namespace
