@@ -422,7 +422,7 @@ TEST(TerrainFit, StepRuleKeepsASmoothBermAndStillCutsABox) {
 // than 0.45 m, so no cell is near an edge. One equalisation against the first (5 x 5) surface: the
 // candidates (more than the equalisation limit above it) are grouped here by a plain 4-connected
 // labelling; those in a patch of at most 16 cells are lowered, those in a larger one keep their height;
-// without the limit (0) every candidate is lowered.
+// without the limit (0) every candidate is lowered; and the work the limit adds.
 TEST(TerrainFit, PatchLimitKeepsALongLowRidgeAndCutsAnIsolatedBump) {
   const double pi = 3.14159265358979323846;
   const auto ridge = [pi](double y) {
@@ -493,6 +493,10 @@ TEST(TerrainFit, PatchLimitKeepsALongLowRidgeAndCutsAnIsolatedBump) {
   EXPECT_GE(small_lowered, 4);
   EXPECT_GE(large_kept, 44);
   EXPECT_LT(limited.grid.height_m(21, 29), 0.3);  // the bump's cell at (10.75 m, 3.75 m)
+  // Counted work: the patch limit adds 4 C (the candidate mask) + 10 per candidate (the flood fill)
+  // per iteration; everything else is the same run.
+  const int candidates = static_cast<int>((label.array() >= 0).count());
+  EXPECT_EQ(limited.work.scalar_ops, unlimited.work.scalar_ops + static_cast<uint64_t>(4 * m0 * m1 + 10 * candidates));
 }
 
 }  // namespace
