@@ -317,16 +317,25 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
       std::printf("\n");
     }
   }
+  // The cells holding measured points of object pixels (the diagnostics below).
+  std::vector<uint8_t> obstacle_cell(static_cast<size_t>(spec.forward_cells()) * spec.lateral_cells(), 0);
+  for (size_t k = 0; k < measured.size(); ++k) {
+    int i = 0, j = 0;
+    const int u = pixel_of[k] % width, v = pixel_of[k] / width;
+    if (scene.object_ids.at<uint16_t>(v, u) != 0 && spec.cell_of(measured[k].x(), measured[k].y(), &i, &j)) {
+      obstacle_cell[static_cast<size_t>(i) * spec.lateral_cells() + j] = 1;
+    }
+  }
   if (settings.bands) {
     // Where the squared error within 20 m comes from: cells within 2 cells of a cell holding measured
     // object points, the berm's strip (|y - 7| < 2 m), the ditch's (|y + 6.5| < 1.75 m), the rest.
-    std::vector<uint8_t> near_object(static_cast<size_t>(spec.forward_cells()) * spec.lateral_cells(), 0);
-    for (size_t k = 0; k < measured.size(); ++k) {
-      int i = 0, j = 0;
-      const int u = pixel_of[k] % width, v = pixel_of[k] / width;
-      if (scene.object_ids.at<uint16_t>(v, u) == 0 || !spec.cell_of(measured[k].x(), measured[k].y(), &i, &j)) continue;
-      for (int a = std::max(0, i - 2); a <= std::min(spec.forward_cells() - 1, i + 2); ++a) {
-        for (int b = std::max(0, j - 2); b <= std::min(spec.lateral_cells() - 1, j + 2); ++b) near_object[static_cast<size_t>(a) * spec.lateral_cells() + b] = 1;
+    std::vector<uint8_t> near_object(obstacle_cell.size(), 0);
+    for (int i = 0; i < spec.forward_cells(); ++i) {
+      for (int j = 0; j < spec.lateral_cells(); ++j) {
+        if (obstacle_cell[static_cast<size_t>(i) * spec.lateral_cells() + j] == 0) continue;
+        for (int a = std::max(0, i - 2); a <= std::min(spec.forward_cells() - 1, i + 2); ++a) {
+          for (int b = std::max(0, j - 2); b <= std::min(spec.lateral_cells() - 1, j + 2); ++b) near_object[static_cast<size_t>(a) * spec.lateral_cells() + b] = 1;
+        }
       }
     }
     double share_sum[4] = {}, share_bias[4] = {};
@@ -354,14 +363,6 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
     // the surface's error against the truth, '.' not visible; '0' within 5 cm, '+' / '-' 5-15 cm
     // above / below, 'A' / 'a' 15-30 cm, '#' / '=' more; the grid cell's own state after '|':
     // 'o' a cell whose measured points include an object pixel's, 'm' measured, 'f' filled, ' ' invalid.
-    std::vector<uint8_t> obstacle_cell(static_cast<size_t>(spec.forward_cells()) * spec.lateral_cells(), 0);
-    for (size_t k = 0; k < measured.size(); ++k) {
-      int i = 0, j = 0;
-      const int u = pixel_of[k] % width, v = pixel_of[k] / width;
-      if (scene.object_ids.at<uint16_t>(v, u) != 0 && spec.cell_of(measured[k].x(), measured[k].y(), &i, &j)) {
-        obstacle_cell[static_cast<size_t>(i) * spec.lateral_cells() + j] = 1;
-      }
-    }
     for (int i = spec.forward_cells() - 1; i >= 0; --i) {
       std::string surface_row, grid_row;
       for (int j = spec.lateral_cells() - 1; j >= 0; --j) {
