@@ -42,8 +42,11 @@
 //      edges differ by at most max_lower_edge_step_m. An obstacle has one height interval, so a
 //      board and the poles it hangs on are three obstacles and the board's keeps the free space
 //      under it; a sign next to a low box are two. Each cluster's interval: the highest stixel
-//      upper edge, and the lower tercile of its stixels' lower edges (the k-th lowest, k = n / 3:
-//      one stixel pulled down by a pole's foot or a fattened border does not move it).
+//      upper edge, and the point-weighted lower tercile of its stixels' lower edges (sorted by
+//      lower edge, the first stixel at which the stixels so far hold more than a third of the
+//      cluster's points: one stixel pulled down by a fattened border does not move it, and the
+//      thin, sparse stixels of a pole's foot or a post that chain into a board's or a ball's
+//      cluster in steps under max_lower_edge_step_m count by their few points, not as stixels).
 //      Fragments: the lower-edge step also cuts pieces off a hanging obstacle: the top rows of a
 //      board whose points scattered into other range cells ([1.5, 1.6] m beside a [0.9, 1.6] m
 //      board), a sign's arm between the sign and its post ([2.9, 3.0] m beside a [1.9, 3.0] m

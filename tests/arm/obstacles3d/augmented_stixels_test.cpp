@@ -8,7 +8,8 @@
 // points and colours; the trimmed height ignores one stray low point; a sign above a box in the same
 // cells is two stixels per cell (multi-layer); a dense near board's lower edge is its edge, not its
 // lowest tenth; a board's top rows cut off by the lower-edge step and a sign's arm past the sign
-// join the board and the sign (fragments); bad parameters throw; the counted
+// join the board and the sign (fragments); sparse stixels (a pole's foot) chained into a board's
+// cluster do not pull its lower edge down (point-weighted tercile); bad parameters throw; the counted
 // work adds the header's binning terms to the grid's.
 #include <gtest/gtest.h>
 
@@ -305,6 +306,43 @@ TEST(AugmentedStixels, SignArmPastTheSignJoinsTheSignNotThePost) {
     }
   }
   EXPECT_EQ(signs, 1);
+}
+
+TEST(AugmentedStixels, SparseStixelsChainedIntoABoardDoNotPullItsLowerEdgeDown) {
+  // A dense board 1.0-1.5 m at 10 m, x in [-0.19, 0.19] (four 0.01 rad cells of 10 cm, 1 cm
+  // spacing: about 500 points each), and beside it four sparse cells (5 cm spacing) reaching down
+  // from 0.75, 0.5, 0.25 and 0 m to 1.5 m, like a pole's foot and scattered border points: each
+  // lower edge lies within max_lower_edge_step_m (0.3 m) of its neighbour's, so the eight stixels
+  // are one cluster. By stixel count the four sparse ones are half of the cluster and the plain
+  // tercile (k = 8 / 3 = 2, third lowest) would be the 0.5 m cell's edge; by points they hold about
+  // 150 of ~2100, so the point-weighted tercile is a board stixel's, 1.0 m.
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -0.19, 0.19, 1.0, 1.5, 10.0);
+  const double sparse_low_m[4] = {0.75, 0.5, 0.25, 0.0};
+  for (int cell = 0; cell < 4; ++cell) {
+    const double x0 = 0.215 + 0.1 * cell;  // inside the cell [0.2 + 0.1 cell, 0.3 + 0.1 cell) at 10 m
+    add_patch(points, x0, x0 + 0.05, sparse_low_m[cell], 1.5, 10.0, 0.05);
+  }
+  AugmentedStixels stixels(stixel_parameters());
+  for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+  ASSERT_EQ(stixels.obstacles().size(), 1u) << stixels.status();
+  // The sparse stixels are members of the board's cluster and keep their own low edges.
+  int sparse_members = 0, dense_points = 0, sparse_points = 0;
+  for (const AugmentedStixel& stixel : stixels.stixels()) {
+    const double centre_x = 10.0 * std::tan((stixel.angle_min_rad + stixel.angle_max_rad) / 2);
+    EXPECT_EQ(stixel.cluster, 0);
+    if (centre_x > 0.2) {
+      ++sparse_members;
+      sparse_points += stixel.point_count;
+      EXPECT_LT(stixel.min_height_m, 0.85) << "x " << centre_x;
+    } else {
+      dense_points += stixel.point_count;
+    }
+  }
+  EXPECT_EQ(sparse_members, 4);
+  EXPECT_LT(3 * sparse_points, dense_points + sparse_points);  // under a third of the points
+  EXPECT_NEAR(stixels.obstacles()[0].min_height_m, 1.0, 0.1);
+  EXPECT_NEAR(stixels.obstacles()[0].max_height_m, 1.5, 0.1);
 }
 
 TEST(AugmentedStixels, NeighbouringStixelsFarApartInHeightAreSeparateObstacles) {
