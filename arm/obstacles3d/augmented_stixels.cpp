@@ -23,6 +23,26 @@ bool heights_join(const AugmentedStixel& a, const AugmentedStixel& b, double gap
   return distance <= gap_m && std::abs(a.min_height_m - b.min_height_m) <= lower_edge_step_m;
 }
 
+// The support split of a cell's part [begin, end) of points sorted by height (header, step 3): the
+// index i (begin < i < end, at least min_points on each side) where the points per metre of height
+// below, (i - begin) / (h[i-1] - h[begin] + row), divided by those above, (end - i) / (h[end-1] -
+// h[i] + row), is smallest, both parts spanning at least kSupportSplitMinRows image rows (row = one
+// row's height at the cell's range, Z / f; added to each span so that a part on one row has a
+// finite density); returns it when that ratio is below max_ratio, else -1.
+constexpr double kSupportSplitMinRows = 3;
+int support_split(const std::vector<std::pair<float, int>>& by_height, int begin, int end, double row_m, double max_ratio, int min_points) {
+  double best_ratio = max_ratio;
+  int best_cut = -1;
+  for (int i = begin + min_points; i <= end - min_points; ++i) {
+    const double lower_span_m = by_height[static_cast<size_t>(i - 1)].first - by_height[static_cast<size_t>(begin)].first + row_m;
+    const double upper_span_m = by_height[static_cast<size_t>(end - 1)].first - by_height[static_cast<size_t>(i)].first + row_m;
+    if (lower_span_m < kSupportSplitMinRows * row_m || upper_span_m < kSupportSplitMinRows * row_m) continue;
+    const double ratio = ((i - begin) / lower_span_m) / ((end - i) / upper_span_m);
+    if (ratio < best_ratio) best_ratio = ratio, best_cut = i;
+  }
+  return best_cut;
+}
+
 }  // namespace
 
 void AugmentedStixelParameters::validate() const {
@@ -41,6 +61,8 @@ void AugmentedStixelParameters::validate() const {
   if (min_points_unoccupied < 1) throw_invalid_parameter("min_points_unoccupied", ">= 1", min_points_unoccupied);
   if (!(lower_edge_fattening_px >= 0 && lower_edge_fattening_px <= 16))
     throw_invalid_parameter("lower_edge_fattening_px", "in [0, 16]", lower_edge_fattening_px);
+  if (!(support_density_ratio >= 0 && support_density_ratio < 1))
+    throw_invalid_parameter("support_density_ratio", "in [0, 1)", support_density_ratio);
   if (!(max_fragment_fraction >= 0 && max_fragment_fraction < 1))
     throw_invalid_parameter("max_fragment_fraction", "in [0, 1)", max_fragment_fraction);
   if (!(max_height_gap_m >= 0)) throw_invalid_parameter("max_height_gap_m", ">= 0", max_height_gap_m);
@@ -84,6 +106,7 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
   first_stixel_of_cell_.assign(cells, 0);
   stixel_count_of_cell_.assign(cells, 0);
   std::vector<std::pair<float, int>> by_height;
+  std::vector<int> cuts;
   for (size_t cell = 0; cell < cells; ++cell) {
     first_stixel_of_cell_[cell] = static_cast<int>(stixels_.size());
     const int count = cell_counts_[cell];
@@ -98,10 +121,25 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
     std::sort(by_height.begin(), by_height.end());
     work_.scalar_ops += 12 * static_cast<uint64_t>(count);
     work_.memory_bytes += 16 * static_cast<uint64_t>(count);
-    int begin = 0;
-    for (int end = 1; end <= count; ++end) {
-      if (end < count && by_height[static_cast<size_t>(end)].first - by_height[static_cast<size_t>(end - 1)].first <= parameters_.max_height_gap_m)
+    // Cut points: the height gaps, and in each part the support split (header, step 3).
+    cuts.clear();
+    int part_begin = 0;
+    for (int part_end = 1; part_end <= count; ++part_end) {
+      if (part_end < count &&
+          by_height[static_cast<size_t>(part_end)].first - by_height[static_cast<size_t>(part_end - 1)].first <= parameters_.max_height_gap_m)
         continue;
+      if (parameters_.support_density_ratio > 0) {
+        const double cell_range_m = parameters_.grid.row_min + (row + 0.5) * parameters_.grid.row_cell;
+        const int cut = support_split(by_height, part_begin, part_end, cell_range_m / parameters_.grid.error_model.focal_px,
+                                      parameters_.support_density_ratio, std::max(parameters_.min_points, 3));
+        if (cut > part_begin) cuts.push_back(cut);
+        work_.scalar_ops += 8 * static_cast<uint64_t>(part_end - part_begin);
+      }
+      cuts.push_back(part_end);
+      part_begin = part_end;
+    }
+    int begin = 0;
+    for (int end : cuts) {
       const int segment = end - begin;
       if (segment >= parameters_.min_points) {
         AugmentedStixel stixel;

@@ -9,7 +9,8 @@
 // cells is two stixels per cell (multi-layer); a dense near board's lower edge is its edge, not its
 // lowest tenth; a board's top rows cut off by the lower-edge step and a sign's arm past the sign
 // join the board and the sign (fragments); sparse stixels (a pole's foot) chained into a board's
-// cluster do not pull its lower edge down (point-weighted tercile); bad parameters throw; the counted
+// cluster do not pull its lower edge down (point-weighted tercile); a thin post under a ball in the
+// same cell is its own stixel (support split) and an evenly dense box is not split; bad parameters throw; the counted
 // work adds the header's binning terms to the grid's.
 #include <gtest/gtest.h>
 
@@ -308,6 +309,63 @@ TEST(AugmentedStixels, SignArmPastTheSignJoinsTheSignNotThePost) {
   EXPECT_EQ(signs, 1);
 }
 
+TEST(AugmentedStixels, ThinPostUnderABallIsItsOwnStixelInTheSharedCell) {
+  // A ball 0.8-1.2 m (a 0.4 m wide patch, 1 cm spacing) on a 2 cm post from the ground at 10 m:
+  // the post's points lie in the cell x in [0, 0.1) m with the ball's, no height gap between them.
+  // Per metre of height the post has 2 points a row against the ball's 10 (ratio 0.2 < 0.3), so the
+  // support split makes the cell two stixels: the post's (grounded) and the ball's (from 0.8 m).
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -0.2, 0.2, 0.8, 1.2, 10.0);
+  add_patch(points, 0.03, 0.05, 0.0, 0.8, 10.0);
+  auto centre_cell_stixels = [&](const AugmentedStixels& stixels) {
+    std::vector<AugmentedStixel> found;
+    for (const AugmentedStixel& stixel : stixels.stixels()) {
+      const double centre_x = 10.0 * std::tan((stixel.angle_min_rad + stixel.angle_max_rad) / 2);
+      if (centre_x > 0.0 && centre_x < 0.1) found.push_back(stixel);
+    }
+    return found;
+  };
+  AugmentedStixels stixels(stixel_parameters());
+  for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+  const std::vector<AugmentedStixel> split = centre_cell_stixels(stixels);
+  ASSERT_EQ(split.size(), 2u) << stixels.status();
+  EXPECT_LT(split[0].min_height_m, 0.25);  // the post (by height within the cell)
+  EXPECT_LT(split[0].max_height_m, 0.85);
+  EXPECT_NEAR(split[1].min_height_m, 0.8, 0.1);  // the ball
+  EXPECT_NEAR(split[1].max_height_m, 1.2, 0.1);
+  bool ball_found = false;
+  for (const Obstacle3d& obstacle : stixels.obstacles()) {
+    if (obstacle.max_height_m > 1.1) {
+      EXPECT_NEAR(obstacle.min_height_m, 0.8, 0.1);
+      ball_found = true;
+    }
+  }
+  EXPECT_TRUE(ball_found) << stixels.status();
+  // Without the split the cell is one stixel from the post's foot to the ball's top.
+  AugmentedStixelParameters unsplit_parameters = stixel_parameters();
+  unsplit_parameters.support_density_ratio = 0;
+  AugmentedStixels unsplit(unsplit_parameters);
+  for (int frame = 0; frame < 3; ++frame) unsplit.update(points, EgoMotion{});
+  const std::vector<AugmentedStixel> whole = centre_cell_stixels(unsplit);
+  ASSERT_EQ(whole.size(), 1u) << unsplit.status();
+  EXPECT_LT(whole[0].min_height_m, 0.25);
+  EXPECT_NEAR(whole[0].max_height_m, 1.2, 0.1);
+}
+
+TEST(AugmentedStixels, EvenlyDenseStandingObjectIsNotSplitBySupport) {
+  // A box 0-1.2 m, 0.6 m wide, at 12 m, as dense at every height: no cut (the ratio is about 1).
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -0.3, 0.3, 0.0, 1.2, 12.0);
+  AugmentedStixels stixels(stixel_parameters());
+  for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+  ASSERT_FALSE(stixels.stixels().empty());
+  for (const AugmentedStixel& stixel : stixels.stixels()) {
+    EXPECT_LT(stixel.min_height_m, 0.1);
+    EXPECT_GT(stixel.max_height_m, 1.1);
+  }
+  ASSERT_EQ(stixels.obstacles().size(), 1u) << stixels.status();
+}
+
 TEST(AugmentedStixels, SparseStixelsChainedIntoABoardDoNotPullItsLowerEdgeDown) {
   // A dense board 1.0-1.5 m at 10 m, x in [-0.19, 0.19] (four 0.01 rad cells of 10 cm, 1 cm
   // spacing: about 500 points each), and beside it four sparse cells (5 cm spacing) reaching down
@@ -415,6 +473,9 @@ TEST(AugmentedStixels, BadParametersThrowNamingTheParameter) {
   parameters = stixel_parameters();
   parameters.min_points_unoccupied = 0;
   EXPECT_EQ(message_of(parameters), "min_points_unoccupied: expected >= 1, got 0");
+  parameters = stixel_parameters();
+  parameters.support_density_ratio = 1.0;
+  EXPECT_EQ(message_of(parameters), "support_density_ratio: expected in [0, 1), got 1");
   parameters = stixel_parameters();
   parameters.lower_edge_fattening_px = -1;
   EXPECT_EQ(message_of(parameters), "lower_edge_fattening_px: expected in [0, 16], got -1");
