@@ -10,7 +10,8 @@
 // lowest tenth; a board's top rows cut off by the lower-edge step and a sign's arm past the sign
 // join the board and the sign (fragments); sparse stixels (a pole's foot) chained into a board's
 // cluster do not pull its lower edge down (point-weighted tercile); a thin post under a ball in the
-// same cell is its own stixel (support split) and an evenly dense box is not split; bad parameters throw; the counted
+// same cell is its own stixel (support split), an evenly dense box is not split and the split's
+// scan counts 8 ops per point of a stixel cell; bad parameters throw; the counted
 // work adds the header's binning terms to the grid's.
 #include <gtest/gtest.h>
 
@@ -508,6 +509,25 @@ TEST(AugmentedStixels, WorkIsTheGridsPlusTheHeadersBinningTerms) {
   EXPECT_TRUE(stixels.stixels().empty());
   EXPECT_EQ(stixels.work().scalar_ops, stixels.grid().work().scalar_ops + 4 * cells + 14);
   EXPECT_EQ(stixels.work().memory_bytes, stixels.grid().work().memory_bytes + 4 * cells + 16);
+}
+
+TEST(AugmentedStixels, SupportSplitCountsEightOpsPerPointOfAStixelCell) {
+  // A patch of points 4 cm wide, 1.0-1.1 m, at 10 m inside one 0.01 rad cell (x in [0, 0.1) m):
+  // every point in one stixel cell, scanned once by the support split, 8 ops each (header, counted
+  // work); no cut.
+  std::vector<ObstaclePoint> points;
+  add_patch(points, 0.03, 0.07, 1.0, 1.1, 10.0);
+  AugmentedStixelParameters off = stixel_parameters();
+  off.support_density_ratio = 0;
+  AugmentedStixels with_split(stixel_parameters()), without_split(off);
+  for (int frame = 0; frame < 3; ++frame) {
+    with_split.update(points, EgoMotion{});
+    without_split.update(points, EgoMotion{});
+  }
+  ASSERT_EQ(with_split.stixels().size(), 1u) << with_split.status();
+  ASSERT_EQ(without_split.stixels().size(), 1u) << without_split.status();
+  EXPECT_EQ(with_split.work().scalar_ops, without_split.work().scalar_ops + 8 * points.size());
+  EXPECT_EQ(with_split.work().memory_bytes, without_split.work().memory_bytes);
 }
 
 }  // namespace
