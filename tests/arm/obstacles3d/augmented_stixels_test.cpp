@@ -8,7 +8,10 @@
 // points and colours; the trimmed height ignores one stray low point; a sign above a box in the same
 // cells is two stixels per cell (multi-layer); a dense near board's lower edge is its edge, not its
 // lowest tenth; a board's top rows cut off by the lower-edge step and a sign's arm past the sign
-// join the board and the sign (fragments); bad parameters throw; the counted
+// join the board and the sign (fragments); sparse stixels (a pole's foot) chained into a board's
+// cluster do not pull its lower edge down (point-weighted tercile); a thin post under a ball in the
+// same cell is its own stixel (support split), an evenly dense box is not split and the split's
+// scan counts 8 ops per point of a stixel cell; bad parameters throw; the counted
 // work adds the header's binning terms to the grid's.
 #include <gtest/gtest.h>
 
@@ -307,6 +310,100 @@ TEST(AugmentedStixels, SignArmPastTheSignJoinsTheSignNotThePost) {
   EXPECT_EQ(signs, 1);
 }
 
+TEST(AugmentedStixels, ThinPostUnderABallIsItsOwnStixelInTheSharedCell) {
+  // A ball 0.8-1.2 m (a 0.4 m wide patch, 1 cm spacing) on a 2 cm post from the ground at 10 m:
+  // the post's points lie in the cell x in [0, 0.1) m with the ball's, no height gap between them.
+  // Per metre of height the post has 2 points a row against the ball's 10 (ratio 0.2 < 0.3), so the
+  // support split makes the cell two stixels: the post's (grounded) and the ball's (from 0.8 m).
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -0.2, 0.2, 0.8, 1.2, 10.0);
+  add_patch(points, 0.03, 0.05, 0.0, 0.8, 10.0);
+  auto centre_cell_stixels = [&](const AugmentedStixels& stixels) {
+    std::vector<AugmentedStixel> found;
+    for (const AugmentedStixel& stixel : stixels.stixels()) {
+      const double centre_x = 10.0 * std::tan((stixel.angle_min_rad + stixel.angle_max_rad) / 2);
+      if (centre_x > 0.0 && centre_x < 0.1) found.push_back(stixel);
+    }
+    return found;
+  };
+  AugmentedStixels stixels(stixel_parameters());
+  for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+  const std::vector<AugmentedStixel> split = centre_cell_stixels(stixels);
+  ASSERT_EQ(split.size(), 2u) << stixels.status();
+  EXPECT_LT(split[0].min_height_m, 0.25);  // the post (by height within the cell)
+  EXPECT_LT(split[0].max_height_m, 0.85);
+  EXPECT_NEAR(split[1].min_height_m, 0.8, 0.1);  // the ball
+  EXPECT_NEAR(split[1].max_height_m, 1.2, 0.1);
+  bool ball_found = false;
+  for (const Obstacle3d& obstacle : stixels.obstacles()) {
+    if (obstacle.max_height_m > 1.1) {
+      EXPECT_NEAR(obstacle.min_height_m, 0.8, 0.1);
+      ball_found = true;
+    }
+  }
+  EXPECT_TRUE(ball_found) << stixels.status();
+  // Without the split the cell is one stixel from the post's foot to the ball's top.
+  AugmentedStixelParameters unsplit_parameters = stixel_parameters();
+  unsplit_parameters.support_density_ratio = 0;
+  AugmentedStixels unsplit(unsplit_parameters);
+  for (int frame = 0; frame < 3; ++frame) unsplit.update(points, EgoMotion{});
+  const std::vector<AugmentedStixel> whole = centre_cell_stixels(unsplit);
+  ASSERT_EQ(whole.size(), 1u) << unsplit.status();
+  EXPECT_LT(whole[0].min_height_m, 0.25);
+  EXPECT_NEAR(whole[0].max_height_m, 1.2, 0.1);
+}
+
+TEST(AugmentedStixels, EvenlyDenseStandingObjectIsNotSplitBySupport) {
+  // A box 0-1.2 m, 0.6 m wide, at 12 m, as dense at every height: no cut (the ratio is about 1).
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -0.3, 0.3, 0.0, 1.2, 12.0);
+  AugmentedStixels stixels(stixel_parameters());
+  for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+  ASSERT_FALSE(stixels.stixels().empty());
+  for (const AugmentedStixel& stixel : stixels.stixels()) {
+    EXPECT_LT(stixel.min_height_m, 0.1);
+    EXPECT_GT(stixel.max_height_m, 1.1);
+  }
+  ASSERT_EQ(stixels.obstacles().size(), 1u) << stixels.status();
+}
+
+TEST(AugmentedStixels, SparseStixelsChainedIntoABoardDoNotPullItsLowerEdgeDown) {
+  // A dense board 1.0-1.5 m at 10 m, x in [-0.19, 0.19] (four 0.01 rad cells of 10 cm, 1 cm
+  // spacing: about 500 points each), and beside it four sparse cells (5 cm spacing) reaching down
+  // from 0.75, 0.5, 0.25 and 0 m to 1.5 m, like a pole's foot and scattered border points: each
+  // lower edge lies within max_lower_edge_step_m (0.3 m) of its neighbour's, so the eight stixels
+  // are one cluster. By stixel count the four sparse ones are half of the cluster and the plain
+  // tercile (k = 8 / 3 = 2, third lowest) would be the 0.5 m cell's edge; by points they hold about
+  // 150 of ~2100, so the point-weighted tercile is a board stixel's, 1.0 m.
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -0.19, 0.19, 1.0, 1.5, 10.0);
+  const double sparse_low_m[4] = {0.75, 0.5, 0.25, 0.0};
+  for (int cell = 0; cell < 4; ++cell) {
+    const double x0 = 0.215 + 0.1 * cell;  // inside the cell [0.2 + 0.1 cell, 0.3 + 0.1 cell) at 10 m
+    add_patch(points, x0, x0 + 0.05, sparse_low_m[cell], 1.5, 10.0, 0.05);
+  }
+  AugmentedStixels stixels(stixel_parameters());
+  for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+  ASSERT_EQ(stixels.obstacles().size(), 1u) << stixels.status();
+  // The sparse stixels are members of the board's cluster and keep their own low edges.
+  int sparse_members = 0, dense_points = 0, sparse_points = 0;
+  for (const AugmentedStixel& stixel : stixels.stixels()) {
+    const double centre_x = 10.0 * std::tan((stixel.angle_min_rad + stixel.angle_max_rad) / 2);
+    EXPECT_EQ(stixel.cluster, 0);
+    if (centre_x > 0.2) {
+      ++sparse_members;
+      sparse_points += stixel.point_count;
+      EXPECT_LT(stixel.min_height_m, 0.85) << "x " << centre_x;
+    } else {
+      dense_points += stixel.point_count;
+    }
+  }
+  EXPECT_EQ(sparse_members, 4);
+  EXPECT_LT(3 * sparse_points, dense_points + sparse_points);  // under a third of the points
+  EXPECT_NEAR(stixels.obstacles()[0].min_height_m, 1.0, 0.1);
+  EXPECT_NEAR(stixels.obstacles()[0].max_height_m, 1.5, 0.1);
+}
+
 TEST(AugmentedStixels, NeighbouringStixelsFarApartInHeightAreSeparateObstacles) {
   std::vector<ObstaclePoint> points;
   add_patch(points, -0.6, -0.02, 0.0, 0.3, 12.0);  // a low box on the left, up to theta's cell [-0.01, 0)
@@ -378,6 +475,9 @@ TEST(AugmentedStixels, BadParametersThrowNamingTheParameter) {
   parameters.min_points_unoccupied = 0;
   EXPECT_EQ(message_of(parameters), "min_points_unoccupied: expected >= 1, got 0");
   parameters = stixel_parameters();
+  parameters.support_density_ratio = 1.0;
+  EXPECT_EQ(message_of(parameters), "support_density_ratio: expected in [0, 1), got 1");
+  parameters = stixel_parameters();
   parameters.lower_edge_fattening_px = -1;
   EXPECT_EQ(message_of(parameters), "lower_edge_fattening_px: expected in [0, 16], got -1");
   parameters = stixel_parameters();
@@ -409,6 +509,25 @@ TEST(AugmentedStixels, WorkIsTheGridsPlusTheHeadersBinningTerms) {
   EXPECT_TRUE(stixels.stixels().empty());
   EXPECT_EQ(stixels.work().scalar_ops, stixels.grid().work().scalar_ops + 4 * cells + 14);
   EXPECT_EQ(stixels.work().memory_bytes, stixels.grid().work().memory_bytes + 4 * cells + 16);
+}
+
+TEST(AugmentedStixels, SupportSplitCountsEightOpsPerPointOfAStixelCell) {
+  // A patch of points 4 cm wide, 1.0-1.1 m, at 10 m inside one 0.01 rad cell (x in [0, 0.1) m):
+  // every point in one stixel cell, scanned once by the support split, 8 ops each (header, counted
+  // work); no cut.
+  std::vector<ObstaclePoint> points;
+  add_patch(points, 0.03, 0.07, 1.0, 1.1, 10.0);
+  AugmentedStixelParameters off = stixel_parameters();
+  off.support_density_ratio = 0;
+  AugmentedStixels with_split(stixel_parameters()), without_split(off);
+  for (int frame = 0; frame < 3; ++frame) {
+    with_split.update(points, EgoMotion{});
+    without_split.update(points, EgoMotion{});
+  }
+  ASSERT_EQ(with_split.stixels().size(), 1u) << with_split.status();
+  ASSERT_EQ(without_split.stixels().size(), 1u) << without_split.status();
+  EXPECT_EQ(with_split.work().scalar_ops, without_split.work().scalar_ops + 8 * points.size());
+  EXPECT_EQ(with_split.work().memory_bytes, without_split.work().memory_bytes);
 }
 
 }  // namespace
