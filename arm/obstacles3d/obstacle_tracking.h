@@ -129,6 +129,9 @@ struct ObstacleTrackingParameters {
   int moving_min_updates = 2;           // a track votes from its moving_min_updates-th association on, [2, 1000]
   int moving_consistency_frames = 1;    // [1, 1000]
   double moving_significance_chi2 = 3.0;  // chi-square, 2 degrees of freedom, 0.78; [0, 1000]
+  int adoption_updates = 8;             // fragment adoption (header): young below, parents at or above; 0: off; [0, 1000]
+  int adoption_pixel_gap_px = 0;        // empty pixels allowed between the image boxes (0: overlapping or adjacent), [0, 1000]
+  double adoption_margin_m = 0.5;       // ground distance beyond the half key-box diagonals, [0, 100]
   FragmentMergeParameters fragment_merge;  // voxel_clustering.h: stereo fragments merged before association (uses stereo_error)
   CameraMount camera_mount;             // camera axes of the outputs (default: level, looking along the vehicle's x)
 };
@@ -168,6 +171,7 @@ struct TrackingResult {
   int64_t deleted = 0;     // ghost too long
   int64_t candidate_pairs = 0;
   int64_t merged_fragments = 0;  // input clusters merged into another as stereo fragments
+  int64_t adopted = 0;           // reported young tracks that report their parent's motion (fragment adoption)
   ArmWork work;
 };
 
