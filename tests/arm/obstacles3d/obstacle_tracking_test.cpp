@@ -240,11 +240,15 @@ struct FragmentFrame {
   int fragment_updates = 0;
   bool parent_moving = false, same_velocity = false, same_flag = false;
   int64_t adopted = 0;  // TrackingResult::adopted
+  int64_t work_difference = 0;  // scalar_ops minus a twin tracker's with adoption off (the header's 20 A)
 };
 
 std::vector<FragmentFrame> run_fragment(const ObstacleTrackingParameters& parameters, const Eigen::Vector3d& fragment_offset_m,
                                         int fragment_shift_px) {
   ObstacleTracker3d tracker(parameters);
+  ObstacleTrackingParameters off = parameters;
+  off.adoption_updates = 0;
+  ObstacleTracker3d twin(off);
   std::vector<FragmentFrame> frames;
   for (int frame = 0; frame < 30; ++frame) {
     const Eigen::Vector3d parent_m(10.0 + 0.3 * frame, 2.0, 0.75);
@@ -257,6 +261,7 @@ std::vector<FragmentFrame> run_fragment(const ObstacleTrackingParameters& parame
       clusters[1].hsl_mean = Hsl{0.67, 0.6, 0.5};
     }
     const TrackingResult& result = tracker.update(clusters, Eigen::Isometry3d::Identity());
+    const int64_t twin_ops = static_cast<int64_t>(twin.update(clusters, Eigen::Isometry3d::Identity()).work.scalar_ops);
     if (result.obstacles.size() != 2) continue;
     const Obstacle3d& parent = result.obstacles[0];
     const Obstacle3d& fragment = result.obstacles[1];
@@ -267,6 +272,7 @@ std::vector<FragmentFrame> run_fragment(const ObstacleTrackingParameters& parame
     }
     row.parent_moving = parent.moving;
     row.adopted = result.adopted;
+    row.work_difference = static_cast<int64_t>(result.work.scalar_ops) - twin_ops;
     row.same_velocity = fragment.velocity_mps == parent.velocity_mps;
     row.same_flag = fragment.moving == parent.moving;
     frames.push_back(row);
@@ -288,9 +294,11 @@ TEST(ObstacleTracking, AYoungFragmentReportsTheMotionOfTheEstablishedTrackItTouc
       EXPECT_TRUE(frame.same_velocity) << frame.fragment_updates;
       EXPECT_TRUE(frame.same_flag) << frame.fragment_updates;
       EXPECT_EQ(frame.adopted, 1);
+      EXPECT_EQ(frame.work_difference, 20 * 2);  // one young track tested against the 2 tracks
     } else {
       ++own;
       EXPECT_EQ(frame.adopted, 0);
+      EXPECT_EQ(frame.work_difference, 0);
       EXPECT_FALSE(frame.same_velocity) << frame.fragment_updates;  // its own filter's estimate
     }
   }
