@@ -93,17 +93,6 @@ const char* track_queue_name(TrackQueue queue) {
   return "?";
 }
 
-namespace {
-
-// Whether two inclusive pixel boxes (x0, y0, x1, y1) overlap or have at most gap_px empty pixels
-// between them in both directions (gap_px 0: overlapping or adjacent).
-bool pixel_boxes_touch(const std::array<int, 4>& a, const std::array<int, 4>& b, int gap_px) {
-  const int reach = gap_px + 1;
-  return a[0] <= b[2] + reach && b[0] <= a[2] + reach && a[1] <= b[3] + reach && b[1] <= a[3] + reach;
-}
-
-}  // namespace
-
 ObstacleTracker3d::ObstacleTracker3d(const ObstacleTrackingParameters& parameters) : parameters_(parameters) {
   validate_tracking_parameters(parameters);
   camera_from_vehicle_ = CameraToVehicle(parameters.camera_mount).rotation().transpose();
@@ -262,7 +251,8 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
       for (const Track3d& candidate : tracks_) {
         ++adoption_tests;
         if (candidate.queue != TrackQueue::tracked || !candidate.associated_this_frame || candidate.updates < p.adoption_updates) continue;
-        if (!pixel_boxes_touch(candidate.obstacle.bbox_px, track.obstacle.bbox_px, p.adoption_pixel_gap_px)) continue;
+        // At most adoption_pixel_gap_px empty pixels between the boxes: grown by the gap plus one.
+        if (!pixel_boxes_within(candidate.obstacle.bbox_px, track.obstacle.bbox_px, p.adoption_pixel_gap_px + 1)) continue;
         const double distance_m = (track.filter.position_m() - candidate.filter.position_m()).head<2>().norm();
         const double reach_m =
             0.5 * candidate.size_world_m.head<2>().norm() + 0.5 * track.size_world_m.head<2>().norm() + p.adoption_margin_m;
