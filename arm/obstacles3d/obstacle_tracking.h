@@ -82,8 +82,10 @@
 // another obstacle in the gate). With adoption (8 updates, 0 px, 0.5 m): TP 89.4 -> 91.9 % (220 -> 226 of 246), FP
 // 8.3 -> 5.0 % (15 -> 9 of 180), velocity error mean 1.78 -> 1.62 m/s; no seed worse; the detection
 // rate is unchanged (reporting only). adoption_updates 6 and 10 gave 92.3 / 5.6 % and 91.1 / 5.6 %.
-// Not caught: a track whose association hops to another object (country seed 2: from a pedestrian to
-// a bin 1.2 m away) keeps the first object's speed with a confident covariance for 10+ frames.
+// Country seeds 1-3 (first ~150 frames): TP 83.0 -> 86.4 %, FP 27.0 % either way; floating seed 3:
+// FP 25 -> 22 of 146 (docs/obstacles3d-voxels.md). Not caught: a track that hops onto another object
+// keeps the first one's speed with a confident covariance (country seed 2: a track on candidates that
+// stay 31-33 m ahead of the camera, i.e. move with it, hops onto a static bin, 17 false flags).
 //
 // Counted work (ArmWork) per update, with T tracks before the update, C clusters, G candidate pairs,
 // U associations, N new tracks, O reported obstacles:
