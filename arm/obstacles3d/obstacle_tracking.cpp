@@ -2,6 +2,7 @@
 #include "arm/obstacles3d/obstacle_tracking.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <sstream>
@@ -74,6 +75,10 @@ void validate_tracking_parameters(const ObstacleTrackingParameters& p) {
   require_parameter(p.moving_min_updates >= 2 && p.moving_min_updates <= 1000, "moving_min_updates", "[2, 1000]", p.moving_min_updates);
   require_parameter(p.moving_consistency_frames >= 1 && p.moving_consistency_frames <= 1000, "moving_consistency_frames", "[1, 1000]",
           p.moving_consistency_frames);
+  require_parameter(p.adoption_updates >= 0 && p.adoption_updates <= 1000, "adoption_updates", "[0, 1000]", p.adoption_updates);
+  require_parameter(p.adoption_pixel_gap_px >= 0 && p.adoption_pixel_gap_px <= 1000, "adoption_pixel_gap_px", "[0, 1000] px",
+                    p.adoption_pixel_gap_px);
+  require_parameter(p.adoption_margin_m >= 0 && p.adoption_margin_m <= 100, "adoption_margin_m", "[0, 100] m", p.adoption_margin_m);
   validate_fragment_merge_parameters(p.fragment_merge);
   require_parameter(p.moving_significance_chi2 >= 0 && p.moving_significance_chi2 <= 1000, "moving_significance_chi2", "[0, 1000]",
           p.moving_significance_chi2);
@@ -235,6 +240,31 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
     ++result_.new_tracks;
   }
 
+  // Fragment adoption (header): a young reported track reports the motion of the established track it
+  // is a piece of.
+  uint64_t adoption_tests = 0;
+  if (p.adoption_updates > 0) {
+    for (Track3d& track : tracks_) {
+      if (track.queue != TrackQueue::tracked || !track.associated_this_frame || track.updates >= p.adoption_updates) continue;
+      const Track3d* parent = nullptr;
+      double parent_distance_m = 0;
+      for (const Track3d& candidate : tracks_) {
+        ++adoption_tests;
+        if (candidate.queue != TrackQueue::tracked || !candidate.associated_this_frame || candidate.updates < p.adoption_updates) continue;
+        // At most adoption_pixel_gap_px empty pixels between the boxes: grown by the gap plus one.
+        if (!pixel_boxes_within(candidate.obstacle.bbox_px, track.obstacle.bbox_px, p.adoption_pixel_gap_px + 1)) continue;
+        const double distance_m = (track.filter.position_m() - candidate.filter.position_m()).head<2>().norm();
+        const double reach_m =
+            0.5 * candidate.size_world_m.head<2>().norm() + 0.5 * track.size_world_m.head<2>().norm() + p.adoption_margin_m;
+        if (distance_m <= reach_m && (parent == nullptr || distance_m < parent_distance_m)) parent = &candidate, parent_distance_m = distance_m;
+      }
+      if (parent != nullptr) {
+        track.obstacle.moving = parent->obstacle.moving;
+        track.obstacle.velocity_mps = parent->obstacle.velocity_mps;
+        ++result_.adopted;
+      }
+    }
+  }
   for (const Track3d& track : tracks_) {
     if (track.queue == TrackQueue::tracked && track.associated_this_frame) result_.obstacles.push_back(track.obstacle);
   }
@@ -243,7 +273,7 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
   const uint64_t t = previous_tracks, c = clusters.size(), g = pairs.size(), u = static_cast<uint64_t>(result_.associations),
                  n = static_cast<uint64_t>(result_.new_tracks), o = result_.obstacles.size();
   const uint64_t log_g = g > 1 ? static_cast<uint64_t>(std::bit_width(g - 1)) : 0;
-  result_.work.scalar_ops = 16 + 150 * t + 60 * c + 40 * t * c + 4 * g * log_g + 4 * g + 400 * u + 60 * n + 30 * o + 8 * t;
+  result_.work.scalar_ops = 16 + 150 * t + 60 * c + 40 * t * c + 4 * g * log_g + 4 * g + 400 * u + 60 * n + 30 * o + 8 * t + 20 * adoption_tests;
   result_.work.memory_bytes = sizeof(Track3d) * 2 * (t + n) + sizeof(VoxelCluster) * c;
   result_.work.scalar_ops += fragments.work.scalar_ops;
   result_.work.memory_bytes += fragments.work.memory_bytes;

@@ -252,15 +252,17 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
   return result;
 }
 
+bool pixel_boxes_within(const std::array<int, 4>& a, const std::array<int, 4>& b, int margin_px) {
+  return a[0] <= b[2] + margin_px && b[0] <= a[2] + margin_px && a[1] <= b[3] + margin_px && b[1] <= a[3] + margin_px;
+}
+
 namespace {
 
 // Whether `part` belongs to `host` (FragmentMergeParameters in voxel_clustering.h): `fragment` says
 // whether part is small enough to be a stereo fragment of host.
 bool parts_of_one_object(const VoxelCluster& host, const VoxelCluster& part, bool fragment, const StereoErrorModel& stereo,
                          const FragmentMergeParameters& p) {
-  const std::array<int, 4>&box_a = host.obstacle.bbox_px, &box_b = part.obstacle.bbox_px;
-  const int margin = p.pixel_margin_px;
-  if (box_a[0] > box_b[2] + margin || box_b[0] > box_a[2] + margin || box_a[1] > box_b[3] + margin || box_b[1] > box_a[3] + margin) return false;
+  if (!pixel_boxes_within(host.obstacle.bbox_px, part.obstacle.bbox_px, p.pixel_margin_px)) return false;
   const Eigen::Vector3d &low_a = host.camera_min_m, &high_a = host.camera_max_m;
   const Eigen::Vector3d &low_b = part.camera_min_m, &high_b = part.camera_max_m;
   const double gap_m = std::max({0.0, low_b.z() - high_a.z(), low_a.z() - high_b.z()});

@@ -53,6 +53,7 @@
 // The result's counts give the figures (ClusteringResult::work).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -148,6 +149,11 @@ struct FragmentMergeResult {
   int64_t merged = 0;  // input clusters folded into an earlier one
   ArmWork work;
 };
+
+// Whether the inclusive pixel boxes a and b (x0, y0, x1, y1) overlap when one of them is grown by
+// margin_px on every side (margin 1: adjacent boxes count; the fragment merge and the tracker's
+// fragment adoption use it).
+bool pixel_boxes_within(const std::array<int, 4>& a, const std::array<int, 4>& b, int margin_px);
 
 // Throws std::invalid_argument for a parameter out of range (name, expected, value).
 void validate_fragment_merge_parameters(const FragmentMergeParameters& parameters);

@@ -7,6 +7,7 @@
 
 #include <random>
 #include <stdexcept>
+#include <tuple>
 
 #include "tests/arm/obstacles3d/voxel_scene.h"
 
@@ -231,6 +232,112 @@ TEST(ObstacleTracking, AFastButUncertainVelocityDoesNotVoteMoving) {
   EXPECT_EQ(tracker.tracks()[0].moving_votes, 0);
 }
 
+// A parent moving at 3 m/s along the world x from frame 0 and, from frame 10, a fragment beside it
+// (fragment_offset_m in the world, pixel box shifted by fragment_shift_px) moving with it. Returns,
+// per frame in which both are reported, whether the fragment reported exactly the parent's velocity
+// and flag, and the fragment's update count.
+struct FragmentFrame {
+  int fragment_updates = 0;
+  bool parent_moving = false, same_velocity = false, same_flag = false;
+  int64_t adopted = 0;  // TrackingResult::adopted
+  int64_t work_difference = 0;  // scalar_ops minus a twin tracker's with adoption off (the header's 20 A)
+};
+
+std::vector<FragmentFrame> run_fragment(const ObstacleTrackingParameters& parameters, const Eigen::Vector3d& fragment_offset_m,
+                                        int fragment_shift_px) {
+  ObstacleTracker3d tracker(parameters);
+  ObstacleTrackingParameters off = parameters;
+  off.adoption_updates = 0;
+  ObstacleTracker3d twin(off);
+  std::vector<FragmentFrame> frames;
+  for (int frame = 0; frame < 30; ++frame) {
+    const Eigen::Vector3d parent_m(10.0 + 0.3 * frame, 2.0, 0.75);
+    std::vector<VoxelCluster> clusters = {cluster_at(parent_m, false)};
+    clusters[0].obstacle.bbox_px = {300, 200, 340, 280};
+    if (frame >= 10) {
+      clusters.push_back(cluster_at(parent_m + fragment_offset_m, false));
+      clusters[1].obstacle.bbox_px = {341 + fragment_shift_px, 200, 360 + fragment_shift_px, 280};
+      clusters[1].rgb_mean = Eigen::Vector3d(0.2, 0.2, 0.8);  // another colour: a colour split of the same object
+      clusters[1].hsl_mean = Hsl{0.67, 0.6, 0.5};
+    }
+    const TrackingResult& result = tracker.update(clusters, Eigen::Isometry3d::Identity());
+    const int64_t twin_ops = static_cast<int64_t>(twin.update(clusters, Eigen::Isometry3d::Identity()).work.scalar_ops);
+    if (result.obstacles.size() != 2) continue;
+    const Obstacle3d& parent = result.obstacles[0];
+    const Obstacle3d& fragment = result.obstacles[1];
+    EXPECT_EQ(parent.track_id, 1);
+    FragmentFrame row;
+    for (const Track3d& track : tracker.tracks()) {
+      if (track.id == fragment.track_id) row.fragment_updates = track.updates;
+    }
+    row.parent_moving = parent.moving;
+    row.adopted = result.adopted;
+    row.work_difference = static_cast<int64_t>(result.work.scalar_ops) - twin_ops;
+    row.same_velocity = fragment.velocity_mps == parent.velocity_mps;
+    row.same_flag = fragment.moving == parent.moving;
+    frames.push_back(row);
+  }
+  return frames;
+}
+
+TEST(ObstacleTracking, AYoungFragmentReportsTheMotionOfTheEstablishedTrackItTouches) {
+  const ObstacleTrackingParameters defaults;
+  ASSERT_EQ(defaults.adoption_updates, 8);
+  const std::vector<FragmentFrame> frames = run_fragment(defaults, Eigen::Vector3d(0, 1.2, 0), 0);
+  // Reported from its third update (acceptance) on; adopted while it has fewer than 8 updates.
+  ASSERT_EQ(frames.size(), 18u);
+  int adopted = 0, own = 0;
+  for (const FragmentFrame& frame : frames) {
+    EXPECT_TRUE(frame.parent_moving);
+    if (frame.fragment_updates < 8) {
+      ++adopted;
+      EXPECT_TRUE(frame.same_velocity) << frame.fragment_updates;
+      EXPECT_TRUE(frame.same_flag) << frame.fragment_updates;
+      EXPECT_EQ(frame.adopted, 1);
+      EXPECT_EQ(frame.work_difference, 20 * 2);  // one young track tested against the 2 tracks
+    } else {
+      ++own;
+      EXPECT_EQ(frame.adopted, 0);
+      EXPECT_EQ(frame.work_difference, 0);
+      EXPECT_FALSE(frame.same_velocity) << frame.fragment_updates;  // its own filter's estimate
+    }
+  }
+  EXPECT_EQ(adopted, 5);  // updates 3 .. 7
+  EXPECT_EQ(own, 13);
+}
+
+TEST(ObstacleTracking, AYoungTrackAwayFromEstablishedTracksOrWithAdoptionOffReportsItsOwnMotion) {
+  ObstacleTrackingParameters off;
+  off.adoption_updates = 0;
+  struct Case {
+    const char* name;
+    ObstacleTrackingParameters parameters;
+    Eigen::Vector3d offset_m;
+    int shift_px;
+  };
+  // One empty pixel column between the image boxes (default: none allowed), ground distance 2.5 m
+  // (reach: half key-box diagonals 0.71 + 0.71 + 0.5 m = 1.91 m), adoption off.
+  const Case cases[] = {{"pixel gap", {}, Eigen::Vector3d(0, 1.2, 0), 1},
+                        {"ground distance", {}, Eigen::Vector3d(0, 2.5, 0), 0},
+                        {"adoption off", off, Eigen::Vector3d(0, 1.2, 0), 0}};
+  for (const Case& test_case : cases) {
+    const std::vector<FragmentFrame> frames = run_fragment(test_case.parameters, test_case.offset_m, test_case.shift_px);
+    ASSERT_EQ(frames.size(), 18u) << test_case.name;
+    for (const FragmentFrame& frame : frames) EXPECT_FALSE(frame.same_velocity) << test_case.name << " " << frame.fragment_updates;
+  }
+  // Inside the limits they adopt: one empty pixel column with adoption_pixel_gap_px 1, ground distance
+  // 1.7 m (under the 1.91 m reach; the filters' positions lag the clusters' by a few cm).
+  ObstacleTrackingParameters one_pixel_gap;
+  one_pixel_gap.adoption_pixel_gap_px = 1;
+  for (const auto& [parameters, offset_m, shift_px] : {std::tuple{one_pixel_gap, Eigen::Vector3d(0, 1.2, 0), 1},
+                                                       std::tuple{ObstacleTrackingParameters{}, Eigen::Vector3d(0, 1.7, 0), 0}}) {
+    const std::vector<FragmentFrame> frames = run_fragment(parameters, offset_m, shift_px);
+    ASSERT_FALSE(frames.empty());
+    EXPECT_EQ(frames.front().fragment_updates, 3);
+    EXPECT_TRUE(frames.front().same_velocity) << offset_m.transpose() << " " << shift_px;
+  }
+}
+
 TEST(ObstacleTracking, CountedWorkFollowsTheHeaderModel) {
   ObstacleTracker3d tracker;
   // Frame 1: T = 0 tracks, C = 2 clusters, no pairs, N = 2 new tracks, nothing reported (acceptance).
@@ -252,6 +359,17 @@ TEST(ObstacleTracking, EmptyInputAndBadParameters) {
   EXPECT_TRUE(tracker.update({}, Eigen::Isometry3d::Identity()).obstacles.empty());
   ObstacleTrackingParameters parameters;
   parameters.acceptance_frames = 0;
+  EXPECT_THROW(ObstacleTracker3d{parameters}, std::invalid_argument);
+  parameters = {};
+  parameters.adoption_updates = -1;
+  try {
+    ObstacleTracker3d bad(parameters);
+    ADD_FAILURE() << "negative adoption_updates accepted";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("adoption_updates"), std::string::npos) << error.what();
+  }
+  parameters = {};
+  parameters.adoption_margin_m = -0.5;
   EXPECT_THROW(ObstacleTracker3d{parameters}, std::invalid_argument);
   parameters = {};
   parameters.frame_period_s = -1;
