@@ -381,6 +381,139 @@ TEST(OccupancyGridClusters, TwoObjectsOnOneBearingSixMetresApartAtRangeAreTwoObs
   EXPECT_NE(nearest_of[0], nearest_of[1]) << grid.status();
 }
 
+// Points of an upright rectangle (x in [x0, x1], heights 0.2..top) at depth z, one per pixel, each
+// disparity off by a Gaussian of the error model's sigma_d (the point moves along its ray).
+void add_noisy_patch(std::vector<ObstaclePoint>& points, double x0_m, double x1_m, double top_m, double z_m, std::mt19937& generator) {
+  const StereoErrorModel model = testing::error_model();
+  std::normal_distribution<double> disparity_error(0.0, model.disparity_sigma_px);
+  const double pixel_m = z_m / kFocalPx;
+  for (double x = x0_m; x <= x1_m; x += pixel_m) {
+    for (double height = 0.2; height <= top_m; height += pixel_m) {
+      const double disparity = kFocalPx * kBaselineM / z_m + disparity_error(generator);
+      const double scale = kFocalPx * kBaselineM / disparity / z_m;
+      points.push_back(point_at(x * scale, testing::kCameraHeightM - (testing::kCameraHeightM - height) * scale, z_m * scale));
+    }
+  }
+}
+
+TEST(OccupancyGridClusters, APedestrianJustBehindACarOnOneBearingIsItsOwnObstacle) {
+  // A car's rear (2 m wide, 0.2-1.4 m) at 15 m and a pedestrian (0.2-1.7 m) 2 m behind it, half
+  // hidden: only x in [0.9, 1.4] of it shows beside the car's right edge at x = 1 m. The bearings
+  // overlap and the likelihoods' windows (3 sigma_Z = 1.1 m and 1.4 m) touch, so the cells holding
+  // points are one group; a single obstacle for both would run from 14 to 18 m with its centre
+  // between them. Each must have its own obstacle centred within 0.5 m of its depth and no deeper
+  // than its own likelihood window (the rule: the group splits where the density's mode jumps in range by more
+  // than a window between neighbouring bearings).
+  const StereoErrorModel model = testing::error_model();
+  ASSERT_GT(3 * model.depth_sigma_m(15.0) + 3 * model.depth_sigma_m(17.0), 2.0);  // the windows meet
+  std::mt19937 generator(11);
+  // (The column/disparity grid splits on the same rule, but here the two depths are 10 and 8.8 px,
+  // within its window of 3 sigma_d + a 0.5 px cell = 1.25 px: one object there.)
+  for (GridKind kind : {GridKind::polar, GridKind::cartesian}) {
+    OccupancyGrid grid(grid_parameters(kind));
+    for (int frame = 0; frame < 3; ++frame) {
+      std::vector<ObstaclePoint> points;
+      add_noisy_patch(points, -1.0, 1.0, 1.4, 15.0, generator);
+      std::vector<ObstaclePoint> pedestrian;
+      add_noisy_patch(pedestrian, 0.9, 1.4, 1.7, 17.0, generator);
+      for (const ObstaclePoint& point : pedestrian)  // hidden behind the car where its bearing meets the car's
+        if (point.u_px > testing::kPrincipalUPx + kFocalPx * 1.0 / 15.0) points.push_back(point);
+      grid.update(points, EgoMotion{});
+    }
+    if (kind == GridKind::cartesian) {
+      // A Cartesian column is not a ray: it keeps one object per group of cells (see the header),
+      // so here one obstacle holds both, its box running over both depths.
+      ASSERT_EQ(grid.obstacles().size(), 1u) << grid.status();
+      EXPECT_GT(grid.obstacles()[0].size_m.z(), 4.0);
+      continue;
+    }
+    int nearest_of[2] = {-1, -1};
+    const double depths_m[2] = {15.0, 17.0}, lateral_m[2] = {0.0, 1.15};
+    for (int k = 0; k < 2; ++k) {
+      double nearest_distance_m = 1e9;
+      for (size_t i = 0; i < grid.obstacles().size(); ++i) {
+        const Eigen::Vector3d& centre = grid.obstacles()[i].position_m;
+        const double distance_m = std::hypot(centre.x() - lateral_m[k], centre.z() - depths_m[k]);
+        if (distance_m < nearest_distance_m) nearest_distance_m = distance_m, nearest_of[k] = static_cast<int>(i);
+      }
+      ASSERT_GE(nearest_of[k], 0) << grid_kind_name(kind) << ": " << grid.status();
+      const Obstacle3d& obstacle = grid.obstacles()[static_cast<size_t>(nearest_of[k])];
+      EXPECT_NEAR(obstacle.position_m.z(), depths_m[k], 0.5) << grid_kind_name(kind) << " object at " << depths_m[k] << " m";
+      // Its inliers lie within a window (3 sigma_Z + half a 0.2 m cell) of its depth; both objects
+      // in one box would run from 14 to 18.5 m.
+      EXPECT_LT(obstacle.size_m.z(), 2 * (3 * model.depth_sigma_m(depths_m[k]) + 0.1) + 0.1)
+          << grid_kind_name(kind) << " object at " << depths_m[k] << " m";
+    }
+    EXPECT_NE(nearest_of[0], nearest_of[1]) << grid_kind_name(kind) << ": " << grid.status();
+  }
+}
+
+TEST(OccupancyGridClusters, AVehicleSideSeenObliquelyStaysOneObstacle) {
+  // A car's side along the road, x = 2.5 m, z from 10 to 14.5 m, 0.3-1.4 m high: its range changes
+  // by 0.6 m from one 0.01 rad bearing to the next, less than a window (3 sigma_Z + a cell, 0.9 m at
+  // 12 m), so the depth-jump split must not cut it: one obstacle spanning it.
+  const StereoErrorModel model = testing::error_model();
+  ASSERT_LT(0.6, 3 * model.depth_sigma_m(12.0) + 0.2);
+  std::mt19937 generator(13);
+  std::normal_distribution<double> disparity_error(0.0, model.disparity_sigma_px);
+  OccupancyGrid grid(grid_parameters(GridKind::polar));
+  for (int frame = 0; frame < 3; ++frame) {
+    std::vector<ObstaclePoint> points;
+    for (double z = 10.0; z <= 14.5; z += 0.02) {
+      for (double height = 0.3; height <= 1.4; height += 0.03) {
+        const double disparity = kFocalPx * kBaselineM / z + disparity_error(generator);
+        const double scale = kFocalPx * kBaselineM / disparity / z;
+        points.push_back(point_at(2.5 * scale, testing::kCameraHeightM - (testing::kCameraHeightM - height) * scale, z * scale));
+      }
+    }
+    grid.update(points, EgoMotion{});
+  }
+  ASSERT_EQ(grid.obstacles().size(), 1u) << grid.status();
+  EXPECT_NEAR(grid.obstacles()[0].position_m.z(), 12.25, 0.5);
+  EXPECT_GT(grid.obstacles()[0].size_m.z(), 3.5);
+}
+
+TEST(OccupancyGridClusters, ADepthStepNearerThanTheMinimumGapStaysOneObstacle) {
+  // One body at 5 m like a car's front: a bumper face (x in [-0.3, 0.3], 0.2-0.8 m) at 5.0 m, a
+  // windscreen face (0.8-1.5 m) at 5.6 m, and a sparser hood at 0.8 m between them, so the cells
+  // holding points are one group whose columns have two density modes 0.6 m apart. The window at
+  // 5.6 m is 3 sigma_Z + a cell = 0.36 m: the window alone splits the body; min_depth_gap_m = 1 m
+  // keeps it one obstacle spanning both faces, and with min_depth_gap_m = 0 it is two.
+  const StereoErrorModel model = testing::error_model();
+  ASSERT_LT(3 * model.depth_sigma_m(5.6) + 0.2, 0.6);
+  for (double gap_m : {1.0, 0.0}) {
+    OccupancyGridParameters parameters = grid_parameters(GridKind::polar);
+    parameters.min_depth_gap_m = gap_m;
+    OccupancyGrid grid(parameters);
+    std::vector<ObstaclePoint> points;
+    add_patch(points, -0.3, 0.3, 0.2, 0.8, 5.0, 0.01);
+    add_patch(points, -0.3, 0.3, 0.8, 1.5, 5.6, 0.01);
+    for (double z = 5.05; z < 5.6; z += 0.05) {
+      for (double x = -0.3; x <= 0.3; x += 0.03) points.push_back(point_at(x, 0.8, z));
+    }
+    for (int frame = 0; frame < 3; ++frame) grid.update(points, EgoMotion{});
+    ASSERT_EQ(grid.obstacles().size(), gap_m > 0 ? 1u : 2u) << "min_depth_gap_m " << gap_m << ": " << grid.status();
+    if (gap_m > 0) {
+      EXPECT_NEAR(grid.obstacles()[0].size_m.z(), 0.6, 0.01);
+    }
+  }
+}
+
+TEST(OccupancyGridGeometry, RowSigmaIsTheMeasurementsRowSigma) {
+  // row_sigma_at (the depth-jump split's window) equals the row sigma of a point at the cell centre
+  // (measurement_gaussian), for each kind.
+  for (GridKind kind : {GridKind::cartesian, GridKind::polar, GridKind::column_disparity}) {
+    OccupancyGrid grid(grid_parameters(kind));
+    const OccupancyGridParameters& p = grid.parameters();
+    for (const auto& [row, column] : {std::pair{20, 40}, std::pair{100, 70}, std::pair{150, 10}}) {
+      const Eigen::Vector2d xz = grid.camera_xz_of(p.column_min + (column + 0.5) * p.column_cell, p.row_min + (row + 0.5) * p.row_cell);
+      const GridGaussian gaussian = grid.measurement_gaussian(point_at(xz.x(), 0.5, xz.y()));
+      EXPECT_NEAR(grid.row_sigma_at(row, column), std::sqrt(gaussian.covariance(1, 1)), 1e-3 * std::sqrt(gaussian.covariance(1, 1)))
+          << grid_kind_name(kind) << " row " << row << " column " << column;
+    }
+  }
+}
+
 TEST(OccupancyGridClusters, PointsSmearedAlongTheirRaysBehindAnObjectDoNotStretchItsObstacle) {
   // A board 2 m wide (0.2-1.5 m high) at 12 m with a 5 cm pole at each end; stereo hands each pole
   // some of the background's disparity, so 25 points per pole and frame lie on the pole's rays
@@ -475,6 +608,9 @@ TEST(OccupancyGridBadInput, BadCellSizesAndParametersThrowNamingTheParameter) {
   parameters = grid_parameters(GridKind::cartesian);
   parameters.occupied_probability = 0.4;
   EXPECT_EQ(message_of(parameters), "occupied_probability: expected in (0.5, 1), got 0.4");
+  parameters = grid_parameters(GridKind::polar);
+  parameters.min_depth_gap_m = -0.5;
+  EXPECT_EQ(message_of(parameters), "min_depth_gap_m: expected in [0, 10] m, got -0.5");
 }
 
 TEST(OccupancyGridWork, AnEmptyFrameCostsTheHeadersPerCellModel) {
