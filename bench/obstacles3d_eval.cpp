@@ -101,6 +101,9 @@ struct Settings {
   int threads = 2;
   int first_seed = 1;
   std::string misses_path;  // --misses: the CSV of misses and false positives, empty: none
+  // The candidates' parameters: the command's defaults (--obstacle-height-m 0.2). One source for the
+  // candidates and for the "too low" rule of the scoring.
+  o3::CandidateParameters candidates;
 };
 
 // Where the rows of --misses go, and which sequence frame is being scored.
@@ -231,8 +234,8 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
       ++tally.unmeasurable;
       continue;
     }
-    // The candidates are run_sequence's default CandidateParameters: the same obstacle height.
-    if (!settings.count_low && object.truth.max_height_m < o3::CandidateParameters{}.obstacle_height_m) {
+    // The same obstacle height as the candidates run_sequence made.
+    if (!settings.count_low && object.truth.max_height_m < settings.candidates.obstacle_height_m) {
       ++tally.below_obstacle_height;
       continue;
     }
@@ -328,7 +331,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   mount.pitch_rad = base.pitch_rad;
   mount.position_m = Eigen::Vector3d(0, 0, base.camera_height_m);
   const arm::CameraToVehicle to_vehicle(mount);
-  const o3::CandidateParameters candidate_parameters;  // the command's defaults (--obstacle-height-m 0.2)
+  const o3::CandidateParameters& candidate_parameters = settings.candidates;
   const Eigen::Isometry3d vehicle_from_camera = to_vehicle.vehicle_from_camera();
 
   arm::StereoOdometryParameters odometry_parameters;  // the command's (tools/obstacles3d_command.cpp)
@@ -566,7 +569,7 @@ int main(int argc, char** argv) {
   }
   std::printf("\n(unmeasured: visible and in range but too few measurable pixels, not counted; --all-visible counts them;\n"
               " too low: measurable but lower than the candidates' obstacle height %.2f m, no obstacle, not counted; --count-low counts them)\n",
-              o3::CandidateParameters{}.obstacle_height_m);
+              settings.candidates.obstacle_height_m);
   std::printf("line: polar and stixels >= 99 %% on every scene\n");
 
   for (size_t s = 0; s < settings.scenes.size(); ++s) {
