@@ -49,6 +49,7 @@
 // the whole evaluation on the exact points.
 //
 // Usage: terrain_synth_eval [--seeds N] [--first-seed S] [--scene SPEC] [--width W --height H] [--census 5|9] [--bands]
+//        [--lr-max-diff PX] [--uniqueness-percent P] [--regularisation R]
 //        [--control N] [--initial-control N] [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A]
 //        [--threshold-factor F] [--alpha-step A] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
 //        [--noise-quantile Q] [--discontinuity-radius R] [--discontinuity-jump J] [--disparity-margin M] [--exact-points]
@@ -103,6 +104,10 @@ struct Settings {
   bool exact_points = false;  // --exact-points: the exact points of every pixel instead of the stereo ones
   double noise_sigma = 1.0;
   int census_width = 5;  // the disparity engine's census window (5 or 9)
+  // --lr-max-diff, --uniqueness-percent: the disparity engine's left-right tolerance (px, -1 off) and
+  // uniqueness ratio (%, 0 off); the engine's defaults unless given.
+  int lr_max_diff_px = arm::DisparityParameters{}.lr_max_diff;
+  int uniqueness_percent = arm::DisparityParameters{}.uniqueness_percent;
   // The fit's defaults but the step rule on (0.45 m within 4 cells; --equalisation-step-m 0 for the
   // thesis's equalisation everywhere) with its patch limit of 16 cells (--patch-max-cells 0: none):
   // docs/terrain.md has the figures with and without.
@@ -172,6 +177,8 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
   // 80 at 640 px (points from 2.1 m on), scaled with the width to keep the same near range.
   disparity_parameters.num_disparities = 16 * ((80 * width / 640 + 15) / 16);
   disparity_parameters.census_width = settings.census_width;
+  disparity_parameters.lr_max_diff = settings.lr_max_diff_px;
+  disparity_parameters.uniqueness_percent = settings.uniqueness_percent;
   arm::DisparityEngine engine(width, height, disparity_parameters);
   const Plane left = io::mat_to_plane(scene.left, BufferFormat{ElementType::u8});
   const Plane right = io::mat_to_plane(scene.right, BufferFormat{ElementType::u8});
@@ -530,8 +537,11 @@ int main(int argc, char** argv) {
     else if (a == "--alpha-initial") settings.fit.alpha_initial = number_argument(i, argc, argv);
     else if (a == "--threshold-factor") settings.fit.threshold_factor = number_argument(i, argc, argv);
     else if (a == "--alpha-step") settings.fit.alpha_step = number_argument(i, argc, argv);
+    else if (a == "--regularisation") settings.fit.regularisation = number_argument(i, argc, argv);
     else if (a == "--iterations") settings.fit.max_iterations = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--cell-m") settings.grid.cell_m = number_argument(i, argc, argv);
+    else if (a == "--lr-max-diff") settings.lr_max_diff_px = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--uniqueness-percent") settings.uniqueness_percent = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--census") settings.census_width = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--exact-points") settings.exact_points = true;
     else if (a == "--discontinuity-radius") settings.discontinuity_radius_px = static_cast<int>(number_argument(i, argc, argv));
