@@ -141,6 +141,8 @@ void OccupancyGridParameters::validate() const {
   if (min_obstacle_points < 1) throw_invalid_parameter("min_obstacle_points", ">= 1", min_obstacle_points);
   if (!(min_depth_gap_m >= 0 && min_depth_gap_m <= 10))
     throw_invalid_parameter("min_depth_gap_m", "in [0, 10] m", min_depth_gap_m);
+  if (min_column_gap_px < 0 || min_column_gap_px > 64)
+    throw_invalid_parameter("min_column_gap_px", "in [0, 64] px", min_column_gap_px);
   if (threads < 1 || threads > 16) throw_invalid_parameter("threads", "in [1, 16]", threads);
 }
 
@@ -676,11 +678,14 @@ void OccupancyGrid::cluster_and_describe(const std::vector<ObstaclePoint>& point
       cluster.point_count += static_cast<int>(group_points[static_cast<size_t>(group)].size());
       for (int object = first_object_of_group[static_cast<size_t>(group)]; object < first_object_of_group[static_cast<size_t>(group) + 1];
            ++object) {
-        const std::vector<int>& members = group_objects_inliers[static_cast<size_t>(object)];
-        if (static_cast<int>(members.size()) < parameters_.min_obstacle_points) continue;
-        if (cluster.obstacle_count == 0) cluster.obstacle_index = static_cast<int>(obstacles_.size());
-        ++cluster.obstacle_count;
-        obstacles_.push_back(obstacle_from_points(points, members, static_cast<int>(obstacles_.size())));
+        const std::vector<int>& inliers = group_objects_inliers[static_cast<size_t>(object)];
+        if (static_cast<int>(inliers.size()) < parameters_.min_obstacle_points) continue;
+        for (const std::vector<int>& members : split_at_column_gaps(points, inliers, parameters_.min_column_gap_px, &work_)) {
+          if (static_cast<int>(members.size()) < parameters_.min_obstacle_points) continue;
+          if (cluster.obstacle_count == 0) cluster.obstacle_index = static_cast<int>(obstacles_.size());
+          ++cluster.obstacle_count;
+          obstacles_.push_back(obstacle_from_points(points, members, static_cast<int>(obstacles_.size())));
+        }
       }
     }
     if (cluster.obstacle_count == 0) ++statistics_.clusters_without_points;
@@ -776,6 +781,37 @@ std::vector<std::vector<int>> connected_components_8(const std::vector<uint8_t>&
     work->memory_bytes += cells;
   }
   return components;
+}
+
+std::vector<std::vector<int>> split_at_column_gaps(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
+                                                   int min_column_gap_px, ArmWork* work) {
+  if (min_column_gap_px <= 0 || indices.size() < 2) return {indices};
+  int u_min = std::numeric_limits<int>::max(), u_max = std::numeric_limits<int>::min();
+  for (int index : indices) {
+    const int u = points[static_cast<size_t>(index)].u_px;
+    u_min = std::min(u_min, u);
+    u_max = std::max(u_max, u);
+  }
+  const size_t span = static_cast<size_t>(u_max - u_min) + 1;
+  std::vector<int> part_of_column(span, -1);  // -1: no point; first a mark (0), then the part
+  for (int index : indices) part_of_column[static_cast<size_t>(points[static_cast<size_t>(index)].u_px - u_min)] = 0;
+  int part = 0;
+  size_t previous = 0;  // the last column holding a point (column 0 holds one: u_min)
+  for (size_t column = 0; column < span; ++column) {
+    if (part_of_column[column] < 0) continue;
+    if (column > previous + static_cast<size_t>(min_column_gap_px)) ++part;  // column - previous - 1 empty columns
+    part_of_column[column] = part;
+    previous = column;
+  }
+  if (work != nullptr) {
+    work->scalar_ops += 4 * indices.size() + 2 * span;
+    work->memory_bytes += 2 * indices.size() + 5 * span;
+  }
+  if (part == 0) return {indices};
+  std::vector<std::vector<int>> parts(static_cast<size_t>(part) + 1);
+  for (int index : indices)
+    parts[static_cast<size_t>(part_of_column[static_cast<size_t>(points[static_cast<size_t>(index)].u_px - u_min)])].push_back(index);
+  return parts;
 }
 
 Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id) {
