@@ -13,7 +13,8 @@
 // parameters throw naming the parameter; the counted work's per-cell closed form; 2 threads agree;
 // the image-column gap split on hand-made columns, two objects at one depth with 4 empty image
 // columns between them are two obstacles (one with the split off), and a wide object with 2 empty
-// columns stays one.
+// columns stays one; the range-peak split cuts a receding surface's far end from a nearer object
+// beside it when both sides fall by more than the threshold, and not under it nor a convex profile.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -577,6 +578,63 @@ TEST(OccupancyGridColumnGaps, AWideObjectWithTwoEmptyColumnsStaysOneObstacle) {
     ASSERT_EQ(grid.obstacles().size(), 1u) << grid_kind_name(kind) << ": " << grid.status();
     EXPECT_NEAR(grid.obstacles()[0].size_m.x(), 100 * 10.0 / kFocalPx, 0.05) << grid_kind_name(kind);
   }
+}
+
+// Points at image column u and range (z, x = 0 aside from u) for the range-peak split: `count` per
+// column (u_px set directly; the split reads u_px and the camera x, z).
+void add_column_at_range(std::vector<ObstaclePoint>& points, int u, double range_m, int count) {
+  for (int k = 0; k < count; ++k) {
+    ObstaclePoint point = point_at(0.0, 0.5 + 0.01 * k, range_m);
+    point.u_px = static_cast<uint16_t>(u);
+    points.push_back(point);
+  }
+}
+
+TEST(OccupancyGridRangePeaks, AFarEndOccludedByANearerObjectIsCutAtThePeak) {
+  // Columns 100-120 recede from 12 to 16 m (a car's side), 121-130 at 14 m (a pedestrian): the
+  // profile peaks at column 120 and falls 4 m to the left and 2 m to the right; the threshold at
+  // 16 m is max(3 sigma_Z(16) + 0.2, 1) = 1.48 m (sigma_Z = 16^2 0.25 / 150 = 0.427 m).
+  const StereoErrorModel model = testing::error_model();
+  const double threshold_m = std::max(3 * model.depth_sigma_m(16.0) + 0.2, 1.0);
+  ASSERT_NEAR(threshold_m, 1.48, 0.01);
+  std::vector<ObstaclePoint> points;
+  for (int u = 100; u <= 120; ++u) add_column_at_range(points, u, 12.0 + 0.2 * (u - 100), 5);
+  for (int u = 121; u <= 130; ++u) add_column_at_range(points, u, 14.0, 5);
+  std::vector<int> all(points.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  ArmWork work;
+  const std::vector<std::vector<int>> parts = split_at_range_peak(points, all, model, 3.0, 0.2, 1.0, &work);
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_EQ(parts[0].size(), 21u * 5);  // columns 100-120: the peak goes with the receding side it ends
+  EXPECT_EQ(parts[1].size(), 10u * 5);
+  for (int index : parts[1]) EXPECT_GE(points[static_cast<size_t>(index)].u_px, 121);
+  EXPECT_EQ(work.scalar_ops, 6u * points.size() + 12u * 31);
+  EXPECT_EQ(work.memory_bytes, 8u * points.size() + 24u * 31);
+  // The same with the pedestrian at 14.6 m: a fall of 1.4 m, under the threshold, one part.
+  std::vector<ObstaclePoint> nearer_fall;
+  for (int u = 100; u <= 120; ++u) add_column_at_range(nearer_fall, u, 12.0 + 0.2 * (u - 100), 5);
+  for (int u = 121; u <= 130; ++u) add_column_at_range(nearer_fall, u, 14.6, 5);
+  std::vector<int> all_nearer(nearer_fall.size());
+  for (size_t i = 0; i < all_nearer.size(); ++i) all_nearer[i] = static_cast<int>(i);
+  EXPECT_EQ(split_at_range_peak(nearer_fall, all_nearer, model, 3.0, 0.2, 1.0).size(), 1u);
+}
+
+TEST(OccupancyGridRangePeaks, AConvexObjectsProfileIsNotCut) {
+  // A car seen at its corner: the rear falls from 13 to 12 m, the side rises from 12 to 17 m (a
+  // V, the nearest point inside); columns with fewer than 3 points do not count (a stray 2-point
+  // column at 20 m in the rear is no peak).
+  std::vector<ObstaclePoint> points;
+  for (int u = 100; u <= 110; ++u) add_column_at_range(points, u, 13.0 - 0.1 * (u - 100), 6);
+  for (int u = 111; u <= 135; ++u) add_column_at_range(points, u, 12.0 + 0.2 * (u - 110), 6);
+  std::vector<ObstaclePoint> stray;
+  add_column_at_range(stray, 140, 20.0, 2);
+  add_column_at_range(stray, 141, 16.0, 6);
+  points.insert(points.end(), stray.begin(), stray.end());
+  std::vector<int> all(points.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  const std::vector<std::vector<int>> parts = split_at_range_peak(points, all, testing::error_model(), 3.0, 0.2, 1.0);
+  ASSERT_EQ(parts.size(), 1u);
+  EXPECT_EQ(parts[0], all);
 }
 
 TEST(OccupancyGridGeometry, RowSigmaIsTheMeasurementsRowSigma) {
