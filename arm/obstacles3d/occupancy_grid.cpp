@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+#include <utility>
 
 namespace lpstereo::arm::obstacles3d {
 namespace {
@@ -791,15 +792,23 @@ std::vector<std::vector<int>> connected_components_8(const std::vector<uint8_t>&
   return components;
 }
 
-std::vector<std::vector<int>> split_at_column_gaps(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
-                                                   int min_column_gap_px, ArmWork* work) {
-  if (min_column_gap_px <= 0 || indices.size() < 2) return {indices};
+namespace {
+// The smallest and largest left-image column (u_px) of the selected points (indices not empty).
+std::pair<int, int> column_span_of(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices) {
   int u_min = std::numeric_limits<int>::max(), u_max = std::numeric_limits<int>::min();
   for (int index : indices) {
     const int u = points[static_cast<size_t>(index)].u_px;
     u_min = std::min(u_min, u);
     u_max = std::max(u_max, u);
   }
+  return {u_min, u_max};
+}
+}  // namespace
+
+std::vector<std::vector<int>> split_at_column_gaps(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
+                                                   int min_column_gap_px, ArmWork* work) {
+  if (min_column_gap_px <= 0 || indices.size() < 2) return {indices};
+  const auto [u_min, u_max] = column_span_of(points, indices);
   const size_t span = static_cast<size_t>(u_max - u_min) + 1;
   std::vector<int> part_of_column(span, -1);  // -1: no point; first a mark (0), then the part
   for (int index : indices) part_of_column[static_cast<size_t>(points[static_cast<size_t>(index)].u_px - u_min)] = 0;
@@ -827,12 +836,7 @@ std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoin
                                                   double min_depth_gap_m, ArmWork* work) {
   constexpr int kMinPointsPerColumn = 3;  // a column's median from fewer is noise
   if (indices.size() < 2 * kMinPointsPerColumn) return {indices};
-  int u_min = std::numeric_limits<int>::max(), u_max = std::numeric_limits<int>::min();
-  for (int index : indices) {
-    const int u = points[static_cast<size_t>(index)].u_px;
-    u_min = std::min(u_min, u);
-    u_max = std::max(u_max, u);
-  }
+  const auto [u_min, u_max] = column_span_of(points, indices);
   const size_t span = static_cast<size_t>(u_max - u_min) + 1;
   // Ranges by column (a counting sort), then each column's median.
   std::vector<int> first(span + 1, 0);
