@@ -98,7 +98,9 @@
 // and rising again; an interior peak that both sides fall from by more than a window (window_sigmas
 // sigma_Z at the peak plus a cell, at least min_depth_gap_m) is the far end of a surface with a
 // nearer object beside it (urban: a car's side receding to 16 m, a pedestrian at 14.2 m next to it,
-// 0.3-0.8 m from the side, the gap filled by stereo fattening so no column is empty). Parts under
+// 0.3-0.8 m from the side, the gap filled by stereo fattening so no column is empty;
+// bench/obstacles3d_eval, urban, 60 frames: polar 98.5 -> 99.2 % on seed 2 and 96.4 -> 97.1 % on
+// seed 3, the false positives added all in the frames of terrain-fit junk). Parts under
 // min_obstacle_points give no obstacle. A cluster with no such object (held only by memory, or a few
 // scattered points) is kept (hull, cells) but gives no Obstacle3d (counted in clusters_without_points).
 //
