@@ -306,6 +306,10 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
   }
 
   std::vector<int> obstacle_of_cluster(cluster_count, -1);
+  // A stixel of a cluster split at a column gap: its part's obstacle (or -1); kNotSplit: its cluster's.
+  constexpr int kNotSplit = -2;
+  std::vector<int> stixel_obstacle(stixels_.size(), kNotSplit);
+  std::vector<int> part_of_point;  // per point: its part in the cluster being split
   for (size_t index = 0; index < cluster_count; ++index) {
     if (root[index] != static_cast<int>(index)) continue;
     std::vector<int>& members = merged[index];
@@ -320,15 +324,56 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
     // (scattered terrain-fit outliers, mismatches) give no obstacle.
     if (static_cast<int>(members.size()) < parameters_.min_cluster_stixels || static_cast<int>(obstacle_points.size()) < parameters_.min_obstacle_points)
       continue;
-    obstacle_of_cluster[index] = static_cast<int>(obstacles_.size());
-    Obstacle3d obstacle = obstacle_from_points(points, obstacle_points, static_cast<int>(obstacles_.size()));
-    obstacle.min_height_m = cluster_lower[index];  // trimmed, as the stixels'
-    obstacle.max_height_m = cluster_upper[index];
-    obstacles_.push_back(obstacle);
+    // The image-column gap split (occupancy_grid.h, split_at_column_gaps): neighbouring cells
+    // join stixels whose points lie up to two 0.01 rad cells apart in the image; a run of at least
+    // grid.min_column_gap_px columns without a point between them makes two obstacles. Then the
+    // occlusion split (split_at_range_peak): a range peak over the image columns that both sides
+    // fall from by more than a window is a far surface's end beside a nearer object. Each part
+    // keeps the cluster's height interval; a stixel belongs to the part holding most of its points.
+    std::vector<std::vector<int>> parts;
+    for (std::vector<int>& part : split_at_column_gaps(points, obstacle_points, parameters_.grid.min_column_gap_px, &work_)) {
+      if (!parameters_.grid.split_at_range_peaks) {
+        parts.push_back(std::move(part));
+        continue;
+      }
+      for (std::vector<int>& piece : split_at_range_peak(points, part, parameters_.grid.error_model, parameters_.grid.window_sigmas,
+                                                         parameters_.grid.row_cell, parameters_.grid.min_depth_gap_m, &work_))
+        parts.push_back(std::move(piece));
+    }
+    std::vector<int> obstacle_of_part(parts.size(), -1);
+    for (size_t part = 0; part < parts.size(); ++part) {
+      if (static_cast<int>(parts[part].size()) < parameters_.min_obstacle_points) continue;
+      obstacle_of_part[part] = static_cast<int>(obstacles_.size());
+      Obstacle3d obstacle = obstacle_from_points(points, parts[part], static_cast<int>(obstacles_.size()));
+      obstacle.min_height_m = cluster_lower[index];  // trimmed, as the stixels'
+      obstacle.max_height_m = cluster_upper[index];
+      obstacles_.push_back(obstacle);
+    }
+    if (parts.size() == 1) {
+      obstacle_of_cluster[index] = obstacle_of_part[0];
+    } else {
+      if (part_of_point.empty()) part_of_point.assign(points.size(), -1);  // only this cluster's entries are read
+      for (size_t part = 0; part < parts.size(); ++part)
+        for (int point : parts[part]) part_of_point[static_cast<size_t>(point)] = static_cast<int>(part);
+      std::vector<int> points_in_part(parts.size());
+      for (int member : members) {
+        const AugmentedStixel& stixel = stixels_[static_cast<size_t>(member)];
+        std::fill(points_in_part.begin(), points_in_part.end(), 0);
+        for (int k = stixel.first_point; k < stixel.first_point + stixel.point_count; ++k)
+          ++points_in_part[static_cast<size_t>(part_of_point[static_cast<size_t>(point_indices_[static_cast<size_t>(k)])])];
+        const size_t most = static_cast<size_t>(std::max_element(points_in_part.begin(), points_in_part.end()) - points_in_part.begin());
+        stixel_obstacle[static_cast<size_t>(member)] = obstacle_of_part[most];
+      }
+    }
     work_.scalar_ops += 10 * obstacle_points.size();
     work_.memory_bytes += sizeof(ObstaclePoint) * obstacle_points.size();
   }
-  for (size_t i = 0; i < stixels_.size(); ++i) stixels_[i].cluster = obstacle_of_cluster[static_cast<size_t>(root[static_cast<size_t>(cluster_of[i])])];
+  for (size_t i = 0; i < stixels_.size(); ++i) {
+    if (stixel_obstacle[i] == kNotSplit)
+      stixels_[i].cluster = obstacle_of_cluster[static_cast<size_t>(root[static_cast<size_t>(cluster_of[i])])];
+    else
+      stixels_[i].cluster = stixel_obstacle[i];
+  }
 
   std::ostringstream status;
   status << grid_.status() << "; " << stixels_.size() << " stixels, " << obstacles_.size() << " stixel obstacles";

@@ -71,7 +71,16 @@
 //      edge; of several hosts the one with the highest lower edge (the board, not the pole, whose
 //      interval also holds the fragment). It joins the host, which keeps its own interval.
 //      Clusters with fewer than min_cluster_stixels stixels or min_obstacle_points points
-//      (scattered terrain-fit outliers, mismatches) give no obstacle; each cluster's points give
+//      (scattered terrain-fit outliers, mismatches) give no obstacle. Each cluster's points are
+//      split at gaps in the image columns (occupancy_grid.h, split_at_column_gaps with
+//      grid.min_column_gap_px, default 3 px): 8-neighbouring cells join stixels up to two 0.01 rad
+//      cells (about 10 px) apart in the image, and at least that many columns without a point
+//      between them say they are two objects; then each part is cut at an occlusion peak of its
+//      range profile over the image columns (split_at_range_peak, grid.split_at_range_peaks: a
+//      car's side receding to its far end with a pedestrian nearer beside it, the gap between them
+//      filled by stereo fattening); each part of at least min_obstacle_points points is
+//      an obstacle with the cluster's height interval, and a stixel takes the obstacle of the part
+//      holding most of its points. Each part's points give
 //      its Obstacle3d (occupancy_grid.h, obstacle_from_points) with the interval above as its
 //      min_height_m and max_height_m.
 //
@@ -81,7 +90,9 @@
 // the support split's scan when support_density_ratio > 0 (two spans, two densities, a compare); clustering
 // and the fragment test 20 ops per stixel pair tested (the stixels of the (2 n + 1) x 3 cells
 // around, n range cells reached along the bearing, and of (2 n + 1) x 5 for fragments) and the
-// Obstacle3d's 10 ops + sizeof(ObstaclePoint) per point.
+// Obstacle3d's 10 ops + sizeof(ObstaclePoint) per point, and the column gap split's (occupancy_grid.h:
+// 4 ops + 2 bytes per point, 2 ops + 5 bytes per image column spanned) and the occlusion split's
+// (6 ops + 8 bytes per point, 12 ops + 24 bytes per column spanned).
 #pragma once
 
 #include <array>

@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+#include <utility>
 
 namespace lpstereo::arm::obstacles3d {
 namespace {
@@ -141,6 +142,8 @@ void OccupancyGridParameters::validate() const {
   if (min_obstacle_points < 1) throw_invalid_parameter("min_obstacle_points", ">= 1", min_obstacle_points);
   if (!(min_depth_gap_m >= 0 && min_depth_gap_m <= 10))
     throw_invalid_parameter("min_depth_gap_m", "in [0, 10] m", min_depth_gap_m);
+  if (min_column_gap_px < 0 || min_column_gap_px > 64)
+    throw_invalid_parameter("min_column_gap_px", "in [0, 64] px", min_column_gap_px);
   if (threads < 1 || threads > 16) throw_invalid_parameter("threads", "in [1, 16]", threads);
 }
 
@@ -676,11 +679,22 @@ void OccupancyGrid::cluster_and_describe(const std::vector<ObstaclePoint>& point
       cluster.point_count += static_cast<int>(group_points[static_cast<size_t>(group)].size());
       for (int object = first_object_of_group[static_cast<size_t>(group)]; object < first_object_of_group[static_cast<size_t>(group) + 1];
            ++object) {
-        const std::vector<int>& members = group_objects_inliers[static_cast<size_t>(object)];
-        if (static_cast<int>(members.size()) < parameters_.min_obstacle_points) continue;
-        if (cluster.obstacle_count == 0) cluster.obstacle_index = static_cast<int>(obstacles_.size());
-        ++cluster.obstacle_count;
-        obstacles_.push_back(obstacle_from_points(points, members, static_cast<int>(obstacles_.size())));
+        const std::vector<int>& inliers = group_objects_inliers[static_cast<size_t>(object)];
+        if (static_cast<int>(inliers.size()) < parameters_.min_obstacle_points) continue;
+        for (const std::vector<int>& part : split_at_column_gaps(points, inliers, parameters_.min_column_gap_px, &work_)) {
+          const std::vector<std::vector<int>> pieces =
+              parameters_.split_at_range_peaks
+                  ? split_at_range_peak(points, part, parameters_.error_model, parameters_.window_sigmas,
+                                        parameters_.kind == GridKind::column_disparity ? 0.0 : parameters_.row_cell,
+                                        parameters_.min_depth_gap_m, &work_)
+                  : std::vector<std::vector<int>>{part};
+          for (const std::vector<int>& members : pieces) {
+            if (static_cast<int>(members.size()) < parameters_.min_obstacle_points) continue;
+            if (cluster.obstacle_count == 0) cluster.obstacle_index = static_cast<int>(obstacles_.size());
+            ++cluster.obstacle_count;
+            obstacles_.push_back(obstacle_from_points(points, members, static_cast<int>(obstacles_.size())));
+          }
+        }
       }
     }
     if (cluster.obstacle_count == 0) ++statistics_.clusters_without_points;
@@ -776,6 +790,103 @@ std::vector<std::vector<int>> connected_components_8(const std::vector<uint8_t>&
     work->memory_bytes += cells;
   }
   return components;
+}
+
+namespace {
+// The smallest and largest left-image column (u_px) of the selected points (indices not empty).
+std::pair<int, int> column_span_of(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices) {
+  int u_min = std::numeric_limits<int>::max(), u_max = std::numeric_limits<int>::min();
+  for (int index : indices) {
+    const int u = points[static_cast<size_t>(index)].u_px;
+    u_min = std::min(u_min, u);
+    u_max = std::max(u_max, u);
+  }
+  return {u_min, u_max};
+}
+}  // namespace
+
+std::vector<std::vector<int>> split_at_column_gaps(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
+                                                   int min_column_gap_px, ArmWork* work) {
+  if (min_column_gap_px <= 0 || indices.size() < 2) return {indices};
+  const auto [u_min, u_max] = column_span_of(points, indices);
+  const size_t span = static_cast<size_t>(u_max - u_min) + 1;
+  std::vector<int> part_of_column(span, -1);  // -1: no point; first a mark (0), then the part
+  for (int index : indices) part_of_column[static_cast<size_t>(points[static_cast<size_t>(index)].u_px - u_min)] = 0;
+  int part = 0;
+  size_t previous = 0;  // the last column holding a point (column 0 holds one: u_min)
+  for (size_t column = 0; column < span; ++column) {
+    if (part_of_column[column] < 0) continue;
+    if (column > previous + static_cast<size_t>(min_column_gap_px)) ++part;  // column - previous - 1 empty columns
+    part_of_column[column] = part;
+    previous = column;
+  }
+  if (work != nullptr) {
+    work->scalar_ops += 4 * indices.size() + 2 * span;
+    work->memory_bytes += 2 * indices.size() + 5 * span;
+  }
+  if (part == 0) return {indices};
+  std::vector<std::vector<int>> parts(static_cast<size_t>(part) + 1);
+  for (int index : indices)
+    parts[static_cast<size_t>(part_of_column[static_cast<size_t>(points[static_cast<size_t>(index)].u_px - u_min)])].push_back(index);
+  return parts;
+}
+
+std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
+                                                  const StereoErrorModel& error_model, double window_sigmas, double row_cell_m,
+                                                  double min_depth_gap_m, ArmWork* work) {
+  constexpr int kMinPointsPerColumn = 3;  // a column's median from fewer is noise
+  if (indices.size() < 2 * kMinPointsPerColumn) return {indices};
+  const auto [u_min, u_max] = column_span_of(points, indices);
+  const size_t span = static_cast<size_t>(u_max - u_min) + 1;
+  // Ranges by column (a counting sort), then each column's median.
+  std::vector<int> first(span + 1, 0);
+  for (int index : indices) ++first[static_cast<size_t>(points[static_cast<size_t>(index)].u_px - u_min) + 1];
+  for (size_t column = 0; column < span; ++column) first[column + 1] += first[column];
+  std::vector<float> ranges(indices.size());
+  std::vector<int> next(first.begin(), first.end() - 1);
+  for (int index : indices) {
+    const ObstaclePoint& point = points[static_cast<size_t>(index)];
+    ranges[static_cast<size_t>(next[static_cast<size_t>(point.u_px - u_min)]++)] = std::hypot(point.camera_m.x(), point.camera_m.z());
+  }
+  const float kNone = std::numeric_limits<float>::infinity();
+  std::vector<float> profile(span, kNone);  // median range, +inf: fewer than kMinPointsPerColumn points
+  for (size_t column = 0; column < span; ++column) {
+    const int count = first[column + 1] - first[column];
+    if (count < kMinPointsPerColumn) continue;
+    auto begin = ranges.begin() + first[column], middle = begin + count / 2;
+    std::nth_element(begin, middle, begin + count);
+    profile[column] = *middle;
+  }
+  // Prefix and suffix minima of the profile; a column's prominence is how far both sides fall from it.
+  std::vector<float> prefix_min(span), suffix_min(span);
+  for (size_t column = 0; column < span; ++column) prefix_min[column] = std::min(profile[column], column > 0 ? prefix_min[column - 1] : kNone);
+  for (size_t column = span; column-- > 0;) suffix_min[column] = std::min(profile[column], column + 1 < span ? suffix_min[column + 1] : kNone);
+  size_t peak = span;
+  double best_excess_m = 0;
+  for (size_t column = 1; column + 1 < span; ++column) {
+    if (profile[column] == kNone || prefix_min[column - 1] == kNone || suffix_min[column + 1] == kNone) continue;
+    const double peak_m = profile[column];
+    const double prominence_m = peak_m - std::max(prefix_min[column - 1], suffix_min[column + 1]);
+    const double threshold_m = std::max(window_sigmas * error_model.depth_sigma_m(peak_m) + row_cell_m, min_depth_gap_m);
+    if (prominence_m - threshold_m > best_excess_m) best_excess_m = prominence_m - threshold_m, peak = column;
+  }
+  if (work != nullptr) {
+    work->scalar_ops += 6 * indices.size() + 12 * span;
+    work->memory_bytes += 8 * indices.size() + 24 * span;
+  }
+  if (peak == span) return {indices};
+  // The peak column goes with the side whose nearest measured neighbour is closer to it in range
+  // (the far surface it ends).
+  auto neighbour_range = [&](size_t column, int step) {
+    for (size_t c = column + step; c < span; c += step)
+      if (profile[c] != kNone) return static_cast<double>(profile[c]);
+    return std::numeric_limits<double>::infinity();
+  };
+  const double left_m = neighbour_range(peak, -1), right_m = neighbour_range(peak, +1);
+  const int last_left = static_cast<int>(std::abs(left_m - profile[peak]) <= std::abs(right_m - profile[peak]) ? peak : peak - 1) + u_min;
+  std::vector<std::vector<int>> parts(2);
+  for (int index : indices) parts[points[static_cast<size_t>(index)].u_px <= last_left ? 0 : 1].push_back(index);
+  return parts;
 }
 
 Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id) {

@@ -12,7 +12,9 @@
 // cluster do not pull its lower edge down (point-weighted tercile); a thin post under a ball in the
 // same cell is its own stixel (support split), an evenly dense box is not split and the split's
 // scan counts 8 ops per point of a stixel cell; bad parameters throw; the counted
-// work adds the header's binning terms to the grid's.
+// work adds the header's binning terms to the grid's; a car's rear and a pedestrian at one depth in
+// neighbouring cells with 4 empty image columns between them are two obstacles (one with the column
+// gap split off), and a wide object with 2 empty columns stays one.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -415,6 +417,51 @@ TEST(AugmentedStixels, NeighbouringStixelsFarApartInHeightAreSeparateObstacles) 
   const double high_min = std::max(stixels.obstacles()[0].min_height_m, stixels.obstacles()[1].min_height_m);
   EXPECT_NEAR(low_max, 0.3, 0.1);
   EXPECT_NEAR(high_min, 2.0, 0.1);
+}
+
+TEST(AugmentedStixels, TwoObjectsAtOneDepthWithAColumnGapAreTwoObstacles) {
+  // The grid test's scene (occupancy_grid_test.cpp, OccupancyGridColumnGaps): a car's rear over
+  // image columns 250-316 and a pedestrian over 321-336, both at 15 m and standing on the road, in
+  // neighbouring polar columns 59 and 60. Their stixels are 8-neighbours with overlapping heights
+  // and lower edges, one cluster; the 4 empty image columns make two obstacles, each with its own
+  // stixels. With the split off, one obstacle.
+  for (int gap_px : {3, 0}) {
+    AugmentedStixelParameters parameters = stixel_parameters();
+    parameters.grid.min_column_gap_px = gap_px;
+    AugmentedStixels stixels(parameters);
+    std::vector<ObstaclePoint> points;
+    testing::add_pixel_columns(points, 250, 316, 0.2, 1.4, 15.0);
+    testing::add_pixel_columns(points, 321, 336, 0.2, 1.7, 15.0);
+    for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+    if (gap_px == 0) {
+      ASSERT_EQ(stixels.obstacles().size(), 1u) << stixels.status();
+      continue;
+    }
+    ASSERT_EQ(stixels.obstacles().size(), 2u) << stixels.status();
+    const double pixel_m = 15.0 / testing::kFocalPx;
+    const int car = stixels.obstacles()[0].position_m.x() < stixels.obstacles()[1].position_m.x() ? 0 : 1;
+    const Obstacle3d& car_obstacle = stixels.obstacles()[static_cast<size_t>(car)];
+    const Obstacle3d& pedestrian_obstacle = stixels.obstacles()[static_cast<size_t>(1 - car)];
+    EXPECT_NEAR(car_obstacle.position_m.x(), ((250 + 316) / 2.0 - testing::kPrincipalUPx) * pixel_m, 0.05);
+    EXPECT_NEAR(pedestrian_obstacle.position_m.x(), ((321 + 336) / 2.0 - testing::kPrincipalUPx) * pixel_m, 0.05);
+    EXPECT_NEAR(pedestrian_obstacle.size_m.x(), 15 * pixel_m, 0.05);
+    // Every stixel names the obstacle on its side: columns 59 and below the car's, 60 the pedestrian's.
+    for (const AugmentedStixel& stixel : stixels.stixels()) {
+      EXPECT_EQ(stixel.cluster, stixel.angle_cell <= 59 ? car : 1 - car) << "stixel at column " << stixel.angle_cell;
+    }
+  }
+}
+
+TEST(AugmentedStixels, AWideObjectWithTwoEmptyColumnsStaysOneObstacle) {
+  // A car's rear 2 m wide at 10 m (columns 270-370) whose columns 318-319 have no point: fewer than
+  // the 3 of a gap, one obstacle 2 m wide.
+  AugmentedStixels stixels(stixel_parameters());
+  std::vector<ObstaclePoint> points;
+  testing::add_pixel_columns(points, 270, 317, 0.2, 1.4, 10.0);
+  testing::add_pixel_columns(points, 320, 370, 0.2, 1.4, 10.0);
+  for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+  ASSERT_EQ(stixels.obstacles().size(), 1u) << stixels.status();
+  EXPECT_NEAR(stixels.obstacles()[0].size_m.x(), 100 * 10.0 / testing::kFocalPx, 0.05);
 }
 
 TEST(AugmentedStixels, StixelsCarryTheirPointsAndColours) {

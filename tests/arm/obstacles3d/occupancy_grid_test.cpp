@@ -10,7 +10,11 @@
 // two objects 6 m apart on one bearing at 25-31 m (one cluster of occupied cells) are two obstacles;
 // points smeared along their rays metres behind a board do not stretch its obstacle;
 // clipping and rejection counted and reported; empty cloud and missing ego-motion reported; bad
-// parameters throw naming the parameter; the counted work's per-cell closed form; 2 threads agree.
+// parameters throw naming the parameter; the counted work's per-cell closed form; 2 threads agree;
+// the image-column gap split on hand-made columns, two objects at one depth with 4 empty image
+// columns between them are two obstacles (one with the split off), and a wide object with 2 empty
+// columns stays one; the range-peak split cuts a receding surface's far end from a nearer object
+// beside it when both sides fall by more than the threshold, and not under it nor a convex profile.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -499,6 +503,140 @@ TEST(OccupancyGridClusters, ADepthStepNearerThanTheMinimumGapStaysOneObstacle) {
   }
 }
 
+TEST(OccupancyGridColumnGaps, PointsSplitWhereEnoughImageColumnsHoldNone) {
+  // Columns 10-12, 16-17 and 30, in a shuffled order: 3 empty columns (13-15) then 12 (18-29).
+  std::vector<ObstaclePoint> points;
+  for (int u : {16, 10, 30, 12, 11, 17, 10}) {
+    ObstaclePoint point = point_at(0.0, 1.0, 10.0);
+    point.u_px = static_cast<uint16_t>(u);
+    points.push_back(point);
+  }
+  const std::vector<int> all = {0, 1, 2, 3, 4, 5, 6};
+  ArmWork work;
+  const std::vector<std::vector<int>> three = split_at_column_gaps(points, all, 3, &work);
+  ASSERT_EQ(three.size(), 3u);
+  EXPECT_EQ(three[0], (std::vector<int>{1, 3, 4, 6}));  // u 10, 12, 11, 10: increasing u, input order kept
+  EXPECT_EQ(three[1], (std::vector<int>{0, 5}));        // u 16, 17
+  EXPECT_EQ(three[2], (std::vector<int>{2}));           // u 30
+  // 4 ops per point and 2 per column from u 10 to 30 (21 columns).
+  EXPECT_EQ(work.scalar_ops, 4u * 7 + 2u * 21);
+  EXPECT_EQ(work.memory_bytes, 2u * 7 + 5u * 21);
+  // A gap must hold at least min_column_gap_px empty columns: 4 keeps 10-17 together.
+  const std::vector<std::vector<int>> two = split_at_column_gaps(points, all, 4);
+  ASSERT_EQ(two.size(), 2u);
+  EXPECT_EQ(two[0].size(), 6u);
+  EXPECT_EQ(two[1], (std::vector<int>{2}));
+  // 0: off.
+  ASSERT_EQ(split_at_column_gaps(points, all, 0).size(), 1u);
+  EXPECT_EQ(split_at_column_gaps(points, all, 0)[0], all);
+}
+
+TEST(OccupancyGridColumnGaps, TwoObjectsAtOneDepthWithAColumnGapAreTwoObstacles) {
+  // A car's rear over image columns 250-316 (x in [-2.09, -0.10] m, 0.2-1.4 m) and a pedestrian over
+  // 321-336 (x in [0.05, 0.50] m, 0.2-1.7 m), both at 15 m: columns 317-320 hold no point. Column
+  // 316 is at bearing atan(-3.5 / 500) = -0.007 rad (polar column 59), 321 at +0.003 rad (column
+  // 60): neighbouring cells of one row, so the cells holding points are one group with one density
+  // mode per column in the same row, one object; only the empty image columns tell them apart.
+  // With the split off (min_column_gap_px = 0) one obstacle holds both.
+  for (int gap_px : {3, 0}) {
+    OccupancyGridParameters parameters = grid_parameters(GridKind::polar);
+    parameters.min_column_gap_px = gap_px;
+    OccupancyGrid grid(parameters);
+    std::vector<ObstaclePoint> points;
+    testing::add_pixel_columns(points, 250, 316, 0.2, 1.4, 15.0);
+    testing::add_pixel_columns(points, 321, 336, 0.2, 1.7, 15.0);
+    for (int frame = 0; frame < 3; ++frame) grid.update(points, EgoMotion{});
+    if (gap_px == 0) {
+      ASSERT_EQ(grid.obstacles().size(), 1u) << grid.status();
+      continue;
+    }
+    ASSERT_EQ(grid.obstacles().size(), 2u) << grid.status();
+    // Centres from the columns: x = (u - u0) z / f at the middle column of each.
+    const double pixel_m = 15.0 / kFocalPx;
+    const double car_x_m = ((250 + 316) / 2.0 - testing::kPrincipalUPx) * pixel_m;
+    const double pedestrian_x_m = ((321 + 336) / 2.0 - testing::kPrincipalUPx) * pixel_m;
+    const Obstacle3d& car = grid.obstacles()[0].position_m.x() < grid.obstacles()[1].position_m.x() ? grid.obstacles()[0] : grid.obstacles()[1];
+    const Obstacle3d& pedestrian = &car == &grid.obstacles()[0] ? grid.obstacles()[1] : grid.obstacles()[0];
+    EXPECT_NEAR(car.position_m.x(), car_x_m, 0.05);
+    EXPECT_NEAR(car.size_m.x(), 66 * pixel_m, 0.05);
+    EXPECT_NEAR(pedestrian.position_m.x(), pedestrian_x_m, 0.05);
+    EXPECT_NEAR(pedestrian.size_m.x(), 15 * pixel_m, 0.05);
+    EXPECT_NEAR(pedestrian.max_height_m, 1.7, 0.05);
+    EXPECT_EQ(grid.clusters().size(), 1u);  // one cluster of cells, two obstacles
+  }
+}
+
+TEST(OccupancyGridColumnGaps, AWideObjectWithTwoEmptyColumnsStaysOneObstacle) {
+  // A car's rear 2 m wide at 10 m (columns 270-370, 0.2-1.4 m) whose columns 318-319 lost their
+  // points (two columns, fewer than the 3 of a gap): one obstacle spanning all of it, in every grid.
+  for (GridKind kind : {GridKind::polar, GridKind::cartesian, GridKind::column_disparity}) {
+    OccupancyGrid grid(grid_parameters(kind));
+    std::vector<ObstaclePoint> points;
+    testing::add_pixel_columns(points, 270, 317, 0.2, 1.4, 10.0);
+    testing::add_pixel_columns(points, 320, 370, 0.2, 1.4, 10.0);
+    for (int frame = 0; frame < 3; ++frame) grid.update(points, EgoMotion{});
+    ASSERT_EQ(grid.obstacles().size(), 1u) << grid_kind_name(kind) << ": " << grid.status();
+    EXPECT_NEAR(grid.obstacles()[0].size_m.x(), 100 * 10.0 / kFocalPx, 0.05) << grid_kind_name(kind);
+  }
+}
+
+// Points at image column u and range (z, x = 0 aside from u) for the range-peak split: `count` per
+// column (u_px set directly; the split reads u_px and the camera x, z).
+void add_column_at_range(std::vector<ObstaclePoint>& points, int u, double range_m, int count) {
+  for (int k = 0; k < count; ++k) {
+    ObstaclePoint point = point_at(0.0, 0.5 + 0.01 * k, range_m);
+    point.u_px = static_cast<uint16_t>(u);
+    points.push_back(point);
+  }
+}
+
+TEST(OccupancyGridRangePeaks, AFarEndOccludedByANearerObjectIsCutAtThePeak) {
+  // Columns 100-120 recede from 12 to 16 m (a car's side), 121-130 at 14 m (a pedestrian): the
+  // profile peaks at column 120 and falls 4 m to the left and 2 m to the right; the threshold at
+  // 16 m is max(3 sigma_Z(16) + 0.2, 1) = 1.48 m (sigma_Z = 16^2 0.25 / 150 = 0.427 m).
+  const StereoErrorModel model = testing::error_model();
+  const double threshold_m = std::max(3 * model.depth_sigma_m(16.0) + 0.2, 1.0);
+  ASSERT_NEAR(threshold_m, 1.48, 0.01);
+  std::vector<ObstaclePoint> points;
+  for (int u = 100; u <= 120; ++u) add_column_at_range(points, u, 12.0 + 0.2 * (u - 100), 5);
+  for (int u = 121; u <= 130; ++u) add_column_at_range(points, u, 14.0, 5);
+  std::vector<int> all(points.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  ArmWork work;
+  const std::vector<std::vector<int>> parts = split_at_range_peak(points, all, model, 3.0, 0.2, 1.0, &work);
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_EQ(parts[0].size(), 21u * 5);  // columns 100-120: the peak goes with the receding side it ends
+  EXPECT_EQ(parts[1].size(), 10u * 5);
+  for (int index : parts[1]) EXPECT_GE(points[static_cast<size_t>(index)].u_px, 121);
+  EXPECT_EQ(work.scalar_ops, 6u * points.size() + 12u * 31);
+  EXPECT_EQ(work.memory_bytes, 8u * points.size() + 24u * 31);
+  // The same with the pedestrian at 14.6 m: a fall of 1.4 m, under the threshold, one part.
+  std::vector<ObstaclePoint> nearer_fall;
+  for (int u = 100; u <= 120; ++u) add_column_at_range(nearer_fall, u, 12.0 + 0.2 * (u - 100), 5);
+  for (int u = 121; u <= 130; ++u) add_column_at_range(nearer_fall, u, 14.6, 5);
+  std::vector<int> all_nearer(nearer_fall.size());
+  for (size_t i = 0; i < all_nearer.size(); ++i) all_nearer[i] = static_cast<int>(i);
+  EXPECT_EQ(split_at_range_peak(nearer_fall, all_nearer, model, 3.0, 0.2, 1.0).size(), 1u);
+}
+
+TEST(OccupancyGridRangePeaks, AConvexObjectsProfileIsNotCut) {
+  // A car seen at its corner: the rear falls from 13 to 12 m, the side rises from 12 to 17 m (a
+  // V, the nearest point inside); columns with fewer than 3 points do not count (a stray 2-point
+  // column at 20 m in the rear is no peak).
+  std::vector<ObstaclePoint> points;
+  for (int u = 100; u <= 110; ++u) add_column_at_range(points, u, 13.0 - 0.1 * (u - 100), 6);
+  for (int u = 111; u <= 135; ++u) add_column_at_range(points, u, 12.0 + 0.2 * (u - 110), 6);
+  std::vector<ObstaclePoint> stray;
+  add_column_at_range(stray, 140, 20.0, 2);
+  add_column_at_range(stray, 141, 16.0, 6);
+  points.insert(points.end(), stray.begin(), stray.end());
+  std::vector<int> all(points.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  const std::vector<std::vector<int>> parts = split_at_range_peak(points, all, testing::error_model(), 3.0, 0.2, 1.0);
+  ASSERT_EQ(parts.size(), 1u);
+  EXPECT_EQ(parts[0], all);
+}
+
 TEST(OccupancyGridGeometry, RowSigmaIsTheMeasurementsRowSigma) {
   // row_sigma_at (the depth-jump split's window) equals the row sigma of a point at the cell centre
   // (measurement_gaussian), for each kind.
@@ -611,6 +749,9 @@ TEST(OccupancyGridBadInput, BadCellSizesAndParametersThrowNamingTheParameter) {
   parameters = grid_parameters(GridKind::polar);
   parameters.min_depth_gap_m = -0.5;
   EXPECT_EQ(message_of(parameters), "min_depth_gap_m: expected in [0, 10] m, got -0.5");
+  parameters = grid_parameters(GridKind::polar);
+  parameters.min_column_gap_px = -1;
+  EXPECT_EQ(message_of(parameters), "min_column_gap_px: expected in [0, 64] px, got -1");
 }
 
 TEST(OccupancyGridWork, AnEmptyFrameCostsTheHeadersPerCellModel) {

@@ -56,4 +56,13 @@ inline void add_patch(std::vector<ObstaclePoint>& points, double x0_m, double x1
     for (int j = 0; j <= rows; ++j) points.push_back(point_at(x0_m + i * step_m, h0_m + j * step_m, z_m));
 }
 
+// A vertical surface at depth z seen over left-image columns u_first..u_last: one column of points
+// per pixel column (u_px exactly u), heights h0..h1 every pixel row (z / f), noise-free.
+inline void add_pixel_columns(std::vector<ObstaclePoint>& points, int u_first, int u_last, double h0_m, double h1_m, double z_m) {
+  const double pixel_m = z_m / kFocalPx;
+  for (int u = u_first; u <= u_last; ++u)
+    for (double height = h0_m; height <= h1_m + 1e-9; height += pixel_m)
+      points.push_back(point_at((u - kPrincipalUPx) * pixel_m, height, z_m));
+}
+
 }  // namespace lpstereo::arm::obstacles3d::testing
