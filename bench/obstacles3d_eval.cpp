@@ -47,10 +47,12 @@
 //
 // Usage: obstacles3d_eval [--frames N] [--seeds N] [--scenes urban,country,mining,floating]
 //        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
-//        [--misses FILE.csv] [--all-visible] [--count-low]
+//        [--misses FILE.csv] [--all-visible] [--count-low] [--vertical-gap-m G]
 // (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2;
 // --first-seed: seeds S .. S + N - 1, default 1; --misses: one CSV row per missed object and per false
-// positive of every method, with the nearest obstacle, for finding out why.)
+// positive of every method, with the nearest obstacle, for finding out why; --vertical-gap-m: the
+// terrain's 2.5D sampling leaves out of a cell the points above a vertical gap wider than G, default
+// the TerrainGridSpec's (off), arm/terrain/height_grid.cpp.)
 // Exit 0 when every line is met, 1 otherwise (the issue wants >= 300 frames and several seeds).
 #include <algorithm>
 #include <cerrno>
@@ -101,8 +103,9 @@ struct Settings {
   int threads = 2;
   int first_seed = 1;
   std::string misses_path;  // --misses: the CSV of misses and false positives, empty: none
-  // The candidates' parameters: the command's defaults (--obstacle-height-m 0.2). One source for the
-  // candidates and for the "too low" rule of the scoring.
+  // The candidates' parameters: the command's defaults (--obstacle-height-m 0.2) but the grid's
+  // vertical_gap_m (--vertical-gap-m). One source for the candidates and for the "too low" rule of
+  // the scoring.
   o3::CandidateParameters candidates;
 };
 
@@ -332,6 +335,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   mount.position_m = Eigen::Vector3d(0, 0, base.camera_height_m);
   const arm::CameraToVehicle to_vehicle(mount);
   const o3::CandidateParameters& candidate_parameters = settings.candidates;
+  candidate_parameters.grid.validate();  // a bad --vertical-gap-m: one line naming it (caught in main)
   const Eigen::Isometry3d vehicle_from_camera = to_vehicle.vehicle_from_camera();
 
   arm::StereoOdometryParameters odometry_parameters;  // the command's (tools/obstacles3d_command.cpp)
@@ -480,11 +484,13 @@ int main(int argc, char** argv) {
       settings.first_seed = std::atoi(argv[++i]);
     } else if (arg == "--misses" && has_value) {
       settings.misses_path = argv[++i];
+    } else if (arg == "--vertical-gap-m" && has_value) {
+      settings.candidates.grid.vertical_gap_m = std::atof(argv[++i]);
     } else {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
-                   "[--count-low] [--misses FILE.csv]\n",
+                   "[--count-low] [--misses FILE.csv] [--vertical-gap-m G]\n",
                    arg.c_str());
       return 2;
     }

@@ -52,7 +52,7 @@
 //        [--lr-max-diff PX] [--uniqueness-percent P] [--regularisation R]
 //        [--control N] [--initial-control N] [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A]
 //        [--threshold-factor F] [--alpha-step A] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
-//        [--noise-quantile Q] [--discontinuity-radius R] [--discontinuity-jump J] [--disparity-margin M] [--exact-points]
+//        [--noise-quantile Q] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--disparity-margin M] [--exact-points]
 //        [--support-reach N] [--equalisation-step-m S] [--step-reach N] [--patch-max-cells N] [--fp-bands] [--error-map]
 // The disparity range is 80 at 640 px wide and scales with the width (160 at 1280).
 // Exit 0 when every scene meets both lines, 1 otherwise.
@@ -553,6 +553,7 @@ int main(int argc, char** argv) {
     else if (a == "--step-reach") settings.fit.equalisation_step_reach_cells = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--thesis-cell-rule") settings.grid.cell_rule = terrain::TerrainGridSpec::CellRule::thesis;
     else if (a == "--noise-quantile") settings.grid.noise_floor_quantile = number_argument(i, argc, argv);
+    else if (a == "--vertical-gap-m") settings.grid.vertical_gap_m = number_argument(i, argc, argv);
     else if (a == "--bands") settings.bands = true;
     else if (a == "--fp-bands") settings.false_positive_bands = true;
     else if (a == "--error-map") settings.error_map = true;

@@ -48,6 +48,13 @@ struct TerrainGridSpec {
   enum class CellRule : uint8_t { thesis, noise_floor };
   CellRule cell_rule = CellRule::noise_floor;
   double noise_floor_quantile = 0.5;  // in [0, 1]
+  // The vertical-gap rule (height_grid.cpp has the model): > 0, a cell's heights sorted up from the
+  // lowest are cut at the first gap wider than vertical_gap_m between consecutive heights that has
+  // at least kVerticalGapMinPoints points under it, and the points above it (a hanging sign, a
+  // board or a branch over visible ground) are left out of the cell rule's count, mean, sigma and
+  // min; 0 = off (every point counts, the thesis's eq. 3.2 input), the default: it also keeps the
+  // lower level of a step whose face is hidden (a ditch's near wall). Finite, >= 0; 0.5 m measured.
+  double vertical_gap_m = 0.0;
 
   int forward_cells() const;  // ceil((forward_max_m - forward_min_m) / cell_m)
   int lateral_cells() const;
@@ -68,6 +75,9 @@ struct HeightGrid {
   int valid_cells() const;      // measured + filled
 };
 inline constexpr int kCellInvalid = 0, kCellMeasured = 1, kCellFilled = 2;
+// The vertical-gap rule cuts only above a group of at least this many points (a few low mismatches
+// under the ground must not replace it).
+inline constexpr int kVerticalGapMinPoints = 4;
 
 // Accumulates points one at a time (the ARM side of the binning: the vector kernel gives each point
 // its cell, this sums them), then finish() applies the cell rule and the neighbour fill.
@@ -90,6 +100,10 @@ class HeightGridAccumulator {
   TerrainGridSpec spec_;
   Eigen::MatrixXi count_;
   Eigen::MatrixXd sum_z_, sum_z2_, min_z_;
+  // With the vertical-gap rule: every accepted point's cell (row-major index) and height, for
+  // finish()'s per-cell sort; empty when the rule is off.
+  std::vector<int32_t> point_cell_;
+  std::vector<float> point_z_m_;
   int64_t accepted_ = 0, rejected_ = 0;
   int64_t add_point_calls_ = 0, add_to_cell_calls_ = 0;  // for work()
 };

@@ -188,5 +188,98 @@ TEST(HeightGridAccumulator, WorkFollowsTheDocumentedModel) {
   EXPECT_EQ(thesis.work().scalar_ops, 6u + 2u + 12u * 24);
 }
 
+// The vertical-gap rule (TerrainGridSpec::vertical_gap_m), eq. 3.2 for hand-computed cells. Cell
+// (2, 1): 6 road points at 0, 0.02, .., 0.10 under 24 points of a sign hanging from 1.90 to 2.36 m
+// (0.02 m apart): what a 0.5 m cell at 12 m sees of a sign 1.9 m up over the road.
+//   rule off: n = 30, mean = (0.3 + 51.12) / 30 = 1.714, Z = max(0, mean - sigma) far above the road;
+//   gap 0.5 m: the cut between 0.10 and 1.90 has 6 >= 4 points under it, the road alone remains:
+//   mean 0.05, sigma^2 = 2 (0.05^2 + 0.03^2 + 0.01^2) / 6 = 0.007 / 6, Z = 0.05 - 0.0341565.
+TEST(HeightGridAccumulator, VerticalGapRuleLeavesAHangingObstacleOutOfItsCell) {
+  TerrainGridSpec spec = small_spec();
+  spec.cell_rule = TerrainGridSpec::CellRule::thesis;
+  const auto fill = [](HeightGridAccumulator& accumulator) {
+    for (int k = 0; k <= 5; ++k) accumulator.add_to_cell(2, 1, 0.02 * k);
+    for (int k = 0; k < 24; ++k) accumulator.add_point(Eigen::Vector3d(1.2, -0.4, 1.90 + 0.02 * k));  // cell (2, 1)
+  };
+  HeightGridAccumulator off(spec);
+  fill(off);
+  const HeightGrid off_grid = off.finish();
+  EXPECT_GT(off_grid.height_m(2, 1), 0.5);  // the cell lifted by the sign
+  spec.vertical_gap_m = 0.5;
+  HeightGridAccumulator on(spec);
+  fill(on);
+  const HeightGrid on_grid = on.finish();
+  EXPECT_NEAR(on_grid.height_m(2, 1), 0.05 - std::sqrt(0.007 / 6), 1e-6);
+  EXPECT_NEAR(on_grid.height_m(2, 1), 0.0158435, 1e-6);
+  EXPECT_EQ(on_grid.point_count(2, 1), 30);  // every binned point is still counted
+  EXPECT_EQ(on_grid.state(2, 1), kCellMeasured);
+  // The neighbour fill reads the cut cell: (1, 1) has (2, 1) as its only measured neighbour.
+  EXPECT_NEAR(on_grid.height_m(1, 1), on_grid.height_m(2, 1), 1e-12);
+  // With the noise-floor rule (the default) the cut cell is the road's mean, 0.05 (its own
+  // variance is the row's only one, so the noise floor removes all of it).
+  spec.cell_rule = TerrainGridSpec::CellRule::noise_floor;
+  HeightGridAccumulator noise_floor(spec);
+  fill(noise_floor);
+  EXPECT_NEAR(noise_floor.finish().height_m(2, 1), 0.05, 1e-6);
+}
+
+// Cells the rule must leave exactly as they are without it (the same double sums).
+TEST(HeightGridAccumulator, VerticalGapRuleKeepsCellsWithoutAWideGap) {
+  TerrainGridSpec spec = small_spec();
+  spec.cell_rule = TerrainGridSpec::CellRule::thesis;
+  const auto fill = [](HeightGridAccumulator& accumulator) {
+    // (0, 0) a pole from the road up to 2 m, a point every 5 cm: no gap
+    for (int k = 0; k <= 40; ++k) accumulator.add_to_cell(0, 0, 0.05 * k);
+    // (1, 0) 3 low mismatches 1 m under 10 road points: the gap has only 3 points under it
+    for (int k = 0; k < 3; ++k) accumulator.add_to_cell(1, 0, -1.0 - 0.01 * k);
+    for (int k = 0; k < 10; ++k) accumulator.add_to_cell(1, 0, 0.01 * k);
+    // (2, 2) 6 road points and a board 0.4 m above them: a gap narrower than 0.5 m
+    for (int k = 0; k < 6; ++k) accumulator.add_to_cell(2, 2, 0.02 * k);
+    for (int k = 0; k < 10; ++k) accumulator.add_to_cell(2, 2, 0.5 + 0.02 * k);
+    // (3, 3) 4 points only, with a 1 m gap above the lowest: at most 4 points is never cut
+    for (double z : {0.0, 0.01, 0.02, 1.5}) accumulator.add_to_cell(3, 3, z);
+  };
+  HeightGridAccumulator off(spec);
+  fill(off);
+  spec.vertical_gap_m = 0.5;
+  HeightGridAccumulator on(spec);
+  fill(on);
+  const HeightGrid off_grid = off.finish(), on_grid = on.finish();
+  for (const auto& [i, j] : {std::pair{0, 0}, std::pair{1, 0}, std::pair{2, 2}, std::pair{3, 3}}) {
+    EXPECT_EQ(on_grid.height_m(i, j), off_grid.height_m(i, j)) << i << ", " << j;
+  }
+}
+
+// The cut is at the first wide gap up from the road: road, a board 1.0-1.1 m, a sign 2.5 m up.
+// Only the 5 road points at 0.1 m remain: Z = 0.1.
+TEST(HeightGridAccumulator, VerticalGapRuleCutsAtTheFirstGap) {
+  TerrainGridSpec spec = small_spec();
+  spec.cell_rule = TerrainGridSpec::CellRule::thesis;
+  spec.vertical_gap_m = 0.5;
+  HeightGridAccumulator accumulator(spec);
+  for (int k = 0; k < 8; ++k) accumulator.add_to_cell(4, 2, 2.5);
+  for (int k = 0; k < 6; ++k) accumulator.add_to_cell(4, 2, 1.0 + 0.02 * k);
+  for (int k = 0; k < 5; ++k) accumulator.add_to_cell(4, 2, 0.1);
+  EXPECT_NEAR(accumulator.finish().height_m(4, 2), 0.1, 1e-6);
+
+  spec.vertical_gap_m = -0.1;
+  expect_spec_error(spec, "vertical_gap_m");
+  spec.vertical_gap_m = std::numeric_limits<double>::infinity();
+  expect_spec_error(spec, "vertical_gap_m");
+}
+
+TEST(HeightGridAccumulator, VerticalGapRuleWorkFollowsTheDocumentedModel) {
+  TerrainGridSpec spec = small_spec();
+  spec.cell_rule = TerrainGridSpec::CellRule::thesis;
+  spec.vertical_gap_m = 0.5;
+  HeightGridAccumulator accumulator(spec);
+  for (int k = 0; k < 5; ++k) accumulator.add_to_cell(1, 1, 0.1 * k);
+  for (int k = 0; k < 3; ++k) accumulator.add_to_cell(2, 0, 0.0);
+  // eq. 3.2's 2 per add_to_cell call, 6 per accepted point, 12 per cell (24 cells); the rule's
+  // (2 + 3) per point and n ceil(log2 n) + n per cell: 5 x 3 + 5 = 20 and 3 x 2 + 3 = 9.
+  EXPECT_EQ(accumulator.work().scalar_ops, 2u * 8 + 6u * 8 + 12u * 24 + 5u * 8 + 20u + 9u);
+  EXPECT_EQ(accumulator.work().memory_bytes, 12u * 8 + 36u * 24 + 16u * 8);
+}
+
 }  // namespace
 }  // namespace lpstereo::arm::terrain
