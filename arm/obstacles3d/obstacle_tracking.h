@@ -90,8 +90,9 @@
 // rate is unchanged (reporting only). adoption_updates 6 and 10 gave 92.3 / 5.6 % and 91.1 / 5.6 %.
 // Country seeds 1-3 (first ~150 frames): TP 83.0 -> 86.4 %, FP 27.0 % either way; floating seed 3:
 // FP 25 -> 22 of 146 (docs/obstacles3d-voxels.md). Not caught: a track that hops onto another object
-// keeps the first one's speed with a confident covariance (country seed 2: a track on candidates that
-// stay 31-33 m ahead of the camera, i.e. move with it, hops onto a static bin, 17 false flags).
+// keeps the first one's speed with a confident covariance. (Country seed 2's 17 false flags, a track
+// on candidates that stayed 31-33 m ahead of the camera, were the static bin itself seen beyond the
+// candidates' far edge: the far-edge rule above.)
 //
 // Counted work (ArmWork) per update, with T tracks before the update, C clusters, G candidate pairs,
 // U associations, N new tracks, O reported obstacles:
