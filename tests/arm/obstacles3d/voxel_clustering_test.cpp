@@ -199,6 +199,7 @@ TEST(VoxelClustering, ClustersWithinTheMarginOfTheCandidatesFarEdgeAreCutByIt) {
     EXPECT_FALSE(cluster.at_candidate_far_edge);
   }
   parameters.candidate_forward_max_m = 34.0;
+  parameters.candidate_far_edge_margin_m = 3.5;  // the band from 30.5 m
   result = cluster_voxels(map, parameters);
   ASSERT_EQ(result.clusters.size(), 3u);
   EXPECT_TRUE(find(result, 31.75).at_candidate_far_edge);
