@@ -370,6 +370,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   o3::VoxelClusteringParameters clustering;
   clustering.image_width_px = width;
   clustering.image_height_px = height;
+  clustering.candidate_forward_max_m = candidate_parameters.grid.forward_max_m;  // the command's (voxel_clustering.h)
   o3::validate_clustering_parameters(clustering);
   o3::ObstacleTrackingParameters tracking;
   tracking.frame_period_s = 1.0 / options.fps;

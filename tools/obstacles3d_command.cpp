@@ -237,6 +237,9 @@ int Obstacles3dCommand::run() const {
         built.voxel_map = std::make_unique<o3::VoxelMap>(map_parameters);
         built.clustering.image_width_px = width;
         built.clustering.image_height_px = height;
+        // The candidates end with the terrain area (obstacle_candidates.h); clusters at that edge are
+        // cut by it (voxel_clustering.h: the candidates' far edge).
+        built.clustering.candidate_forward_max_m = candidate_parameters.grid.forward_max_m;
         o3::validate_clustering_parameters(built.clustering);
         o3::ObstacleTrackingParameters tracking;
         tracking.frame_period_s = 1.0 / fps_;

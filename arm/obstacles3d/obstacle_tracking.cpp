@@ -56,6 +56,8 @@ void validate_tracking_parameters(const ObstacleTrackingParameters& p) {
   require_parameter(p.frame_period_s > 0 && p.frame_period_s <= 10, "frame_period_s", "(0, 10] s", p.frame_period_s);
   require_parameter(p.accel_sigma_mps2 >= 0 && p.accel_sigma_mps2 <= 100, "accel_sigma_mps2", "[0, 100] m/s^2", p.accel_sigma_mps2);
   require_parameter(p.centroid_sigma_m > 0 && p.centroid_sigma_m <= 10, "centroid_sigma_m", "(0, 10] m", p.centroid_sigma_m);
+  require_parameter(p.far_edge_forward_sigma_m >= 0 && p.far_edge_forward_sigma_m <= 1000, "far_edge_forward_sigma_m", "[0, 1000] m",
+                    p.far_edge_forward_sigma_m);
   require_parameter(p.stereo_error.focal_px >= 0 && std::isfinite(p.stereo_error.focal_px), "stereo_error.focal_px", ">= 0 px", p.stereo_error.focal_px);
   require_parameter(p.stereo_error.baseline_m >= 0 && std::isfinite(p.stereo_error.baseline_m), "stereo_error.baseline_m", ">= 0 m",
           p.stereo_error.baseline_m);
@@ -148,7 +150,18 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
   }
   std::vector<Eigen::Matrix3d> noise;
   noise.reserve(clusters.size());
-  for (const VoxelCluster& cluster : clusters) noise.push_back(measurement_covariance(cluster, world_from_camera));
+  // A cluster at the candidates' far edge (voxel_clustering.h) has a forward position that says where
+  // the candidates end, not where the object is: its forward coordinate gets far_edge_forward_sigma_m
+  // more, so the filter keeps its lateral and vertical information and learns no depth motion from it.
+  const Eigen::Vector3d world_forward = world_from_current.linear() * Eigen::Vector3d::UnitX();
+  uint64_t far_edge_clusters = 0;
+  for (const VoxelCluster& cluster : clusters) {
+    noise.push_back(measurement_covariance(cluster, world_from_camera));
+    if (cluster.at_candidate_far_edge) {
+      noise.back() += p.far_edge_forward_sigma_m * p.far_edge_forward_sigma_m * world_forward * world_forward.transpose();
+      ++far_edge_clusters;
+    }
+  }
 
   // Algorithm 3.2.3.4: greedy by increasing distance.
   struct Pair {
@@ -273,7 +286,7 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
   const uint64_t t = previous_tracks, c = clusters.size(), g = pairs.size(), u = static_cast<uint64_t>(result_.associations),
                  n = static_cast<uint64_t>(result_.new_tracks), o = result_.obstacles.size();
   const uint64_t log_g = g > 1 ? static_cast<uint64_t>(std::bit_width(g - 1)) : 0;
-  result_.work.scalar_ops = 16 + 150 * t + 60 * c + 40 * t * c + 4 * g * log_g + 4 * g + 400 * u + 60 * n + 30 * o + 8 * t + 20 * adoption_tests;
+  result_.work.scalar_ops = 16 + 150 * t + 60 * c + 15 * far_edge_clusters + 40 * t * c + 4 * g * log_g + 4 * g + 400 * u + 60 * n + 30 * o + 8 * t + 20 * adoption_tests;
   result_.work.memory_bytes = sizeof(Track3d) * 2 * (t + n) + sizeof(VoxelCluster) * c;
   result_.work.scalar_ops += fragments.work.scalar_ops;
   result_.work.memory_bytes += fragments.work.memory_bytes;

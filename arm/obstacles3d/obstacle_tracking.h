@@ -46,8 +46,8 @@
 // velocity_mps, moving), in increasing track id; acceptance and ghost tracks are not reported.
 //
 // Moving versus static: at each association of a track with at least moving_min_updates updates with
-// a cluster that is not truncated (voxel_clustering.h: cut by the map bounds or the image border, so
-// its centroid moves with the cut), the horizontal world velocity v_h = (v_x, v_y) (the vertical one
+// a cluster that is not truncated (voxel_clustering.h: cut by the map bounds, the image border or the
+// candidates' far edge, so its centroid moves with the cut), the horizontal world velocity v_h = (v_x, v_y) (the vertical one
 // is the cluster's height jitter, not motion on the ground) votes "moving" when
 //     |v_h| > moving_speed_mps   and   v_h^T P_vh^-1 v_h > moving_significance_chi2
 // (P_vh the filter's 2x2 covariance of v_h: the speed must also be significantly non-zero, which
@@ -56,7 +56,13 @@
 // to static after as many consecutive static votes (a hysteresis when > 1).
 // Votes start at the second update (moving_min_updates = 2: a velocity exists once two positions were
 // seen; the chi-square test keeps a young track's poorly known velocity from voting), so that a moving
-// track can be reported moving from its first reported frame (after 3 acceptance frames). The
+// track can be reported moving from its first reported frame (after 3 acceptance frames).
+// A cluster at the candidates' far edge (VoxelCluster::at_candidate_far_edge) also updates the filter
+// with far_edge_forward_sigma_m added to its forward (vehicle x) noise: an object beyond the edge is
+// seen only through its points pulled inside by stereo errors, at constant range while the camera
+// drives on, and without the added noise the filter learns the camera's speed from them and keeps it,
+// confident, after the object comes inside (country seed 2: a static bin flagged moving in 17 of 31
+// frames, docs/obstacles3d-voxels.md). The
 // defaults were chosen on the preset sequences of bench/obstacles3d_eval (docs/obstacles3d-voxels.md
 // gives the figures): 0.7 m/s (a pedestrian walks at 1.2-1.5 m/s), chi-square 3.0 (78 %: the filter's
 // covariance is conservative, its stereo term is a single point's error, not a centroid's), one
@@ -84,13 +90,14 @@
 // rate is unchanged (reporting only). adoption_updates 6 and 10 gave 92.3 / 5.6 % and 91.1 / 5.6 %.
 // Country seeds 1-3 (first ~150 frames): TP 83.0 -> 86.4 %, FP 27.0 % either way; floating seed 3:
 // FP 25 -> 22 of 146 (docs/obstacles3d-voxels.md). Not caught: a track that hops onto another object
-// keeps the first one's speed with a confident covariance (country seed 2: a track on candidates that
-// stay 31-33 m ahead of the camera, i.e. move with it, hops onto a static bin, 17 false flags).
+// keeps the first one's speed with a confident covariance. (Country seed 2's 17 false flags, a track
+// on candidates that stayed 31-33 m ahead of the camera, were the static bin itself seen beyond the
+// candidates' far edge: the far-edge rule above.)
 //
 // Counted work (ArmWork) per update, with T tracks before the update, C clusters, G candidate pairs,
 // U associations, N new tracks, O reported obstacles:
 //   scalar_ops   = 16 + 150 T (F P F^T + Q on 6x6 with F's block structure, F s) + 60 C (R: rotation
-//                  and stereo terms) + 40 T C (distance: innovation 6, norms 12, colour 16, gate 6)
+//                  and stereo terms) + 15 E (the far-edge term's outer product, E clusters at the candidates' far edge) + 40 T C (distance: innovation 6, norms 12, colour 16, gate 6)
 //                  + 4 G ceil(log2 G) + 4 G (sort, greedy pass) + 400 U (3x3 innovation inverse, 6x3
 //                  gain, Joseph form on 6x6, votes and their 2x2 significance test) + 60 N (track start) + 30 O (velocity rotation, output)
 //                  + 8 T (queue moves) + 20 A (fragment adoption: A = young reported tracks times the tracks after the
@@ -139,6 +146,10 @@ struct ObstacleTrackingParameters {
   double frame_period_s = 0.1;          // (0, 10]
   double accel_sigma_mps2 = 2.0;        // process noise, [0, 100]
   double centroid_sigma_m = 0.2;        // cluster centroid jitter (voxel quantisation, partial views), (0, 10]
+  // Added along the vehicle's forward axis to the measurement noise of a cluster at the candidates'
+  // far edge (header), [0, 1000] m: 10 m, several times the band where such a centroid sticks, makes
+  // its forward coordinate carry almost no weight.
+  double far_edge_forward_sigma_m = 10.0;
   StereoErrorModel stereo_error;        // focal_px or baseline_m 0: no stereo term
   double initial_speed_sigma_mps = 12.0; // (0, 100]: a car at urban speed is within one sigma
   double max_position_distance_m = 3.0; // gate on |z - H s_predicted|, (0, 100]

@@ -89,6 +89,10 @@ void validate_clustering_parameters(const VoxelClusteringParameters& p) {
   require_parameter(p.image_width_px >= 0 && p.image_width_px <= 100000, "image_width_px", "[0, 100000] (0: unknown)", p.image_width_px);
   require_parameter(p.image_height_px >= 0 && p.image_height_px <= 100000, "image_height_px", "[0, 100000] (0: unknown)", p.image_height_px);
   require_parameter(p.border_margin_px >= 0 && p.border_margin_px <= 1000, "border_margin_px", "[0, 1000]", p.border_margin_px);
+  require_parameter(p.candidate_forward_max_m == 0.0 || (p.candidate_forward_max_m > 0.0 && p.candidate_forward_max_m <= 1000.0),
+                    "candidate_forward_max_m", "0 (not tested) or (0, 1000] m", p.candidate_forward_max_m);
+  require_parameter(p.candidate_far_edge_margin_m >= 0.0 && p.candidate_far_edge_margin_m <= 100.0, "candidate_far_edge_margin_m", "[0, 100] m",
+                    p.candidate_far_edge_margin_m);
 }
 
 ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParameters& parameters) {
@@ -177,6 +181,7 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
   }
 
   // Algorithm 3.2.3.3: noise removal, then the cluster's fields.
+  const Eigen::Isometry3d current_from_world = map.world_from_current().inverse();  // for the candidates' far edge
   for (std::vector<int>& cluster_members : members) {
     if (cluster_members.empty()) continue;
     if (static_cast<int>(cluster_members.size()) < parameters.min_cluster_voxels) {
@@ -198,6 +203,10 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
       const Voxel& voxel = *candidate.voxel;
       cluster.voxels.push_back(voxel.key);
       cluster.truncated = cluster.truncated || map.near_bounds(voxel.key, map.parameters().voxel_size_m);
+      if (parameters.candidate_forward_max_m > 0.0 &&
+          (current_from_world * map.centre_of(voxel.key)).x() > parameters.candidate_forward_max_m - parameters.candidate_far_edge_margin_m) {
+        cluster.at_candidate_far_edge = true;
+      }
       mean.add(candidate.rgb, candidate.hsl);
       cluster.frame_points += voxel.frame_point_count;
       world_sum += voxel.frame_world_sum_m;
@@ -221,6 +230,7 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
       ++result.removed_sparse;
       continue;
     }
+    cluster.truncated = cluster.truncated || cluster.at_candidate_far_edge;
     cluster.size_world_m = extent_voxels * map.parameters().voxel_size_m;
     cluster.centroid_world_m = world_sum / double(std::max<int64_t>(1, cluster.frame_points));
     cluster.rgb_mean = mean.rgb();
@@ -247,7 +257,8 @@ ClusteringResult cluster_voxels(const VoxelMap& map, const VoxelClusteringParame
   const uint64_t log_k = k > 1 ? static_cast<uint64_t>(std::bit_width(k - 1)) : 0;
   result.work.scalar_ops = 4 * v + 4 * k * log_k + 8 * static_cast<uint64_t>(result.neighbour_probes) +
                            36 * static_cast<uint64_t>(result.similarity_tests) + 16 * k + 8 * static_cast<uint64_t>(result.aggregated_clusters) +
-                           40 * static_cast<uint64_t>(result.flood_fill_clusters) + 30 * k;
+                           40 * static_cast<uint64_t>(result.flood_fill_clusters) + 30 * k +
+                           (parameters.candidate_forward_max_m > 0.0 ? 12 * k : 0);
   result.work.memory_bytes = sizeof(Voxel) * (v + 2 * k);
   return result;
 }
@@ -351,6 +362,7 @@ FragmentMergeResult merge_stereo_fragments(const std::vector<VoxelCluster>& clus
     merged.max_key = VoxelKey{std::max(merged.max_key.x, cluster.max_key.x), std::max(merged.max_key.y, cluster.max_key.y),
                               std::max(merged.max_key.z, cluster.max_key.z)};
     merged.truncated = merged.truncated || cluster.truncated;
+    merged.at_candidate_far_edge = merged.at_candidate_far_edge || cluster.at_candidate_far_edge;
     colours[o].add(cluster.rgb_mean, cluster.hsl_mean, weight);
     camera_boxes[o][0] = camera_boxes[o][0].cwiseMin(low);
     camera_boxes[o][1] = camera_boxes[o][1].cwiseMax(high);

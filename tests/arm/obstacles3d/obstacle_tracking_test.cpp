@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <stdexcept>
 #include <tuple>
@@ -219,6 +220,48 @@ TEST(ObstacleTracking, ATruncatedClusterTakesNoMotionDecision) {
   }
 }
 
+// The candidates' far edge (voxel_clustering.h, obstacle_tracking.h): a camera at 12 m/s (10 Hz)
+// approaches a static object at world x = 50 m. While the object is beyond the candidates' 34 m edge
+// its cluster stays at 32 m ahead (its points pulled inside by stereo errors: world x = 32 + 1.2 n,
+// the camera's speed), cut by the edge; from frame 15 on (range 32 m and less) it is the object itself,
+// at the edge until its range is below 30.5 m (frame 17). Every cluster before frame 17 is
+// truncated (no votes); with the far-edge noise the filter learns no depth motion from the stuck
+// clusters and the object is never reported moving; without it (far_edge_forward_sigma_m = 0) the
+// filter takes the camera's speed and the object is flagged moving after it came inside.
+int frames_reported_moving_after_the_edge(double far_edge_forward_sigma_m, double* last_speed_mps) {
+  ObstacleTrackingParameters parameters;  // 10 Hz, no stereo term
+  parameters.far_edge_forward_sigma_m = far_edge_forward_sigma_m;
+  ObstacleTracker3d tracker(parameters);
+  int moving_frames = 0;
+  for (int frame = 0; frame < 40; ++frame) {
+    const double camera_x_m = 1.2 * frame;
+    const double range_m = std::min(32.0, 50.0 - camera_x_m);
+    VoxelCluster cluster = cluster_at(Eigen::Vector3d(camera_x_m + range_m, 2.0, 0.75), range_m > 30.5);
+    cluster.at_candidate_far_edge = range_m > 30.5;
+    cluster.obstacle.position_m = Eigen::Vector3d(-2.0, 0.75, range_m);
+    const Eigen::Isometry3d world_from_current(Eigen::Translation3d(camera_x_m, 0.0, 0.0));
+    const TrackingResult& result = tracker.update({cluster}, world_from_current);
+    if (!result.obstacles.empty() && result.obstacles[0].moving) ++moving_frames;
+  }
+  EXPECT_EQ(tracker.tracks().size(), 1u);  // one track throughout
+  *last_speed_mps = tracker.tracks().empty() ? -1 : tracker.tracks()[0].filter.velocity_mps().head<2>().norm();
+  return moving_frames;
+}
+
+TEST(ObstacleTracking, AClusterStuckAtTheCandidatesFarEdgeTeachesNoDepthMotion) {
+  double last_speed_mps = 0;
+  EXPECT_EQ(frames_reported_moving_after_the_edge(ObstacleTrackingParameters{}.far_edge_forward_sigma_m, &last_speed_mps), 0);
+  EXPECT_LT(last_speed_mps, 0.7);
+  // Without the far-edge noise: the camera's speed learned from the stuck clusters is reported.
+  EXPECT_GT(frames_reported_moving_after_the_edge(0.0, &last_speed_mps), 0);
+  // The header's counted work: 15 per cluster at the far edge.
+  ObstacleTracker3d plain, at_edge;
+  VoxelCluster cluster = cluster_at(Eigen::Vector3d(32.0, 2.0, 0.75), true);
+  const uint64_t plain_ops = plain.update({cluster}, Eigen::Isometry3d::Identity()).work.scalar_ops;
+  cluster.at_candidate_far_edge = true;
+  EXPECT_EQ(at_edge.update({cluster}, Eigen::Isometry3d::Identity()).work.scalar_ops, plain_ops + 15u);
+}
+
 TEST(ObstacleTracking, AFastButUncertainVelocityDoesNotVoteMoving) {
   // The same target; a huge centroid noise makes the velocity's covariance large: not significant.
   ObstacleTrackingParameters parameters;
@@ -370,6 +413,9 @@ TEST(ObstacleTracking, EmptyInputAndBadParameters) {
   }
   parameters = {};
   parameters.adoption_margin_m = -0.5;
+  EXPECT_THROW(ObstacleTracker3d{parameters}, std::invalid_argument);
+  parameters = {};
+  parameters.far_edge_forward_sigma_m = -1;
   EXPECT_THROW(ObstacleTracker3d{parameters}, std::invalid_argument);
   parameters = {};
   parameters.frame_period_s = -1;

@@ -172,6 +172,54 @@ TEST(VoxelClustering, ClustersCutByTheMapBoundsOrTheImageBorderAreTruncated) {
   EXPECT_FALSE(find(15.25).truncated);
 }
 
+// The candidates' far edge (voxel_clustering.h): with the candidates ending at 34 m and a 3.5 m margin,
+// a cluster with a voxel centre beyond 30.5 m forward in the current vehicle frame is cut by that edge.
+// The camera has moved 5 m forward since the map's first frame, so world and current coordinates
+// differ by 5 m: a test in world coordinates would also flag the 27 m box (world 32.1-32.4 m).
+TEST(VoxelClustering, ClustersWithinTheMarginOfTheCandidatesFarEdgeAreCutByIt) {
+  std::vector<ObstaclePoint> points;
+  add_box(points, {31.5, 0.0, 0.5}, {32.0, 0.5, 1.0}, kRed);   // voxel centres 31.6-31.9 m: in the band
+  add_box(points, {27.0, 3.0, 0.5}, {27.5, 3.5, 1.0}, kBlue);  // 27.1-27.4 m (world 32.1-32.4 m): before it
+  add_box(points, {24.0, -3.0, 0.5}, {24.5, -2.5, 1.0}, kRed); // 24.1-24.4 m (world 29.1-29.4 m): before any
+  VoxelMap map;  // 0.25 m voxels, bounds to 40 m: no map-bound truncation for any box
+  map.update({}, EgoMotion{});
+  EgoMotion moved{true, Eigen::Isometry3d(Eigen::Translation3d(5.0, 0.0, 0.0))};  // the camera drove 5 m forward
+  map.update(points, moved);
+  auto find = [](const ClusteringResult& result, double vehicle_x) -> const VoxelCluster& {
+    for (const VoxelCluster& cluster : result.clusters) {
+      if (std::abs(cluster.centroid_world_m.x() - 5.0 - vehicle_x) < 0.5) return cluster;
+    }
+    throw std::runtime_error("no cluster near current x = " + std::to_string(vehicle_x));
+  };
+  VoxelClusteringParameters parameters;  // candidate_forward_max_m 0: not tested
+  ClusteringResult result = cluster_voxels(map, parameters);
+  ASSERT_EQ(result.clusters.size(), 3u);
+  for (const VoxelCluster& cluster : result.clusters) {
+    EXPECT_FALSE(cluster.truncated);
+    EXPECT_FALSE(cluster.at_candidate_far_edge);
+  }
+  parameters.candidate_forward_max_m = 34.0;
+  parameters.candidate_far_edge_margin_m = 3.5;  // the band from 30.5 m
+  result = cluster_voxels(map, parameters);
+  ASSERT_EQ(result.clusters.size(), 3u);
+  EXPECT_TRUE(find(result, 31.75).at_candidate_far_edge);
+  EXPECT_TRUE(find(result, 31.75).truncated);
+  EXPECT_FALSE(find(result, 27.25).at_candidate_far_edge);
+  EXPECT_FALSE(find(result, 27.25).truncated);
+  EXPECT_FALSE(find(result, 24.25).at_candidate_far_edge);
+  parameters.candidate_far_edge_margin_m = 7.5;  // the band from 26.5 m: the 27 m box too, not the 24 m one
+  result = cluster_voxels(map, parameters);
+  ASSERT_EQ(result.clusters.size(), 3u);
+  EXPECT_TRUE(find(result, 31.75).at_candidate_far_edge);
+  EXPECT_TRUE(find(result, 27.25).at_candidate_far_edge);
+  EXPECT_FALSE(find(result, 24.25).at_candidate_far_edge);
+  // The test's work: 12 per candidate voxel on top of the untested count.
+  parameters.candidate_forward_max_m = 0;
+  const uint64_t untested_ops = cluster_voxels(map, parameters).work.scalar_ops;
+  parameters.candidate_forward_max_m = 34.0;
+  EXPECT_EQ(cluster_voxels(map, parameters).work.scalar_ops, untested_ops + 12u * static_cast<uint64_t>(result.candidate_voxels));
+}
+
 TEST(VoxelClustering, OnTheLeftAClusterIsCutWithinItsDisparityOfTheBorder) {
   // make_point's rig: f = 500 px, B = 0.3 m, so a point at depth Z has disparity 150 / Z px. A box 5.0-5.5 m
   // ahead and 2.2-3.0 m left reaches u = 319.5 - 500 * 3 / 5 = 19.5 px with disparity up to 150 / 5 = 30 px: its
@@ -284,6 +332,12 @@ TEST(VoxelClustering, EmptyMapAndBadParameters) {
   EXPECT_THROW(cluster_voxels(map, parameters), std::invalid_argument);
   parameters = {};
   parameters.min_density = 2;
+  EXPECT_THROW(cluster_voxels(map, parameters), std::invalid_argument);
+  parameters = {};
+  parameters.candidate_forward_max_m = -34;
+  EXPECT_THROW(cluster_voxels(map, parameters), std::invalid_argument);
+  parameters = {};
+  parameters.candidate_far_edge_margin_m = -1;
   EXPECT_THROW(cluster_voxels(map, parameters), std::invalid_argument);
 }
 
