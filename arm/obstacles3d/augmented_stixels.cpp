@@ -324,22 +324,13 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
     // (scattered terrain-fit outliers, mismatches) give no obstacle.
     if (static_cast<int>(members.size()) < parameters_.min_cluster_stixels || static_cast<int>(obstacle_points.size()) < parameters_.min_obstacle_points)
       continue;
-    // The image-column gap split (occupancy_grid.h, split_at_column_gaps): neighbouring cells
+    // The grids' two cuts (occupancy_grid.h, split_object). The image-column gap split: neighbouring cells
     // join stixels whose points lie up to two 0.01 rad cells apart in the image; a run of at least
     // grid.min_column_gap_px columns without a point between them makes two obstacles. Then the
     // occlusion split (split_at_range_peak): a range peak over the image columns that both sides
     // fall from by more than a window is a far surface's end beside a nearer object. Each part
     // keeps the cluster's height interval; a stixel belongs to the part holding most of its points.
-    std::vector<std::vector<int>> parts;
-    for (std::vector<int>& part : split_at_column_gaps(points, obstacle_points, parameters_.grid.min_column_gap_px, &work_)) {
-      if (!parameters_.grid.split_at_range_peaks) {
-        parts.push_back(std::move(part));
-        continue;
-      }
-      for (std::vector<int>& piece : split_at_range_peak(points, part, parameters_.grid.error_model, parameters_.grid.window_sigmas,
-                                                         parameters_.grid.row_cell, parameters_.grid.min_depth_gap_m, &work_))
-        parts.push_back(std::move(piece));
-    }
+    const std::vector<std::vector<int>> parts = split_object(points, obstacle_points, parameters_.grid, &work_);
     std::vector<int> obstacle_of_part(parts.size(), -1);
     for (size_t part = 0; part < parts.size(); ++part) {
       if (static_cast<int>(parts[part].size()) < parameters_.min_obstacle_points) continue;

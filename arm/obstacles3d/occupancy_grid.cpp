@@ -681,19 +681,11 @@ void OccupancyGrid::cluster_and_describe(const std::vector<ObstaclePoint>& point
            ++object) {
         const std::vector<int>& inliers = group_objects_inliers[static_cast<size_t>(object)];
         if (static_cast<int>(inliers.size()) < parameters_.min_obstacle_points) continue;
-        for (const std::vector<int>& part : split_at_column_gaps(points, inliers, parameters_.min_column_gap_px, &work_)) {
-          const std::vector<std::vector<int>> pieces =
-              parameters_.split_at_range_peaks
-                  ? split_at_range_peak(points, part, parameters_.error_model, parameters_.window_sigmas,
-                                        parameters_.kind == GridKind::column_disparity ? 0.0 : parameters_.row_cell,
-                                        parameters_.min_depth_gap_m, &work_)
-                  : std::vector<std::vector<int>>{part};
-          for (const std::vector<int>& members : pieces) {
-            if (static_cast<int>(members.size()) < parameters_.min_obstacle_points) continue;
-            if (cluster.obstacle_count == 0) cluster.obstacle_index = static_cast<int>(obstacles_.size());
-            ++cluster.obstacle_count;
-            obstacles_.push_back(obstacle_from_points(points, members, static_cast<int>(obstacles_.size())));
-          }
+        for (const std::vector<int>& members : split_object(points, inliers, parameters_, &work_)) {
+          if (static_cast<int>(members.size()) < parameters_.min_obstacle_points) continue;
+          if (cluster.obstacle_count == 0) cluster.obstacle_index = static_cast<int>(obstacles_.size());
+          ++cluster.obstacle_count;
+          obstacles_.push_back(obstacle_from_points(points, members, static_cast<int>(obstacles_.size())));
         }
       }
     }
@@ -887,6 +879,19 @@ std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoin
   std::vector<std::vector<int>> parts(2);
   for (int index : indices) parts[points[static_cast<size_t>(index)].u_px <= last_left ? 0 : 1].push_back(index);
   return parts;
+}
+
+std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
+                                           const OccupancyGridParameters& parameters, ArmWork* work) {
+  std::vector<std::vector<int>> parts = split_at_column_gaps(points, indices, parameters.min_column_gap_px, work);
+  if (!parameters.split_at_range_peaks) return parts;
+  const double row_cell_m = parameters.kind == GridKind::column_disparity ? 0.0 : parameters.row_cell;
+  std::vector<std::vector<int>> pieces;
+  for (const std::vector<int>& part : parts)
+    for (std::vector<int>& piece : split_at_range_peak(points, part, parameters.error_model, parameters.window_sigmas, row_cell_m,
+                                                       parameters.min_depth_gap_m, work))
+      pieces.push_back(std::move(piece));
+  return pieces;
 }
 
 Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id) {

@@ -319,6 +319,13 @@ std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoin
                                                   const StereoErrorModel& error_model, double window_sigmas, double row_cell_m,
                                                   double min_depth_gap_m, ArmWork* work = nullptr);
 
+// Both cuts as the grids and the stixels apply them to one object's points: split_at_column_gaps
+// (parameters.min_column_gap_px), then, when parameters.split_at_range_peaks, split_at_range_peak on
+// each part with the grid's error model, window and row cell (0 for the column/disparity grid, whose
+// rows are disparities, not metres) and min_depth_gap_m. Parts in that order; `work` gets both cuts'.
+std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
+                                           const OccupancyGridParameters& parameters, ArmWork* work = nullptr);
+
 // An Obstacle3d from points (camera-frame bounding box centre and extent, height range, pixel box).
 // `indices` selects the points; empty selection -> nothing changed but id. Used by the grids and the
 // stixels.
