@@ -335,7 +335,6 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   mount.position_m = Eigen::Vector3d(0, 0, base.camera_height_m);
   const arm::CameraToVehicle to_vehicle(mount);
   const o3::CandidateParameters& candidate_parameters = settings.candidates;
-  candidate_parameters.grid.validate();  // a bad --vertical-gap-m: one line naming it (caught in main)
   const Eigen::Isometry3d vehicle_from_camera = to_vehicle.vehicle_from_camera();
 
   arm::StereoOdometryParameters odometry_parameters;  // the command's (tools/obstacles3d_command.cpp)
@@ -502,6 +501,12 @@ int main(int argc, char** argv) {
                  "obstacles3d_eval: expected --frames >= 2, --seeds >= 1, a scene, --range-m > 0, --threads in [1, 64] and --first-seed >= 0, "
                  "got %d, %d, %zu, %.2f, %d, %d\n",
                  settings.frames, settings.seeds, settings.scenes.size(), settings.range_m, settings.threads, settings.first_seed);
+    return 2;
+  }
+  try {
+    settings.candidates.grid.validate();  // a bad --vertical-gap-m: one line naming it, before any file is written
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "obstacles3d_eval: %s\n", error.what());
     return 2;
   }
   std::FILE* log_file = nullptr;
