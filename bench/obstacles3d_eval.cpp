@@ -47,10 +47,12 @@
 //
 // Usage: obstacles3d_eval [--frames N] [--seeds N] [--scenes urban,country,mining,floating]
 //        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
-//        [--misses FILE.csv] [--all-visible] [--count-low] [--vertical-gap-m G]
+//        [--misses FILE.csv] [--moving-log FILE.csv] [--all-visible] [--count-low] [--vertical-gap-m G]
 // (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2;
 // --first-seed: seeds S .. S + N - 1, default 1; --misses: one CSV row per missed object and per false
-// positive of every method, with the nearest obstacle, for finding out why; --vertical-gap-m: the
+// positive of every method, with the nearest obstacle, for finding out why; --moving-log: one CSV row
+// per object-frame the voxels detected, with the truth's motion and the reported track's flag,
+// velocity and update count, for finding out why a flag is wrong; --vertical-gap-m: the
 // terrain's 2.5D sampling leaves out of a cell the points above a vertical gap wider than G, default
 // the TerrainGridSpec's (off), arm/terrain/height_grid.cpp.)
 // Exit 0 when every line is met, 1 otherwise (the issue wants >= 300 frames and several seeds).
@@ -103,6 +105,7 @@ struct Settings {
   int threads = 2;
   int first_seed = 1;
   std::string misses_path;  // --misses: the CSV of misses and false positives, empty: none
+  std::string moving_path;  // --moving-log: the CSV of the voxels' moving flag per counted object-frame, empty: none
   // The candidates' parameters: the command's defaults (--obstacle-height-m 0.2) but the grid's
   // vertical_gap_m (--vertical-gap-m). One source for the candidates and for the "too low" rule of
   // the scoring.
@@ -112,6 +115,8 @@ struct Settings {
 // Where the rows of --misses go, and which sequence frame is being scored.
 struct MissLog {
   std::FILE* file = nullptr;
+  std::FILE* moving_file = nullptr;                 // --moving-log
+  const o3::ObstacleTracker3d* tracker = nullptr;  // for the moving log's track columns
   std::string scene;
   uint32_t seed = 0;
   int frame = 0;
@@ -216,6 +221,24 @@ void log_row(const MissLog& log, const char* method, const char* kind, const io:
   }
 }
 
+// One --moving-log row per counted object-frame of the voxels (detected, so a nearest in-gate
+// obstacle exists): scene, seed, frame, the object's truth (id, class, moving, x z, ground velocity vx
+// vz in camera axes), the nearest in-gate obstacle (track id, reported moving flag, x z, velocity vx
+// vz) and its track (updates, its own moving flag: differs from the reported one when adopted).
+void log_moving_row(const MissLog& log, const io::SequenceObjectTruth& object, const o3::Obstacle3d& obstacle) {
+  if (log.moving_file == nullptr) return;
+  int updates = -1, own_moving = -1;
+  if (log.tracker != nullptr) {
+    for (const o3::Track3d& track : log.tracker->tracks()) {
+      if (track.id == obstacle.track_id) updates = track.updates, own_moving = track.moving ? 1 : 0;
+    }
+  }
+  std::fprintf(log.moving_file, "%s,%u,%d,%d,%s,%d,%.2f,%.2f,%.2f,%.2f,%d,%d,%.2f,%.2f,%.2f,%.2f,%d,%d\n", log.scene.c_str(), log.seed, log.frame,
+               object.truth.id, io::synth_class_name(object.truth.object.object_class), object.moving ? 1 : 0, object.truth.position_m[0],
+               object.truth.position_m[2], object.velocity_mps[0], object.velocity_mps[2], obstacle.track_id, obstacle.moving ? 1 : 0,
+               obstacle.position_m.x(), obstacle.position_m.z(), obstacle.velocity_mps.x(), obstacle.velocity_mps.z(), updates, own_moving);
+}
+
 void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoSequenceFrame& frame, const o3::StereoErrorModel& error_model,
                  const std::vector<int64_t>& measurable, const Settings& settings, bool is_voxels, const char* method, const MissLog& log,
                  Tally& tally) {
@@ -292,6 +315,7 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
       }
     }
     if (is_voxels) {
+      log_moving_row(log, object, *nearest);
       if (object.moving) {
         ++tally.moving_total;
         if (nearest->moving) ++tally.moving_flagged;
@@ -307,7 +331,7 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
   }
 }
 
-std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Settings& settings, std::FILE* log_file) {
+std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Settings& settings, std::FILE* log_file, std::FILE* moving_file) {
   io::StereoSequenceOptions options = io::preset_stereo_sequence(scene, seed);
   options.frames = settings.frames;
   options.base.colour = settings.colour;
@@ -379,7 +403,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   o3::ObstacleTracker3d tracker(tracking);
 
   std::vector<Tally> tallies(kMethods);
-  MissLog log{log_file, scene, seed, 0};
+  MissLog log{log_file, moving_file, &tracker, scene, seed, 0};
   io::SynthCameraPose previous_pose = first.pose;
   for (int n = 0; n < settings.frames; ++n) {
     log.frame = n;
@@ -448,6 +472,39 @@ std::vector<std::string> split_list(const std::string& text) {
   return items;
 }
 
+// One CSV output of the eval (--misses, --moving-log): nothing when its path is empty; on a failure
+// the file is removed, so no half-written file stays.
+struct CsvOutput {
+  const char* option;
+  std::string path;
+  std::FILE* file = nullptr;
+  bool created = false;  // this run created the file (only then may discard remove it)
+  CsvOutput(const char* option_name, std::string file_path) : option(option_name), path(std::move(file_path)) {}
+  bool open(const char* header) {
+    if (path.empty()) return true;
+    file = std::fopen(path.c_str(), "w");
+    if (file == nullptr) {
+      std::fprintf(stderr, "obstacles3d_eval: %s: cannot write '%s': %s\n", option, path.c_str(), std::strerror(errno));
+      return false;
+    }
+    created = true;
+    std::fputs(header, file);
+    return true;
+  }
+  bool close() {
+    if (file == nullptr) return true;
+    const bool written = std::fclose(file) == 0;
+    file = nullptr;
+    if (!written) std::fprintf(stderr, "obstacles3d_eval: %s: writing '%s' failed\n", option, path.c_str());
+    return written;
+  }
+  void discard() {
+    if (file != nullptr) std::fclose(file), file = nullptr;
+    if (created) std::remove(path.c_str());
+    created = false;
+  }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -484,13 +541,15 @@ int main(int argc, char** argv) {
       settings.first_seed = std::atoi(argv[++i]);
     } else if (arg == "--misses" && has_value) {
       settings.misses_path = argv[++i];
+    } else if (arg == "--moving-log" && has_value) {
+      settings.moving_path = argv[++i];
     } else if (arg == "--vertical-gap-m" && has_value) {
       settings.candidates.grid.vertical_gap_m = std::atof(argv[++i]);
     } else {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
-                   "[--count-low] [--misses FILE.csv] [--vertical-gap-m G]\n",
+                   "[--count-low] [--misses FILE.csv] [--moving-log FILE.csv] [--vertical-gap-m G]\n",
                    arg.c_str());
       return 2;
     }
@@ -509,15 +568,13 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "obstacles3d_eval: %s\n", error.what());
     return 2;
   }
-  std::FILE* log_file = nullptr;
-  if (!settings.misses_path.empty()) {
-    log_file = std::fopen(settings.misses_path.c_str(), "w");
-    if (log_file == nullptr) {
-      std::fprintf(stderr, "obstacles3d_eval: --misses: cannot write '%s': %s\n", settings.misses_path.c_str(), std::strerror(errno));
-      return 2;
-    }
-    std::fprintf(log_file, "scene,seed,frame,method,kind,class,id,truth_x_m,truth_z_m,visible_pixels,measurable_pixels,obstacle_x_m,obstacle_z_m,width_m,"
-                           "height_m,length_m,min_height_m,max_height_m\n");
+  CsvOutput misses("--misses", settings.misses_path), moving_log("--moving-log", settings.moving_path);
+  if (!misses.open("scene,seed,frame,method,kind,class,id,truth_x_m,truth_z_m,visible_pixels,measurable_pixels,obstacle_x_m,obstacle_z_m,"
+                   "width_m,height_m,length_m,min_height_m,max_height_m\n") ||
+      !moving_log.open("scene,seed,frame,id,class,moving,truth_x_m,truth_z_m,truth_vx_mps,truth_vz_mps,track_id,flagged_moving,obstacle_x_m,"
+                       "obstacle_z_m,vx_mps,vz_mps,track_updates,track_own_moving\n")) {
+    misses.discard();
+    return 2;
   }
   std::printf("obstacles3d_eval: %d frames per sequence (the issue wants >= 300), seeds %d..%d, 640x480, ego-motion %s, candidates "
               "coloured from the %s image, %d thread(s);\n"
@@ -532,7 +589,7 @@ int main(int argc, char** argv) {
   try {
     for (size_t s = 0; s < settings.scenes.size(); ++s) {
       for (int seed = settings.first_seed; seed < settings.first_seed + settings.seeds; ++seed) {
-        const std::vector<Tally> tallies = evaluate(settings.scenes[s], static_cast<uint32_t>(seed), settings, log_file);
+        const std::vector<Tally> tallies = evaluate(settings.scenes[s], static_cast<uint32_t>(seed), settings, misses.file, moving_log.file);
         std::printf("%-9s seed %d:", settings.scenes[s].c_str(), seed);
         for (int m = 0; m < kMethods; ++m) {
           const Tally& t = tallies[static_cast<size_t>(m)];
@@ -546,14 +603,13 @@ int main(int argc, char** argv) {
     }
   } catch (const std::exception& error) {
     std::fprintf(stderr, "obstacles3d_eval: %s\n", error.what());
-    if (log_file != nullptr) {  // no half-written file
-      std::fclose(log_file);
-      std::remove(settings.misses_path.c_str());
-    }
+    misses.discard();  // no half-written file
+    moving_log.discard();
     return 2;
   }
-  if (log_file != nullptr && std::fclose(log_file) != 0) {
-    std::fprintf(stderr, "obstacles3d_eval: --misses: writing '%s' failed\n", settings.misses_path.c_str());
+  if (!misses.close() || !moving_log.close()) {
+    misses.discard();
+    moving_log.discard();
     return 2;
   }
 
