@@ -10,8 +10,9 @@
 // all five methods side by side: occupancy grids polar, cartesian, coldisp, the augmented stixels and
 // the voxel map + colour clustering + Kalman tracking (0.25 m voxels, 3 acceptance frames). As the
 // command by default: the ego-motion from arm::StereoOdometry (its camera increment t -> t-1 in the
-// vehicle frame, V E V^-1; a frame whose odometry fails gets none: static camera assumed, counted and
-// printed) and the candidates coloured from the left colour view (the voxel clustering is colour-
+// vehicle frame, V E V^-1; a frame whose odometry fails is bridged with the last valid increment
+// for up to 5 frames, else static camera assumed: arm/obstacles3d/ego_motion.h, as the command;
+// both counted and printed, with the odometry's per-frame error against the true increment) and the candidates coloured from the left colour view (the voxel clustering is colour-
 // based). Options measure the methods apart from the odometry (--ego-motion truth: the sequence's
 // true camera motion) or on grey (--grey: the grey image as the colour).
 //
@@ -73,6 +74,7 @@
 #include "arm/disparity_engine.h"
 #include "arm/odometry/stereo_odometry.h"
 #include "arm/obstacles3d/augmented_stixels.h"
+#include "arm/obstacles3d/ego_motion.h"
 #include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/obstacles3d/obstacle_tracking.h"
 #include "arm/obstacles3d/occupancy_grid.h"
@@ -154,6 +156,14 @@ double median(std::vector<double> values) {
   if (values.empty()) return 0;
   std::nth_element(values.begin(), values.begin() + static_cast<long>(values.size() / 2), values.end());
   return values[values.size() / 2];
+}
+
+// The q-quantile (0..1) by the nearest rank; 0 for no values.
+double percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const size_t rank = static_cast<size_t>(std::ceil(q * static_cast<double>(values.size())));
+  return values[std::min(values.size() - 1, rank > 0 ? rank - 1 : 0)];
 }
 
 double mean(const std::vector<double>& values) {
@@ -368,7 +378,13 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   odometry_parameters.baseline_m = base.baseline_m;
   std::unique_ptr<arm::StereoOdometry> odometry;
   if (!settings.true_ego_motion) odometry = std::make_unique<arm::StereoOdometry>(width, height, odometry_parameters, settings.threads);
-  int frames_without_ego_motion = 0;  // after the first
+  // Odometry dropouts after the first frame, and of them those the constant-velocity bridge did not
+  // cover (static camera assumed; arm/obstacles3d/ego_motion.h).
+  int frames_without_ego_motion = 0, frames_static_camera = 0;
+  std::unique_ptr<o3::OdometryEgoMotion> odometry_ego_motion;
+  if (odometry) odometry_ego_motion = std::make_unique<o3::OdometryEgoMotion>();
+  std::string frames_without_ego_motion_list;  // their numbers, printed
+  std::vector<double> odometry_translation_error_m, odometry_rotation_error_deg;  // per frame with an increment
 
   o3::StereoErrorModel error_model;
   error_model.focal_px = focal_px;
@@ -426,11 +442,20 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     o3::EgoMotion ego_motion;
     if (odometry) {
       const arm::StereoOdometryFrame motion = odometry->process(left, right);
+      ego_motion = odometry_ego_motion->next(motion.statistics.valid, motion.increment, vehicle_from_camera);
       if (n > 0 && motion.statistics.valid) {
-        ego_motion.available = true;
-        ego_motion.previous_from_current = vehicle_from_camera * motion.increment * vehicle_from_camera.inverse();
+        // The odometry's error against the true camera increment (printed per sequence).
+        const Eigen::Isometry3d truth = io::camera_previous_from_current(previous_pose, frame.pose);
+        const Eigen::Isometry3d error = truth.inverse() * motion.increment;
+        odometry_translation_error_m.push_back(error.translation().norm());
+        odometry_rotation_error_deg.push_back(Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI);
       } else if (n > 0) {
         ++frames_without_ego_motion;
+        if (odometry_ego_motion->source() == o3::EgoMotionSource::static_camera) ++frames_static_camera;
+        frames_without_ego_motion_list += (frames_without_ego_motion_list.empty() ? " (frames " : ", ") + std::to_string(n) + ": " +
+                                          std::to_string(motion.statistics.inliers) + " inliers of " +
+                                          std::to_string(motion.statistics.circle_matches) + " circles, " +
+                                          std::to_string(motion.statistics.stereo_matches) + " stereo matches";
       }
     } else if (n > 0) {
       ego_motion.available = true;
@@ -456,8 +481,15 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   std::printf("%-9s seed %u: %d frames rendered in %.1f s (%.2f s a frame), processed and scored in %.1f s (%.2f s a frame), wall clock\n",
               scene.c_str(), seed, settings.frames, render_s, render_s / settings.frames, pipeline_s, pipeline_s / settings.frames);
   if (odometry) {
-    std::printf("%-9s seed %u: visual odometry failed in %d of %d frames after the first (no ego-motion: static camera assumed)\n",
-                scene.c_str(), seed, frames_without_ego_motion, settings.frames - 1);
+    if (!frames_without_ego_motion_list.empty()) frames_without_ego_motion_list += ")";
+    std::printf("%-9s seed %u: visual odometry failed in %d of %d frames after the first%s; bridged with the last increment in %d, "
+                "static camera assumed in %d\n",
+                scene.c_str(), seed, frames_without_ego_motion, settings.frames - 1, frames_without_ego_motion_list.c_str(),
+                frames_without_ego_motion - frames_static_camera, frames_static_camera);
+    std::printf("%-9s seed %u: visual odometry error per frame against the true increment: translation median %.3f m, 95th pct %.3f m, max "
+                "%.3f m; rotation median %.3f deg, max %.3f deg\n",
+                scene.c_str(), seed, median(odometry_translation_error_m), percentile(odometry_translation_error_m, 0.95),
+                percentile(odometry_translation_error_m, 1.0), median(odometry_rotation_error_deg), percentile(odometry_rotation_error_deg, 1.0));
   }
   return tallies;
 }

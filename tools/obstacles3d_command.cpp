@@ -16,6 +16,7 @@
 
 #include "arm/disparity_engine.h"
 #include "arm/obstacles3d/augmented_stixels.h"
+#include "arm/obstacles3d/ego_motion.h"
 #include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/obstacles3d/obstacle_tracking.h"
 #include "arm/obstacles3d/occupancy_grid.h"
@@ -280,7 +281,9 @@ int Obstacles3dCommand::run() const {
   progress.show(0);
   std::string lines;  // written at the end in one atomic step: no half-written file
   std::set<int> track_ids;
-  int static_frames = 0;  // frames after the first without ego-motion
+  o3::OdometryEgoMotion ego_motion_source;
+  int dropout_frames = 0;  // frames after the first whose odometry failed ...
+  int static_frames = 0;   // ... and of them those not bridged: static camera assumed
   int64_t obstacle_count = 0;
   double processing_ms = 0;
   for (int i = 0; i < frame_count; ++i) {
@@ -312,20 +315,19 @@ int Obstacles3dCommand::run() const {
       candidates.note = mount_reason;
     }
 
-    // Ego-motion: the odometry's camera increment (t -> t-1) in the vehicle frame, V E_c V^-1.
+    // Ego-motion: the odometry's camera increment (t -> t-1) in the vehicle frame, V E_c V^-1; a
+    // dropout bridged with the last valid increment for up to 5 frames, else static camera
+    // (arm/obstacles3d/ego_motion.h).
     const arm::StereoOdometryFrame motion = odometry.process(pair.frame.left, pair.frame.right);
-    o3::EgoMotion ego_motion;
-    if (i > 0 && motion.statistics.valid) {
-      ego_motion.available = true;
-      const Eigen::Isometry3d vehicle_from_camera = method.to_vehicle->vehicle_from_camera();
-      ego_motion.previous_from_current = vehicle_from_camera * motion.increment * vehicle_from_camera.inverse();
-    } else if (i > 0) {
-      if (static_frames == 0) {
-        std::fprintf(stderr, "obstacles3d: frame %d: visual odometry failed (%d inliers): no ego-motion, static camera assumed "
-                             "for it (and for any later failure, counted in the summary)\n",
-                     index, motion.statistics.inliers);
+    const o3::EgoMotion ego_motion = ego_motion_source.next(
+        motion.statistics.valid, motion.increment, mount_known ? method.to_vehicle->vehicle_from_camera() : Eigen::Isometry3d::Identity());
+    if (i > 0 && !motion.statistics.valid) {
+      if (dropout_frames == 0) {
+        std::fprintf(stderr, "obstacles3d: frame %d: visual odometry failed (%d inliers): %s (later failures are counted in the summary)\n",
+                     index, motion.statistics.inliers, ego_motion_source.note().c_str());
       }
-      ++static_frames;
+      ++dropout_frames;
+      if (ego_motion_source.source() == o3::EgoMotionSource::static_camera) ++static_frames;
     }
 
     std::vector<o3::Obstacle3d> obstacles;
@@ -357,9 +359,7 @@ int Obstacles3dCommand::run() const {
       if (obstacle.track_id >= 0) track_ids.insert(obstacle.track_id);
     }
     obstacle_count += static_cast<int64_t>(obstacles.size());
-    const std::string ego_note = ego_motion.available ? "ego-motion applied"
-                                 : i == 0              ? "first frame: no ego-motion"
-                                                       : "no ego-motion: static camera assumed";
+    const std::string ego_note = ego_motion_source.note();
     const nlohmann::json line = {{"frame", index},
                                  {"status", candidates.note + "; " + ego_note + "; " + method_status},
                                  {"ego_motion", ego_motion.available},
@@ -375,10 +375,12 @@ int Obstacles3dCommand::run() const {
     progress.show(i + 1);
   }
   write_file_atomically(output_, lines);
-  std::printf("%d frames (%d .. %d), %lld obstacles, %zu tracks, %d frames without ego-motion after the first, mean %.1f ms per "
-              "frame (disparity, terrain, odometry, %s) -> %s\n",
+  std::printf("%d frames (%d .. %d), %lld obstacles, %zu tracks, visual odometry failed in %d frames after the first (%d bridged with "
+              "the last increment, %d without ego-motion: static camera assumed), mean %.1f ms per frame (disparity, terrain, odometry, "
+              "%s) -> %s\n",
               frame_count, source->first_frame(), source->first_frame() + frame_count - 1, static_cast<long long>(obstacle_count),
-              track_ids.size(), static_frames, processing_ms / frame_count, method_.c_str(), output_.c_str());
+              track_ids.size(), dropout_frames, dropout_frames - static_frames, static_frames, processing_ms / frame_count, method_.c_str(),
+              output_.c_str());
   return 0;
 }
 
