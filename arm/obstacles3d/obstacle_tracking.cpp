@@ -52,6 +52,13 @@ double ConstantVelocityFilter3d::update(const Eigen::Vector3d& measured_position
   return innovation.dot(inverse * innovation);
 }
 
+double ConstantVelocityFilter3d::normalized_innovation_squared(const Eigen::Vector3d& measured_position_m,
+                                                               const Eigen::Matrix3d& measurement_covariance) const {
+  const Eigen::Vector3d innovation = measured_position_m - state_.head<3>();
+  const Eigen::Matrix3d innovation_covariance = covariance_.topLeftCorner<3, 3>() + measurement_covariance;
+  return innovation.dot(innovation_covariance.inverse() * innovation);
+}
+
 void validate_tracking_parameters(const ObstacleTrackingParameters& p) {
   require_parameter(p.frame_period_s > 0 && p.frame_period_s <= 10, "frame_period_s", "(0, 10] s", p.frame_period_s);
   require_parameter(p.accel_sigma_mps2 >= 0 && p.accel_sigma_mps2 <= 100, "accel_sigma_mps2", "[0, 100] m/s^2", p.accel_sigma_mps2);
@@ -81,6 +88,7 @@ void validate_tracking_parameters(const ObstacleTrackingParameters& p) {
   require_parameter(p.adoption_pixel_gap_px >= 0 && p.adoption_pixel_gap_px <= 1000, "adoption_pixel_gap_px", "[0, 1000] px",
                     p.adoption_pixel_gap_px);
   require_parameter(p.adoption_margin_m >= 0 && p.adoption_margin_m <= 100, "adoption_margin_m", "[0, 100] m", p.adoption_margin_m);
+  require_parameter(p.innovation_gate_chi2 >= 0 && p.innovation_gate_chi2 <= 1000, "innovation_gate_chi2", "[0, 1000]", p.innovation_gate_chi2);
   validate_fragment_merge_parameters(p.fragment_merge);
   require_parameter(p.moving_significance_chi2 >= 0 && p.moving_significance_chi2 <= 1000, "moving_significance_chi2", "[0, 1000]",
           p.moving_significance_chi2);
@@ -188,7 +196,15 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
     track.associated_this_frame = true;
     cluster_used[pair.cluster] = 1;
     const VoxelCluster& cluster = clusters[pair.cluster];
-    track.filter.update(cluster.centroid_world_m, noise[pair.cluster]);
+    Eigen::Matrix3d measurement_noise = noise[pair.cluster];
+    if (p.innovation_gate_chi2 > 0) {
+      const double nis = track.filter.normalized_innovation_squared(cluster.centroid_world_m, measurement_noise);
+      if (nis > p.innovation_gate_chi2) {
+        measurement_noise *= nis / p.innovation_gate_chi2;
+        ++result_.gated_updates;
+      }
+    }
+    track.filter.update(cluster.centroid_world_m, measurement_noise);
     ++track.updates;
     ++track.consecutive_updates;
     track.misses = 0;
@@ -286,7 +302,9 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
   const uint64_t t = previous_tracks, c = clusters.size(), g = pairs.size(), u = static_cast<uint64_t>(result_.associations),
                  n = static_cast<uint64_t>(result_.new_tracks), o = result_.obstacles.size();
   const uint64_t log_g = g > 1 ? static_cast<uint64_t>(std::bit_width(g - 1)) : 0;
-  result_.work.scalar_ops = 16 + 150 * t + 60 * c + 15 * far_edge_clusters + 40 * t * c + 4 * g * log_g + 4 * g + 400 * u + 60 * n + 30 * o + 8 * t + 20 * adoption_tests;
+  const uint64_t gate_tests = parameters_.innovation_gate_chi2 > 0 ? u : 0;
+  result_.work.scalar_ops = 16 + 150 * t + 60 * c + 15 * far_edge_clusters + 40 * t * c + 4 * g * log_g + 4 * g + 45 * gate_tests + 400 * u +
+                            60 * n + 30 * o + 8 * t + 20 * adoption_tests;
   result_.work.memory_bytes = sizeof(Track3d) * 2 * (t + n) + sizeof(VoxelCluster) * c;
   result_.work.scalar_ops += fragments.work.scalar_ops;
   result_.work.memory_bytes += fragments.work.memory_bytes;

@@ -21,6 +21,19 @@
 // (Bucy and Joseph 1968), as arm/tasks/obstacle_tracker.cpp does. A new track starts at (z, 0) with
 // P = diag(R, initial_speed_sigma_mps^2 I).
 //
+// Jumps (robust update, innovation_gate_chi2 > 0): a cluster's centroid is the mean of whatever part
+// of the object this frame's clustering holds, and a piece that joins for a frame (a fattened sliver
+// at a near object's silhouette, a neighbour's part) moves it by metres, far outside the filter's
+// model; the plain update turns that into a speed that votes "moving" for a frame or two (preset
+// sequences: pieces of a parked car, a board whose pole joins it). An association whose normalized
+// innovation squared NIS = nu^T S^-1 nu (S = P_pp + R) exceeds the gate is applied with R scaled by
+// NIS / gate: a down-weighting of outliers in the spirit of robust (M-estimation) Kalman filtering
+// (Masreliez and Martin, "Robust Bayesian estimation for the linear model and robustifying the Kalman
+// filter", IEEE TAC 22(3), 1977), here as the covariance scaling of adaptive filters. A jump that
+// persists (the piece stays) still pulls the filter over the next frames: the gate delays that, it
+// does not remove it. A track's speed learned from consistent motion gives small NIS and is untouched;
+// a new track's wide speed prior (initial_speed_sigma_mps) keeps its first innovations small.
+//
 // Fragments: before the association the clusters go through merge_stereo_fragments (voxel_clustering.h,
 // fragment_merge, with stereo_error): the slivers stereo cuts off an object at its silhouette, and the
 // stacked parts colour splits it into, join their object, so that one object feeds one track (a
@@ -98,7 +111,7 @@
 // U associations, N new tracks, O reported obstacles:
 //   scalar_ops   = 16 + 150 T (F P F^T + Q on 6x6 with F's block structure, F s) + 60 C (R: rotation
 //                  and stereo terms) + 15 E (the far-edge term's outer product, E clusters at the candidates' far edge) + 40 T C (distance: innovation 6, norms 12, colour 16, gate 6)
-//                  + 4 G ceil(log2 G) + 4 G (sort, greedy pass) + 400 U (3x3 innovation inverse, 6x3
+//                  + 4 G ceil(log2 G) + 4 G (sort, greedy pass) + 45 U_g (the gate's NIS, U_g = U with innovation_gate_chi2 > 0, else 0) + 400 U (3x3 innovation inverse, 6x3
 //                  gain, Joseph form on 6x6, votes and their 2x2 significance test) + 60 N (track start) + 30 O (velocity rotation, output)
 //                  + 8 T (queue moves) + 20 A (fragment adoption: A = young reported tracks times the tracks after the
 //                  update, each a queue test, a box test and a distance) + the fragment merge's (voxel_clustering.h, on the
@@ -132,6 +145,8 @@ class ConstantVelocityFilter3d {
   void predict(double period_s, double accel_sigma_mps2);
   // Returns the innovation's squared Mahalanobis distance (before the update).
   double update(const Eigen::Vector3d& measured_position_m, const Eigen::Matrix3d& measurement_covariance);
+  // That distance without updating: nu^T (P_pp + R)^-1 nu, nu = z - p (the normalized innovation squared).
+  double normalized_innovation_squared(const Eigen::Vector3d& measured_position_m, const Eigen::Matrix3d& measurement_covariance) const;
   Eigen::Vector3d position_m() const { return state_.head<3>(); }
   Eigen::Vector3d velocity_mps() const { return state_.tail<3>(); }
   const Vector6d& state() const { return state_; }
@@ -158,6 +173,10 @@ struct ObstacleTrackingParameters {
   double colour_weight = 1.0;           // per unit of eq. 3.17, >= 0
   double density_weight = 1.0;          // per unit of density, >= 0
   double max_association_distance = 6.0;  // > 0
+  // Robust update (header, "Jumps"): an association whose normalized innovation squared exceeds this
+  // chi-square (3 degrees of freedom) is applied with its measurement noise scaled by NIS / gate;
+  // 0: off (the plain Kalman update). [0, 1000].
+  double innovation_gate_chi2 = 0.0;
   int acceptance_frames = 3;            // [1, 1000]
   int ghost_frames = 5;                 // [0, 1000]
   double moving_speed_mps = 0.7;        // horizontal ground speed threshold, [0, 100]
@@ -207,6 +226,7 @@ struct TrackingResult {
   int64_t candidate_pairs = 0;
   int64_t merged_fragments = 0;  // input clusters merged into another as stereo fragments
   int64_t adopted = 0;           // reported young tracks that report their parent's motion (fragment adoption)
+  int64_t gated_updates = 0;     // associations applied with inflated noise (innovation_gate_chi2)
   ArmWork work;
 };
 

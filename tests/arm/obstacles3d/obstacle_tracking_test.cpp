@@ -275,6 +275,54 @@ TEST(ObstacleTracking, AFastButUncertainVelocityDoesNotVoteMoving) {
   EXPECT_EQ(tracker.tracks()[0].moving_votes, 0);
 }
 
+// A static object whose cluster holds, in frame 10 only, a piece 4 m to its side (a sliver or a
+// neighbour's part joined for one frame): its centroid jumps 2 m and back. Returns, per frame,
+// whether it was reported moving.
+std::vector<bool> flickering_static_cluster(double innovation_gate_chi2) {
+  ObstacleTrackingParameters parameters;
+  parameters.innovation_gate_chi2 = innovation_gate_chi2;
+  ObstacleTracker3d tracker(parameters);
+  std::vector<bool> moving;
+  for (int frame = 0; frame < 25; ++frame) {
+    const Eigen::Vector3d centroid(12.0, frame == 10 ? 4.0 : 2.0, 0.75);
+    const TrackingResult& result = tracker.update({cluster_at(centroid, false)}, Eigen::Isometry3d::Identity());
+    moving.push_back(!result.obstacles.empty() && result.obstacles[0].moving);
+    EXPECT_EQ(result.gated_updates, innovation_gate_chi2 > 0 && frame == 10 ? 1 : 0) << frame;
+  }
+  return moving;
+}
+
+TEST(ObstacleTracking, TheInnovationGateKeepsAOneFrameJumpFromFlaggingAStaticObjectMoving) {
+  // The converged filter's position sigma is ~0.3 m: the 2 m jump has a normalized innovation
+  // squared far above 7.81. The plain update turns it into 1.6 m/s, two frames "moving"; gated, it
+  // counts as a jump at the gate's distance (0.3 m/s) and the object stays static.
+  const std::vector<bool> plain = flickering_static_cluster(0.0), gated = flickering_static_cluster(7.81);
+  EXPECT_GT(std::count(plain.begin(), plain.end(), true), 0);
+  EXPECT_EQ(std::count(gated.begin(), gated.end(), true), 0);
+  for (int frame = 0; frame < 10; ++frame) EXPECT_FALSE(plain[static_cast<size_t>(frame)]) << frame;
+}
+
+TEST(ObstacleTracking, WithTheInnovationGateACrossingObjectIsStillMovingAtItsSpeed) {
+  // A new track starts at velocity 0 with a wide speed prior: a pedestrian's 1.5 m/s gives small
+  // normalized innovations, so the gate leaves the filter alone and the object is flagged moving.
+  ObstacleTrackingParameters parameters;
+  parameters.innovation_gate_chi2 = 7.81;
+  ObstacleTracker3d tracker(parameters);
+  const Obstacle3d* last = nullptr;
+  int first_moving_frame = -1;
+  for (int frame = 0; frame < 20; ++frame) {
+    const TrackingResult& result = tracker.update({cluster_at(Eigen::Vector3d(12.0, 2.0 + 0.15 * frame, 0.75), false)}, Eigen::Isometry3d::Identity());
+    last = result.obstacles.empty() ? nullptr : &result.obstacles[0];
+    if (last != nullptr && last->moving && first_moving_frame < 0) first_moving_frame = frame;
+  }
+  ASSERT_NE(last, nullptr);
+  EXPECT_TRUE(last->moving);
+  EXPECT_GE(first_moving_frame, 2);
+  EXPECT_LE(first_moving_frame, 8);
+  ASSERT_EQ(tracker.tracks().size(), 1u);
+  EXPECT_NEAR(tracker.tracks()[0].filter.velocity_mps().y(), 1.5, 0.2);
+}
+
 // A parent moving at 3 m/s along the world x from frame 0 and, from frame 10, a fragment beside it
 // (fragment_offset_m in the world, pixel box shifted by fragment_shift_px) moving with it. Returns,
 // per frame in which both are reported, whether the fragment reported exactly the parent's velocity
@@ -382,19 +430,26 @@ TEST(ObstacleTracking, AYoungTrackAwayFromEstablishedTracksOrWithAdoptionOffRepo
 }
 
 TEST(ObstacleTracking, CountedWorkFollowsTheHeaderModel) {
-  ObstacleTracker3d tracker;
-  // Frame 1: T = 0 tracks, C = 2 clusters, no pairs, N = 2 new tracks, nothing reported (acceptance).
-  const std::vector<VoxelCluster> clusters = {cluster_at(Eigen::Vector3d(10, 2, 0.75), false), cluster_at(Eigen::Vector3d(20, -3, 0.75), false)};
-  ArmWork work = tracker.update(clusters, Eigen::Isometry3d::Identity()).work;
-  // The fragment merge (off: the default error model has no focal length) adds 4 C + 12 C_out and reads and
-  // writes each cluster once.
-  EXPECT_EQ(work.scalar_ops, 16u + 60u * 2 + 60u * 2 + 4u * 2 + 12u * 2);
-  EXPECT_EQ(work.memory_bytes, sizeof(Track3d) * 2 * 2 + sizeof(VoxelCluster) * 2 + sizeof(VoxelCluster) * 2 * 2);
-  // Frame 2: T = 2, C = 2, G = 2 candidate pairs (the two are 10 m apart, beyond the 3 m gate), U = 2, O = 0.
-  const TrackingResult& result = tracker.update(clusters, Eigen::Isometry3d::Identity());
-  ASSERT_EQ(result.candidate_pairs, 2);
-  ASSERT_EQ(result.associations, 2);
-  EXPECT_EQ(result.work.scalar_ops, 16u + 150u * 2 + 60u * 2 + 40u * 2 * 2 + 4u * 2 * 1 + 4u * 2 + 400u * 2 + 8u * 2 + 4u * 2 + 12u * 2);
+  for (const double gate : {0.0, 7.81}) {
+    ObstacleTrackingParameters parameters;
+    parameters.innovation_gate_chi2 = gate;
+    ObstacleTracker3d tracker(parameters);
+    // Frame 1: T = 0 tracks, C = 2 clusters, no pairs, N = 2 new tracks, nothing reported (acceptance).
+    const std::vector<VoxelCluster> clusters = {cluster_at(Eigen::Vector3d(10, 2, 0.75), false), cluster_at(Eigen::Vector3d(20, -3, 0.75), false)};
+    ArmWork work = tracker.update(clusters, Eigen::Isometry3d::Identity()).work;
+    // The fragment merge (off: the default error model has no focal length) adds 4 C + 12 C_out and reads and
+    // writes each cluster once.
+    EXPECT_EQ(work.scalar_ops, 16u + 60u * 2 + 60u * 2 + 4u * 2 + 12u * 2);
+    EXPECT_EQ(work.memory_bytes, sizeof(Track3d) * 2 * 2 + sizeof(VoxelCluster) * 2 + sizeof(VoxelCluster) * 2 * 2);
+    // Frame 2: T = 2, C = 2, G = 2 candidate pairs (the two are 10 m apart, beyond the 3 m gate), U = 2, O = 0;
+    // with the innovation gate on, 45 more per association.
+    const TrackingResult& result = tracker.update(clusters, Eigen::Isometry3d::Identity());
+    ASSERT_EQ(result.candidate_pairs, 2);
+    ASSERT_EQ(result.associations, 2);
+    const uint64_t gate_ops = gate > 0 ? 45u * 2 : 0u;
+    EXPECT_EQ(result.work.scalar_ops, 16u + 150u * 2 + 60u * 2 + 40u * 2 * 2 + 4u * 2 * 1 + 4u * 2 + gate_ops + 400u * 2 + 8u * 2 + 4u * 2 + 12u * 2)
+        << "gate " << gate;
+  }
 }
 
 TEST(ObstacleTracking, EmptyInputAndBadParameters) {
@@ -417,6 +472,14 @@ TEST(ObstacleTracking, EmptyInputAndBadParameters) {
   parameters = {};
   parameters.far_edge_forward_sigma_m = -1;
   EXPECT_THROW(ObstacleTracker3d{parameters}, std::invalid_argument);
+  parameters = {};
+  parameters.innovation_gate_chi2 = -2;
+  try {
+    ObstacleTracker3d bad(parameters);
+    ADD_FAILURE() << "negative innovation gate accepted";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()), "innovation_gate_chi2: expected [0, 1000], got -2");
+  }
   parameters = {};
   parameters.frame_period_s = -1;
   try {
