@@ -49,6 +49,7 @@
 // Usage: obstacles3d_eval [--frames N] [--seeds N] [--scenes urban,country,mining,floating]
 //        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
 //        [--misses FILE.csv] [--moving-log FILE.csv] [--all-visible] [--count-low] [--vertical-gap-m G]
+//        [--innovation-gate-chi2 X] [--moving-consistency N]
 // (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2;
 // --first-seed: seeds S .. S + N - 1, default 1; --misses: one CSV row per missed object and per false
 // positive of every method, with the nearest obstacle, for finding out why; --moving-log: one CSV row
@@ -112,6 +113,9 @@ struct Settings {
   // vertical_gap_m (--vertical-gap-m). One source for the candidates and for the "too low" rule of
   // the scoring.
   o3::CandidateParameters candidates;
+  // The voxel tracker's moving decision and robust update (--innovation-gate-chi2,
+  // --moving-consistency): the defaults of ObstacleTrackingParameters unless given.
+  o3::ObstacleTrackingParameters tracking;
 };
 
 // Where the rows of --misses go, and which sequence frame is being scored.
@@ -381,10 +385,17 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   // Odometry dropouts after the first frame, and of them those the constant-velocity bridge did not
   // cover (static camera assumed; arm/obstacles3d/ego_motion.h).
   int frames_without_ego_motion = 0, frames_static_camera = 0;
+  int frames_implausible = 0;  // valid increments the plausibility bound rejected (bridged)
   std::unique_ptr<o3::OdometryEgoMotion> odometry_ego_motion;
-  if (odometry) odometry_ego_motion = std::make_unique<o3::OdometryEgoMotion>();
+  if (odometry) {
+    o3::OdometryEgoMotionParameters ego_motion_parameters;  // the command's (tools/obstacles3d_command.cpp)
+    ego_motion_parameters.frame_period_s = 1.0 / options.fps;
+    odometry_ego_motion = std::make_unique<o3::OdometryEgoMotion>(ego_motion_parameters);
+  }
   std::string frames_without_ego_motion_list;  // their numbers, printed
   std::vector<double> odometry_translation_error_m, odometry_rotation_error_deg;  // per frame with an increment
+  double odometry_worst_error_m = 0;
+  int odometry_worst_frame = -1;
 
   o3::StereoErrorModel error_model;
   error_model.focal_px = focal_px;
@@ -411,7 +422,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   clustering.image_height_px = height;
   clustering.candidate_forward_max_m = candidate_parameters.grid.forward_max_m;  // the command's (voxel_clustering.h)
   o3::validate_clustering_parameters(clustering);
-  o3::ObstacleTrackingParameters tracking;
+  o3::ObstacleTrackingParameters tracking = settings.tracking;
   tracking.frame_period_s = 1.0 / options.fps;
   tracking.stereo_error = error_model;
   tracking.camera_mount = mount;
@@ -443,11 +454,17 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     if (odometry) {
       const arm::StereoOdometryFrame motion = odometry->process(left, right);
       ego_motion = odometry_ego_motion->next(motion.statistics.valid, motion.increment, vehicle_from_camera);
+      if (n > 0 && motion.statistics.valid && odometry_ego_motion->rejected_implausible()) {
+        ++frames_implausible;
+        frames_without_ego_motion_list += (frames_without_ego_motion_list.empty() ? " (frames " : ", ") + std::to_string(n) + ": " +
+                                          odometry_ego_motion->note();
+      }
       if (n > 0 && motion.statistics.valid) {
         // The odometry's error against the true camera increment (printed per sequence).
         const Eigen::Isometry3d truth = io::camera_previous_from_current(previous_pose, frame.pose);
         const Eigen::Isometry3d error = truth.inverse() * motion.increment;
         odometry_translation_error_m.push_back(error.translation().norm());
+        if (error.translation().norm() > odometry_worst_error_m) odometry_worst_error_m = error.translation().norm(), odometry_worst_frame = n;
         odometry_rotation_error_deg.push_back(Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI);
       } else if (n > 0) {
         ++frames_without_ego_motion;
@@ -482,14 +499,14 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
               scene.c_str(), seed, settings.frames, render_s, render_s / settings.frames, pipeline_s, pipeline_s / settings.frames);
   if (odometry) {
     if (!frames_without_ego_motion_list.empty()) frames_without_ego_motion_list += ")";
-    std::printf("%-9s seed %u: visual odometry failed in %d of %d frames after the first%s; bridged with the last increment in %d, "
-                "static camera assumed in %d\n",
-                scene.c_str(), seed, frames_without_ego_motion, settings.frames - 1, frames_without_ego_motion_list.c_str(),
-                frames_without_ego_motion - frames_static_camera, frames_static_camera);
+    std::printf("%-9s seed %u: visual odometry failed in %d of %d frames after the first and was implausible in %d%s; bridged with the "
+                "last increment in %d, static camera assumed in %d\n",
+                scene.c_str(), seed, frames_without_ego_motion, settings.frames - 1, frames_implausible, frames_without_ego_motion_list.c_str(),
+                frames_without_ego_motion + frames_implausible - frames_static_camera, frames_static_camera);
     std::printf("%-9s seed %u: visual odometry error per frame against the true increment: translation median %.3f m, 95th pct %.3f m, max "
-                "%.3f m; rotation median %.3f deg, max %.3f deg\n",
+                "%.3f m (frame %d); rotation median %.3f deg, max %.3f deg\n",
                 scene.c_str(), seed, median(odometry_translation_error_m), percentile(odometry_translation_error_m, 0.95),
-                percentile(odometry_translation_error_m, 1.0), median(odometry_rotation_error_deg), percentile(odometry_rotation_error_deg, 1.0));
+                percentile(odometry_translation_error_m, 1.0), odometry_worst_frame, median(odometry_rotation_error_deg), percentile(odometry_rotation_error_deg, 1.0));
   }
   return tallies;
 }
@@ -575,13 +592,17 @@ int main(int argc, char** argv) {
       settings.misses_path = argv[++i];
     } else if (arg == "--moving-log" && has_value) {
       settings.moving_path = argv[++i];
+    } else if (arg == "--innovation-gate-chi2" && has_value) {
+      settings.tracking.innovation_gate_chi2 = std::atof(argv[++i]);
+    } else if (arg == "--moving-consistency" && has_value) {
+      settings.tracking.moving_consistency_frames = std::atoi(argv[++i]);
     } else if (arg == "--vertical-gap-m" && has_value) {
       settings.candidates.grid.vertical_gap_m = std::atof(argv[++i]);
     } else {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
-                   "[--count-low] [--misses FILE.csv] [--moving-log FILE.csv] [--vertical-gap-m G]\n",
+                   "[--count-low] [--misses FILE.csv] [--moving-log FILE.csv] [--vertical-gap-m G] [--innovation-gate-chi2 X] [--moving-consistency N]\n",
                    arg.c_str());
       return 2;
     }
@@ -596,6 +617,7 @@ int main(int argc, char** argv) {
   }
   try {
     settings.candidates.grid.validate();  // a bad --vertical-gap-m: one line naming it, before any file is written
+    o3::validate_tracking_parameters(settings.tracking);  // a bad --innovation-gate-chi2 or --moving-consistency, the same
   } catch (const std::exception& error) {
     std::fprintf(stderr, "obstacles3d_eval: %s\n", error.what());
     return 2;

@@ -281,7 +281,9 @@ int Obstacles3dCommand::run() const {
   progress.show(0);
   std::string lines;  // written at the end in one atomic step: no half-written file
   std::set<int> track_ids;
-  o3::OdometryEgoMotion ego_motion_source;
+  o3::OdometryEgoMotionParameters ego_motion_parameters;
+  ego_motion_parameters.frame_period_s = 1.0 / fps_;
+  o3::OdometryEgoMotion ego_motion_source(ego_motion_parameters);
   int dropout_frames = 0;  // frames after the first whose odometry failed ...
   int static_frames = 0;   // ... and of them those not bridged: static camera assumed
   int64_t obstacle_count = 0;
@@ -321,9 +323,9 @@ int Obstacles3dCommand::run() const {
     const arm::StereoOdometryFrame motion = odometry.process(pair.frame.left, pair.frame.right);
     const o3::EgoMotion ego_motion = ego_motion_source.next(
         motion.statistics.valid, motion.increment, mount_known ? method.to_vehicle->vehicle_from_camera() : Eigen::Isometry3d::Identity());
-    if (i > 0 && !motion.statistics.valid) {
+    if (i > 0 && (!motion.statistics.valid || ego_motion_source.rejected_implausible())) {
       if (dropout_frames == 0) {
-        std::fprintf(stderr, "obstacles3d: frame %d: visual odometry failed (%d inliers): %s (later failures are counted in the summary)\n",
+        std::fprintf(stderr, "obstacles3d: frame %d: visual odometry %d inliers: %s (later failures are counted in the summary)\n",
                      index, motion.statistics.inliers, ego_motion_source.note().c_str());
       }
       ++dropout_frames;

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -38,7 +39,9 @@ Eigen::Isometry3d vehicle_from_camera() {
 TEST(OdometryEgoMotion, FirstFrameThenOdometryThenBridgedDropoutsThenStatic) {
   const Eigen::Isometry3d v = vehicle_from_camera(), e = camera_increment();
   const Eigen::Isometry3d expected = v * e * v.inverse();
-  OdometryEgoMotion source(2);
+  OdometryEgoMotionParameters parameters;
+  parameters.max_extrapolated_frames = 2;
+  OdometryEgoMotion source(parameters);
 
   EXPECT_FALSE(source.next(true, Eigen::Isometry3d::Identity(), v).available);
   EXPECT_EQ(source.source(), EgoMotionSource::first_frame);
@@ -66,8 +69,9 @@ TEST(OdometryEgoMotion, FirstFrameThenOdometryThenBridgedDropoutsThenStatic) {
   EXPECT_EQ(source.source(), EgoMotionSource::static_camera);
   EXPECT_EQ(source.note(), "no ego-motion: static camera assumed");
 
-  // A valid increment resets the count: the next dropout is bridged with the newest increment.
-  const Eigen::Isometry3d slower(Eigen::Translation3d(0, 0, 0.6));
+  // A valid increment resets the count: the next dropout is bridged with the newest increment (0.2 m
+  // slower than the last: within the plausibility bound after 3 dropouts, 10 m/s^2 0.01 s^2 4 + 0.1 m).
+  const Eigen::Isometry3d slower(Eigen::Translation3d(0, 0, 1.0));
   EXPECT_TRUE(source.next(true, slower, v).available);
   EXPECT_EQ(source.consecutive_dropouts(), 0);
   ego = source.next(false, Eigen::Isometry3d::Identity(), v);
@@ -85,7 +89,9 @@ TEST(OdometryEgoMotion, ADropoutBeforeAnyValidIncrementIsAStaticCamera) {
 }
 
 TEST(OdometryEgoMotion, ZeroExtrapolatedFramesIsTheStaticFallbackAlone) {
-  OdometryEgoMotion source(0);
+  OdometryEgoMotionParameters parameters;
+  parameters.max_extrapolated_frames = 0;
+  OdometryEgoMotion source(parameters);
   const Eigen::Isometry3d v = vehicle_from_camera();
   source.next(true, Eigen::Isometry3d::Identity(), v);
   EXPECT_TRUE(source.next(true, camera_increment(), v).available);
@@ -93,15 +99,69 @@ TEST(OdometryEgoMotion, ZeroExtrapolatedFramesIsTheStaticFallbackAlone) {
   EXPECT_EQ(source.source(), EgoMotionSource::static_camera);
 }
 
-TEST(OdometryEgoMotion, BadParameter) {
-  for (int frames : {-1, 101}) {
+// The plausibility bound at 10 Hz: one frame a dt^2 + noise = 10 0.01 + 0.1 = 0.2 m; after k bridged
+// frames 0.1 (k + 1) + 0.1 m.
+TEST(OdometryEgoMotion, AnImplausibleIncrementIsBridgedAndTwoInARowAreAccepted) {
+  const Eigen::Isometry3d v = vehicle_from_camera(), e = camera_increment();  // 1.2 m a frame
+  auto forward = [](double metres) { return Eigen::Isometry3d(Eigen::Translation3d(0.05, 0.0, metres)); };
+  OdometryEgoMotion source;
+  source.next(true, Eigen::Isometry3d::Identity(), v);
+  source.next(true, e, v);
+  // 0.19 m slower: within 0.2 m, accepted.
+  EXPECT_TRUE(source.next(true, forward(1.01), v).available);
+  EXPECT_EQ(source.source(), EgoMotionSource::odometry);
+  EXPECT_FALSE(source.rejected_implausible());
+  // A jump of 0.8 m (the recovered odometry on urban seed 1): rejected, bridged with 1.01 m.
+  EgoMotion ego = source.next(true, forward(0.21), v);
+  EXPECT_TRUE(source.rejected_implausible());
+  EXPECT_EQ(source.source(), EgoMotionSource::extrapolated);
+  EXPECT_TRUE(ego.previous_from_current.isApprox(v * forward(1.01) * v.inverse(), 1e-12));
+  EXPECT_EQ(source.note(), "odometry implausible (0.80 m off the last increment, at most 0.20 m): last increment applied (dropout 1 of at most 5)");
+  // The next one agrees with the last accepted (within 0.3 m after one bridged frame): accepted.
+  ego = source.next(true, forward(1.25), v);
+  EXPECT_EQ(source.source(), EgoMotionSource::odometry);
+  EXPECT_TRUE(ego.previous_from_current.isApprox(v * forward(1.25) * v.inverse(), 1e-12));
+  // A real stop: 1.25 -> 0.3 m, then 0.3 m again: the first is rejected, the second confirms it.
+  source.next(true, forward(0.3), v);
+  EXPECT_TRUE(source.rejected_implausible());
+  ego = source.next(true, forward(0.3), v);
+  EXPECT_FALSE(source.rejected_implausible());
+  EXPECT_EQ(source.source(), EgoMotionSource::odometry);
+  EXPECT_TRUE(ego.previous_from_current.isApprox(v * forward(0.3) * v.inverse(), 1e-12));
+  // The bound off (0): any valid increment is taken.
+  OdometryEgoMotionParameters off;
+  off.max_acceleration_mps2 = 0;
+  OdometryEgoMotion unbounded(off);
+  unbounded.next(true, Eigen::Isometry3d::Identity(), v);
+  unbounded.next(true, e, v);
+  unbounded.next(true, forward(0.0), v);
+  EXPECT_EQ(unbounded.source(), EgoMotionSource::odometry);
+}
+
+TEST(OdometryEgoMotion, BadParameters) {
+  auto message = [](const OdometryEgoMotionParameters& parameters) {
     try {
-      OdometryEgoMotion source(frames);
-      ADD_FAILURE() << frames << " accepted";
+      OdometryEgoMotion source(parameters);
     } catch (const std::invalid_argument& error) {
-      EXPECT_EQ(std::string(error.what()), "max_extrapolated_frames: expected [0, 100], got " + std::to_string(frames));
+      return std::string(error.what());
     }
-  }
+    return std::string("accepted");
+  };
+  OdometryEgoMotionParameters parameters;
+  parameters.max_extrapolated_frames = 101;
+  EXPECT_EQ(message(parameters), "max_extrapolated_frames: expected [0, 100], got 101");
+  parameters = {};
+  parameters.max_extrapolated_frames = -1;
+  EXPECT_EQ(message(parameters), "max_extrapolated_frames: expected [0, 100], got -1");
+  parameters = {};
+  parameters.frame_period_s = 0;
+  EXPECT_EQ(message(parameters), "frame_period_s: expected (0, 10] s, got 0");
+  parameters = {};
+  parameters.max_acceleration_mps2 = -1;
+  EXPECT_EQ(message(parameters), "max_acceleration_mps2: expected [0, 1000] m/s^2, got -1");
+  parameters = {};
+  parameters.increment_noise_m = std::nan("");
+  EXPECT_EQ(message(parameters), "increment_noise_m: expected [0, 100] m, got nan");
 }
 
 // The case the bridge is for: a camera at 12 m/s (1.2 m a frame at 10 Hz) approaching a static box,
@@ -115,7 +175,9 @@ std::vector<bool> static_box_moving_flags(int max_extrapolated_frames) {
   ObstacleTrackingParameters tracking;
   tracking.frame_period_s = period_s;
   ObstacleTracker3d tracker(tracking);
-  OdometryEgoMotion source(max_extrapolated_frames);
+  OdometryEgoMotionParameters parameters;
+  parameters.max_extrapolated_frames = max_extrapolated_frames;
+  OdometryEgoMotion source(parameters);
   // The odometry's increments are camera-frame: z forward. A level camera at the vehicle origin.
   const Eigen::Isometry3d v = CameraToVehicle(CameraMount{}).vehicle_from_camera();
   const Eigen::Isometry3d step(Eigen::Translation3d(0, 0, camera_speed_mps * period_s));
