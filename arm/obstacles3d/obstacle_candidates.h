@@ -37,8 +37,9 @@ struct CandidateParameters {
   double obstacle_height_m = 0.2;  // a point this far above the fitted surface is a candidate, (0, 10)
   terrain::TerrainGridSpec grid;   // default: x 0..34 m forward, y -11..11 m, 0.5 m cells
   terrain::TerrainFitParameters fit;
-  // With grid.occlusion_upper_bounds: the image test that flags each point over a nearer occluder
-  // (arm::pixels_over_occluder on the disparity map), for the 2.5D grid's upper-bound cells.
+  // With grid.occlusion_upper_bounds (off by default, as in TerrainGridSpec: it measured no better on
+  // the floating scene, docs/obstacles3d.md): the image test that flags each point over a nearer
+  // occluder (arm::pixels_over_occluder on the disparity map), for the 2.5D grid's upper-bound cells.
   OccluderTest occluder;
   // [1, 16]: steps 1 and 3 split the image into this many bands of rows, one thread each (at most
   // one band per 16 rows); the result is the same for any count (the bands are joined in row order).
