@@ -367,6 +367,33 @@ TEST(OneSidedFit, MarkedGroundIsFittedAsUnmarkedGround) {
   EXPECT_NEAR(hollow_marked.surface.height_m(15, 0), hollow_plain.surface.height_m(15, 0), 0.01);
 }
 
+TEST(OneSidedFit, CountedWorkFollowsTheDocumentedModel) {
+  // terrain_fit.cpp: with marks, 3 C once (+ 3 V and a first fit when enough unmarked cells
+  // remain) and 3 V per iteration. Every cell of a plane marked: no first fit; one iteration
+  // (nothing to equalise, no cell set aside: the loop stops after it).
+  TerrainGridSpec spec;
+  spec.forward_max_m = 10, spec.lateral_min_m = -4, spec.lateral_max_m = 4;  // 20 x 16 = 320 cells
+  HeightGrid grid;
+  grid.spec = spec;
+  grid.height_m.resize(20, 16);
+  for (int i = 0; i < 20; ++i)
+    for (int j = 0; j < 16; ++j) grid.height_m(i, j) = 0.1 * spec.cell_centre_x_m(i);
+  grid.point_count = Eigen::MatrixXi::Constant(20, 16, 5);
+  grid.state = Eigen::MatrixXi::Constant(20, 16, terrain::kCellMeasured);
+  terrain::TerrainFitParameters parameters;
+  parameters.control_forward = 8, parameters.control_lateral = 6;
+  parameters.initial_control_forward = parameters.initial_control_lateral = 4;
+  parameters.max_iterations = 1;
+  const terrain::TerrainEstimate plain = terrain::fit_terrain(grid, parameters);
+  grid.upper_bound = Eigen::MatrixXi::Ones(20, 16);
+  const terrain::TerrainEstimate marked = terrain::fit_terrain(grid, parameters);
+  ASSERT_TRUE(plain.known && marked.known);
+  ASSERT_EQ(plain.iterations, 1);
+  ASSERT_EQ(marked.iterations, 1);
+  EXPECT_EQ(marked.work.scalar_ops, plain.work.scalar_ops + 3 * 320 + 3 * 320);
+  EXPECT_EQ(marked.work.memory_bytes, plain.work.memory_bytes);
+}
+
 TEST(OneSidedFit, BadParametersNameTheParameter) {
   HeightGrid grid = shadow_with_island(true);
   terrain::TerrainFitParameters parameters;
