@@ -10,6 +10,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
+#include "arm/localization/ransac_sampling.h"
 #include "kernels/disparity_to_points.h"
 #include "kernels/kernel.h"
 
@@ -144,15 +145,77 @@ BinnedPoints bin_points(const CameraPoints& points, const CameraToVehicle& to_ve
   return binned;
 }
 
-void accumulate_binned(const BinnedPoints& binned, const terrain::TerrainGridSpec& grid, terrain::HeightGridAccumulator& accumulator) {
-  const int lateral_cells = grid.lateral_cells();
+void accumulate_binned(const BinnedPoints& binned, const terrain::TerrainGridSpec& grid, terrain::HeightGridAccumulator& accumulator,
+                       const std::vector<uint8_t>* over_occluder) {
+  const int lateral_cells = grid.lateral_cells(), width = binned.cell.width();
+  if (over_occluder != nullptr && over_occluder->size() != static_cast<size_t>(width) * binned.cell.height()) {
+    throw std::invalid_argument("over_occluder: expected " + std::to_string(static_cast<size_t>(width) * binned.cell.height()) +
+                                " flags (one per binned pixel), got " + std::to_string(over_occluder->size()));
+  }
   for (int v = 0; v < binned.cell.height(); ++v) {
     const int32_t* cells = binned.cell.row<const int32_t>(v);
     const int32_t* heights = binned.height_mm.row<const int32_t>(v);
-    for (int u = 0; u < binned.cell.width(); ++u) {
-      if (cells[u] >= 0) accumulator.add_to_cell(cells[u] / lateral_cells, cells[u] % lateral_cells, heights[u] / 1000.0);
+    const uint8_t* flags = over_occluder == nullptr ? nullptr : over_occluder->data() + static_cast<size_t>(v) * width;
+    for (int u = 0; u < width; ++u) {
+      if (cells[u] >= 0) {
+        accumulator.add_to_cell(cells[u] / lateral_cells, cells[u] % lateral_cells, heights[u] / 1000.0, flags != nullptr && flags[u] != 0);
+      }
     }
   }
+}
+
+void OccluderTest::validate() const {
+  if (rows_below_px < 1 || rows_below_px > 64) {
+    throw std::invalid_argument("rows_below_px: expected in [1, 64], got " + std::to_string(rows_below_px));
+  }
+  if (!(jump_px > 0) || !std::isfinite(jump_px)) {
+    throw std::invalid_argument("jump_px: expected a finite value > 0, got " + localization::format_number(jump_px));
+  }
+}
+
+std::vector<uint8_t> pixels_over_occluder(const Plane& disparity_q4, int16_t invalid_q4, const OccluderTest& test) {
+  test.validate();
+  if (disparity_q4.format().type != ElementType::s16) throw std::invalid_argument("disparity_q4: expected an s16 plane");
+  const int width = disparity_q4.width(), height = disparity_q4.height(), reach = test.rows_below_px;
+  const int jump_q4 = static_cast<int>(std::ceil(16 * test.jump_px));
+  std::vector<uint8_t> flags(static_cast<size_t>(width) * height, 0);
+  // Per column: the nearest valid pixel below the current row (row -1: none yet), and the tops of
+  // nearer surfaces met going up, a queue of at most reach + 1 (one per row) in the order found
+  // (lowest first, so the oldest expire first).
+  const size_t capacity = static_cast<size_t>(reach) + 1;
+  std::vector<int> below_row(static_cast<size_t>(width), -1), below_q4(static_cast<size_t>(width), 0);
+  std::vector<int> top_row(static_cast<size_t>(width) * capacity), top_q4(top_row.size());
+  std::vector<int> first_top(static_cast<size_t>(width), 0), top_count(static_cast<size_t>(width), 0);
+  for (int v = height - 1; v >= 0; --v) {
+    const int16_t* row = disparity_q4.row<const int16_t>(v);
+    uint8_t* flag_row = flags.data() + static_cast<size_t>(v) * width;
+    for (int u = 0; u < width; ++u) {
+      const int d = row[u];
+      if (d <= invalid_q4) continue;
+      int* rows = top_row.data() + static_cast<size_t>(u) * capacity;
+      int* tops_q4 = top_q4.data() + static_cast<size_t>(u) * capacity;
+      int& first = first_top[static_cast<size_t>(u)];
+      int& count = top_count[static_cast<size_t>(u)];
+      // Tops more than reach rows below are out of reach from here on.
+      while (count > 0 && rows[first] - v > reach) first = (first + 1) % static_cast<int>(capacity), --count;
+      // The valid pixel below, if it is more than the jump nearer than this one, is a nearer surface's
+      // top (the queue then holds tops of distinct rows within reach: at most reach of them).
+      if (below_row[u] >= 0 && below_row[u] - v <= reach && below_q4[u] - d > jump_q4) {
+        const int slot = (first + count) % static_cast<int>(capacity);
+        rows[slot] = below_row[u], tops_q4[slot] = below_q4[u];
+        ++count;
+      }
+      for (int k = 0; k < count; ++k) {
+        if (tops_q4[(first + k) % static_cast<int>(capacity)] - d > jump_q4) {
+          flag_row[u] = 1;
+          break;
+        }
+      }
+      below_row[u] = v;
+      below_q4[u] = d;
+    }
+  }
+  return flags;
 }
 
 std::string ground_extent_problem(const terrain::HeightGrid& grid, int min_rows, int min_columns) {

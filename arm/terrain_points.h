@@ -9,8 +9,10 @@
 //   accumulate_binned      its two planes summed into a HeightGridAccumulator (add_to_cell).
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "arm/point_cloud.h"
 #include "arm/terrain/terrain_model.h"
@@ -56,8 +58,9 @@ BinnedPoints bin_points(const CameraPoints& points, const CameraToVehicle& to_ve
                         KernelBackend backend = KernelBackend::native);
 
 // Every pixel with a cell into the accumulator (heights in metres); `grid` is the binning's and the
-// accumulator's.
-void accumulate_binned(const BinnedPoints& binned, const terrain::TerrainGridSpec& grid, terrain::HeightGridAccumulator& accumulator);
+// accumulator's. over_occluder (may be null): pixels_over_occluder's flags of the same pixels.
+void accumulate_binned(const BinnedPoints& binned, const terrain::TerrainGridSpec& grid, terrain::HeightGridAccumulator& accumulator,
+                       const std::vector<uint8_t>* over_occluder = nullptr);
 
 // A grid whose points lie in fewer than min_rows forward rows or fewer than min_columns lateral
 // columns of cells (a row or column counting when it holds at least 1 % of the points) has no
@@ -76,6 +79,36 @@ std::string ground_extent_problem(const terrain::HeightGrid& grid, int min_rows 
 // disparity by baseline / height = 0.2 px a row, far below the jump. Returns the pixels invalidated.
 // Throws std::invalid_argument unless radius_px >= 1 and jump_px > 0, or for a non-s16 plane.
 int64_t invalidate_near_side_of_discontinuities(Plane& disparity_q4, int16_t invalid_q4, int radius_px, double jump_px);
+
+// The image test of the occlusion-aware terrain sampling (terrain::TerrainGridSpec::
+// occlusion_upper_bounds; arm/terrain/height_grid.cpp has the model). A valid pixel p lies "over an
+// occluder" when, within rows_below_px rows below it in its image column, there is the top of a
+// nearer surface: a valid pixel q whose disparity is more than jump_px larger than that of the next
+// valid pixel above q (a jump up between neighbours, invalid pixels stepped over) and more than
+// jump_px larger than p's own. So the bottom rows_below_px rows of a sign seen just above a nearer
+// board are flagged, also across a strip of a farther background or of pixels the discontinuity
+// filter invalidated (thinner than rows_below_px) between them; the board's own bottom rows are not
+// (what lies under a board on poles is the farther road); nor is ground, which changes its
+// disparity by baseline / camera height between neighbouring rows (0.2 px for 0.3 m at 1.5 m, 0.33
+// px for KITTI's 0.54 m at 1.65 m), never by a jump, however far down it is followed; ground seen
+// just above a low box is (it is seen over the box: its sample is an upper bound, which is right).
+// Same columns: a camera rolled by a few degrees shifts an occluder's edge by under a pixel over
+// rows_below_px rows.
+struct OccluderTest {
+  int rows_below_px = 6;  // [1, 64]: > the discontinuity filter's 3 px radius, so its gap is stepped over
+  double jump_px = 2.0;   // > 0: the discontinuity filter's jump (docs/terrain.md)
+  // Throws std::invalid_argument "<name>: expected ..., got ..." when out of range.
+  void validate() const;
+};
+// The flags, row-major (index v * width + u), 1 over an occluder, 0 otherwise (and at invalid
+// pixels: disparity_q4 <= invalid_q4). One pass up the image; per column the nearest valid pixel
+// below and the tops of nearer surfaces within rows_below_px rows (a queue, oldest dropped first).
+// Counted ARM work (for a caller that counts it): 10 scalar ops per pixel (read, validity, the jump
+// test, the queue's expiry and the comparison with its tops; a top is rare: one per occluding edge
+// per column) and 3 bytes (the s16 read, the flag written), plus 8 (1 + rows_below_px) bytes of
+// state per column.
+// Throws std::invalid_argument for a bad test or a non-s16 plane.
+std::vector<uint8_t> pixels_over_occluder(const Plane& disparity_q4, int16_t invalid_q4, const OccluderTest& test = {});
 
 // The camera-frame y (down, metres) of the fitted surface on the camera's vertical line through
 // (x_c, ., z_c): the y with p_vehicle = R C (x_c, y, z_c) + T on z = S(x, y), by Newton steps along

@@ -50,13 +50,17 @@
 //        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
 //        [--misses FILE.csv] [--moving-log FILE.csv] [--all-visible] [--count-low] [--vertical-gap-m G]
 //        [--innovation-gate-chi2 X] [--moving-consistency N]
+//        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 // (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2;
 // --first-seed: seeds S .. S + N - 1, default 1; --misses: one CSV row per missed object and per false
 // positive of every method, with the nearest obstacle, for finding out why; --moving-log: one CSV row
 // per object-frame the voxels detected, with the truth's motion and the reported track's flag,
 // velocity and update count, for finding out why a flag is wrong; --vertical-gap-m: the
 // terrain's 2.5D sampling leaves out of a cell the points above a vertical gap wider than G, default
-// the TerrainGridSpec's (off), arm/terrain/height_grid.cpp.)
+// the TerrainGridSpec's (off), arm/terrain/height_grid.cpp; --occlusion-upper-bounds: the
+// occlusion-aware sampling of the candidates' terrain (grid.occlusion_upper_bounds, default the
+// CandidateParameters'), --occluder-rows / --occluder-jump its image test (arm::OccluderTest),
+// --upper-bound-tolerance-m the fit's one-sided tolerance.)
 // Exit 0 when every line is met, 1 otherwise (the issue wants >= 300 frames and several seeds).
 #include <algorithm>
 #include <cerrno>
@@ -67,6 +71,7 @@
 #include <cstring>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -598,11 +603,21 @@ int main(int argc, char** argv) {
       settings.tracking.moving_consistency_frames = std::atoi(argv[++i]);
     } else if (arg == "--vertical-gap-m" && has_value) {
       settings.candidates.grid.vertical_gap_m = std::atof(argv[++i]);
+    } else if (arg == "--occlusion-upper-bounds" && has_value && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off")) {
+      settings.candidates.grid.occlusion_upper_bounds = std::string(argv[++i]) == "on";
+    } else if (arg == "--occluder-rows" && has_value) {
+      settings.candidates.occluder.rows_below_px = std::atoi(argv[++i]);
+    } else if (arg == "--occluder-jump" && has_value) {
+      settings.candidates.occluder.jump_px = std::atof(argv[++i]);
+    } else if (arg == "--upper-bound-tolerance-m" && has_value) {
+      settings.candidates.fit.upper_bound_tolerance_m = std::atof(argv[++i]);
     } else {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
-                   "[--count-low] [--misses FILE.csv] [--moving-log FILE.csv] [--vertical-gap-m G] [--innovation-gate-chi2 X] [--moving-consistency N]\n",
+                   "[--count-low] [--misses FILE.csv] [--moving-log FILE.csv] [--vertical-gap-m G] [--innovation-gate-chi2 X] "
+                   "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
+                   "[--occluder-jump J] [--upper-bound-tolerance-m T]\n",
                    arg.c_str());
       return 2;
     }
@@ -616,7 +631,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    settings.candidates.grid.validate();  // a bad --vertical-gap-m: one line naming it, before any file is written
+    // a bad --vertical-gap-m, --occluder-rows or --occluder-jump: one line naming it, before any file is written
+    settings.candidates.grid.validate();
+    settings.candidates.occluder.validate();
+    if (!(settings.candidates.fit.upper_bound_tolerance_m >= 0) || !std::isfinite(settings.candidates.fit.upper_bound_tolerance_m)) {
+      throw std::invalid_argument("upper_bound_tolerance_m: expected a finite value >= 0, got " +
+                                  std::to_string(settings.candidates.fit.upper_bound_tolerance_m));
+    }
     o3::validate_tracking_parameters(settings.tracking);  // a bad --innovation-gate-chi2 or --moving-consistency, the same
   } catch (const std::exception& error) {
     std::fprintf(stderr, "obstacles3d_eval: %s\n", error.what());
@@ -631,11 +652,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::printf("obstacles3d_eval: %d frames per sequence (the issue wants >= 300), seeds %d..%d, 640x480, ego-motion %s, candidates "
-              "coloured from the %s image, %d thread(s);\n"
+              "coloured from the %s image, %d thread(s); terrain: occlusion upper bounds %s (%d rows, jump %.2f px, tolerance %.2f m)\n"
               "objects counted when >= %lld %s pixels and <= %.0f m; gate |dx| <= 1 m + w/2, |dz| <= max(1 m, 3 sigma_Z) + l/2\n",
               settings.frames, settings.first_seed, settings.first_seed + settings.seeds - 1,
               settings.true_ego_motion ? "TRUE (the sequence's camera motion)" : "from visual odometry (as the command)",
-              settings.colour ? "left colour" : "grey", settings.threads, static_cast<long long>(settings.min_pixels),
+              settings.colour ? "left colour" : "grey", settings.threads, settings.candidates.grid.occlusion_upper_bounds ? "on" : "off",
+              settings.candidates.occluder.rows_below_px, settings.candidates.occluder.jump_px, settings.candidates.fit.upper_bound_tolerance_m,
+              static_cast<long long>(settings.min_pixels),
               settings.all_visible ? "visible" : "measurable (true disparity in the engine's range, match inside the right image)",
               settings.range_m);
 

@@ -54,6 +54,7 @@
 //        [--threshold-factor F] [--alpha-step A] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
 //        [--noise-quantile Q] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--disparity-margin M] [--exact-points]
 //        [--support-reach N] [--equalisation-step-m S] [--step-reach N] [--patch-max-cells N] [--fp-bands] [--error-map]
+//        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 // The disparity range is 80 at 640 px wide and scales with the width (160 at 1280).
 // Exit 0 when every scene meets both lines, 1 otherwise.
 #include <algorithm>
@@ -61,6 +62,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -118,6 +120,10 @@ struct Settings {
     return parameters;
   }();
   terrain::TerrainGridSpec grid;  // 0..34 m forward, +-11 m lateral, 0.5 m cells (the thesis's area)
+  // --occlusion-upper-bounds on|off (grid.occlusion_upper_bounds), --occluder-rows N, --occluder-jump J
+  // (arm::OccluderTest on the disparity after the discontinuity filter; for the exact-point
+  // diagnostic on the true disparity), --upper-bound-tolerance-m T (fit.upper_bound_tolerance_m).
+  arm::OccluderTest occluder;
 };
 
 // Extra obstacles within the evaluated 34 m (the random scene spreads its objects to 80 m): boxes,
@@ -218,6 +224,24 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
     }
   }
 
+  // The occlusion-aware sampling's flags (arm::pixels_over_occluder) of the measured disparity, and
+  // of the true disparity for the exact points.
+  const bool occlusion = spec.occlusion_upper_bounds;
+  std::vector<uint8_t> over_occluder, exact_over_occluder;
+  if (occlusion) {
+    Plane exact_q4(width, height, BufferFormat{ElementType::s16});
+    const int16_t invalid_q4 = engine.invalid_disparity_q4();
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u < width; ++u) {
+        const float d = scene.disparity_px.at<float>(v, u);
+        exact_q4.row<int16_t>(v)[u] = std::isfinite(d) && d > 0 ? static_cast<int16_t>(std::lround(std::min(d * 16.0, 32767.0))) : invalid_q4;
+      }
+    }
+    exact_over_occluder = arm::pixels_over_occluder(exact_q4, invalid_q4, settings.occluder);
+    over_occluder = settings.exact_points ? exact_over_occluder : arm::pixels_over_occluder(disparity, invalid_q4, settings.occluder);
+  }
+  const auto flag = [](const std::vector<uint8_t>& flags, int pixel) { return !flags.empty() && flags[static_cast<size_t>(pixel)] != 0; };
+
   // Measured points in the vehicle frame, with their pixels.
   std::vector<Eigen::Vector3d> measured;
   std::vector<int> pixel_of;
@@ -233,7 +257,7 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
       if (p.x() > 300) continue;  // the background wall
       measured.push_back(p);
       pixel_of.push_back(v * width + u);
-      accumulator.add_point(p);
+      accumulator.add_point(p, flag(over_occluder, v * width + u));
     }
   }
   const terrain::HeightGrid grid = accumulator.finish();
@@ -264,7 +288,7 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
       for (int u = 0; u < width; ++u) {
         if (!std::isfinite(scene.disparity_px.at<float>(v, u))) continue;
         const Eigen::Vector3d p = exact_point(u, v);
-        if (p.x() < 300) exact_accumulator.add_point(p);
+        if (p.x() < 300) exact_accumulator.add_point(p, flag(exact_over_occluder, v * width + u));
       }
     }
     const terrain::TerrainEstimate exact = terrain::fit_terrain(exact_accumulator.finish(), settings.fit);
@@ -554,6 +578,11 @@ int main(int argc, char** argv) {
     else if (a == "--thesis-cell-rule") settings.grid.cell_rule = terrain::TerrainGridSpec::CellRule::thesis;
     else if (a == "--noise-quantile") settings.grid.noise_floor_quantile = number_argument(i, argc, argv);
     else if (a == "--vertical-gap-m") settings.grid.vertical_gap_m = number_argument(i, argc, argv);
+    else if (a == "--occlusion-upper-bounds" && i + 1 < argc && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off"))
+      settings.grid.occlusion_upper_bounds = std::string(argv[++i]) == "on";
+    else if (a == "--occluder-rows") settings.occluder.rows_below_px = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--occluder-jump") settings.occluder.jump_px = number_argument(i, argc, argv);
+    else if (a == "--upper-bound-tolerance-m") settings.fit.upper_bound_tolerance_m = number_argument(i, argc, argv);
     else if (a == "--bands") settings.bands = true;
     else if (a == "--fp-bands") settings.false_positive_bands = true;
     else if (a == "--error-map") settings.error_map = true;
@@ -563,16 +592,25 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  try {  // bad values stop here, before the first scene renders
+    settings.occluder.validate();
+    settings.grid.validate();
+  } catch (const std::invalid_argument& error) {
+    std::fprintf(stderr, "terrain_synth_eval: %s\n", error.what());
+    return 2;
+  }
   const terrain::TerrainFitParameters& f = settings.fit;
   std::printf("terrain_synth_eval: %dx%d, hfov 60 deg, baseline 0.30 m, camera 1.5 m, pitch 0.06 rad, noise %.1f, 4 rays/px; "
               "area %.0fx%.0f m, cell %.2f m; fit: degree %dx%d, control %dx%d (from %dx%d), %d iterations, threshold factor %.2f, "
               "alpha %.2f + %.2f/iteration, equalisation tolerance %.3f m and %.1f th, step rule %.2f m within %d cells, patch limit %d cells; obstacle threshold 0.20 m, "
-              "disparity margin %.2f px, support %d cells\n",
+              "disparity margin %.2f px, support %d cells; occlusion upper bounds %s (%d rows, jump %.2f px, tolerance %.2f m)\n",
               settings.width, settings.height, settings.noise_sigma, settings.grid.forward_max_m - settings.grid.forward_min_m,
               settings.grid.lateral_max_m - settings.grid.lateral_min_m, settings.grid.cell_m, f.degree_forward, f.degree_lateral,
               f.control_forward, f.control_lateral, f.initial_control_forward, f.initial_control_lateral, f.max_iterations,
               f.threshold_factor, f.alpha_initial, f.alpha_step, f.equalisation_tolerance_m, f.equalisation_threshold_factor,
-              f.equalisation_step_m, f.equalisation_step_reach_cells, f.equalisation_patch_max_cells, settings.disparity_margin_px, settings.support_reach_cells);
+              f.equalisation_step_m, f.equalisation_step_reach_cells, f.equalisation_patch_max_cells, settings.disparity_margin_px, settings.support_reach_cells,
+              settings.grid.occlusion_upper_bounds ? "on" : "off", settings.occluder.rows_below_px, settings.occluder.jump_px,
+              f.upper_bound_tolerance_m);
   std::printf("%-26s %4s %10s %10s %9s %9s %11s %10s %7s %7s %9s %9s %8s %7s %9s %8s %8s %8s %9s %6s %8s %8s %6s\n", "scene", "seed", "rms<=20m", "rms<=34m", "bias<=20m",
               "grid<=20m", "points<=20", "exact<=20", "cells20", "cells34", "precision", "recall", "obstacle", "FP", "FP ground", "gnd>20cm", "edge px", "mount", "fit", "lines",
               "w-prec", "w-recall", "w-lines");

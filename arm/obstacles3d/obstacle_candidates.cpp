@@ -57,6 +57,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   if (parameters.threads < 1 || parameters.threads > 16) {
     throw std::invalid_argument("threads: expected a count in [1, 16], got " + std::to_string(parameters.threads));
   }
+  parameters.occluder.validate();
   CandidatePoints result;
   // The image split into contiguous bands of rows, one per thread: each band's points are built
   // and later classified on its own thread, and every sequential step (the 2.5D grid's sums, the
@@ -65,6 +66,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   struct Band {
     std::vector<ObstaclePoint> points;
     std::vector<Eigen::Vector3d> vehicle_points;
+    std::vector<uint8_t> over_occluder;  // per point, with grid.occlusion_upper_bounds
     std::vector<ObstaclePoint> candidates;
     int64_t outside_area = 0;
   };
@@ -80,6 +82,9 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     work(0);
     for (std::thread& worker : workers) worker.join();
   };
+  const bool occlusion = parameters.grid.occlusion_upper_bounds;
+  const std::vector<uint8_t> over_occluder =
+      occlusion ? pixels_over_occluder(disparity_q4, invalid_disparity_q4, parameters.occluder) : std::vector<uint8_t>{};
   const int red_channel = colour.blue_first ? 2 : 0, blue_channel = colour.blue_first ? 0 : 2;
   run_bands([&](int band) {
     Band& out = bands[static_cast<size_t>(band)];
@@ -115,6 +120,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
         }
         out.points.push_back(point);
         out.vehicle_points.push_back(vehicle);
+        if (occlusion) out.over_occluder.push_back(over_occluder[static_cast<size_t>(v) * disparity_q4.width() + u]);
       }
     }
   });
@@ -125,7 +131,9 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   }
   terrain::HeightGridAccumulator accumulator(parameters.grid);
   for (const Band& band : bands) {
-    for (const Eigen::Vector3d& point : band.vehicle_points) accumulator.add_point(point);
+    for (size_t k = 0; k < band.vehicle_points.size(); ++k) {
+      accumulator.add_point(band.vehicle_points[k], occlusion && band.over_occluder[k] != 0);
+    }
   }
   result.measured_grid = accumulator.finish();
   result.terrain = terrain::fit_terrain(result.measured_grid, parameters.fit);

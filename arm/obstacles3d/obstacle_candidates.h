@@ -4,7 +4,8 @@
 // Steps: (1) every valid disparity's camera point (arm::triangulate, millimetres) becomes an
 // ObstaclePoint in metres, with its vehicle-frame position (CameraToVehicle), its disparity, pixel
 // and colour; (2) the vehicle points are condensed into the 2.5D grid and the terrain is fitted
-// (arm/terrain: height_grid, fit_terrain); (3) classify_points's rule keeps the points more than
+// (arm/terrain: height_grid, fit_terrain; with grid.occlusion_upper_bounds each point carries
+// arm::pixels_over_occluder's flag of its pixel into the grid); (3) classify_points's rule keeps the points more than
 // obstacle_height_m above the fitted surface, with their height above it (CandidateTest: S evaluated
 // only where the control heights' bound cannot decide; the same classes). Steps 1 and 3 run
 // on `threads` bands of rows, joined in row order. When the terrain is
@@ -18,6 +19,7 @@
 
 #include "arm/obstacles3d/obstacle_points.h"
 #include "arm/point_cloud.h"
+#include "arm/terrain_points.h"
 #include "arm/terrain/terrain_model.h"
 #include "dag/plane.h"
 
@@ -35,6 +37,10 @@ struct CandidateParameters {
   double obstacle_height_m = 0.2;  // a point this far above the fitted surface is a candidate, (0, 10)
   terrain::TerrainGridSpec grid;   // default: x 0..34 m forward, y -11..11 m, 0.5 m cells
   terrain::TerrainFitParameters fit;
+  // With grid.occlusion_upper_bounds (off by default, as in TerrainGridSpec: it measured no better on
+  // the floating scene, docs/obstacles3d.md): the image test that flags each point over a nearer
+  // occluder (arm::pixels_over_occluder on the disparity map), for the 2.5D grid's upper-bound cells.
+  OccluderTest occluder;
   // [1, 16]: steps 1 and 3 split the image into this many bands of rows, one thread each (at most
   // one band per 16 rows); the result is the same for any count (the bands are joined in row order).
   int threads = 1;
@@ -75,7 +81,7 @@ class CandidateTest {
 };
 
 // `grey` (u8) and the colour view, when given, are the left image the disparity map belongs to.
-// Throws std::invalid_argument when the planes' sizes disagree or obstacle_height_m or threads is out of range.
+// Throws std::invalid_argument when the planes' sizes disagree or obstacle_height_m, threads or occluder is out of range.
 CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t invalid_disparity_q4, const CameraPoints& camera,
                                             const Plane& grey, const ColourView& colour, const CameraToVehicle& to_vehicle,
                                             const CandidateParameters& parameters);

@@ -62,6 +62,27 @@
 // 93.2 -> 93.0 %, recall 96.2 -> 96.0 % (docs/terrain.md). 0.5 m: ~7 x the height noise at 30 m, and under the 0.9 m free space of
 // the floating scene's lowest board.
 //
+// Occlusion-aware sampling (TerrainGridSpec::occlusion_upper_bounds; off by default). Eq. 3.2 assumes
+// the camera saw the bottom of every cell it has points in. Where a nearer object hides a cell's
+// ground, the cell holds only what stands higher (the floating scene of issue 10: a board on two
+// poles 0.9-1.6 m up at 3-5 m hides the road under a sign hanging 1.9-3.0 m up at 11-14 m; the
+// sign's cells hold only sign points, eq. 3.2 gives the sign's lower part as ground, the fill
+// spreads it and the fit rose 1.2-2.1 m under the sign: docs/obstacles3d.md). No rule inside one
+// cell can tell such a cell from one holding a low wall on visible ground (the vertical-gap rule
+// above cannot: there is no gap, only sign). The image can: the lowest points of such a cell lie,
+// in their image column, directly over a nearer surface (a disparity jump up just below them;
+// arm::pixels_over_occluder gives each point that flag), while the lowest points of a cell whose
+// ground is seen continue downwards into nearer ground without a jump (ground changes its disparity
+// by B / h = 0.2 px a row). So a measured cell whose lowest point carries the flag is marked as an
+// upper bound (HeightGrid::upper_bound): its ground may lie lower, hidden. Ground seen behind a
+// low box or a car, the far side of a crest or a ditch seen over its near lip are marked too, and
+// that is right: their samples are upper bounds as well; fit_terrain treats marked samples
+// one-sided (a marked sample below the surface pulls it down, one far above it is set aside), so
+// the mark costs nothing where the sample is the ground. An empty cell is filled from its unmarked
+// measured neighbours when it has any, else from the marked ones, and is then marked itself (a
+// fill is no better a bound than its sources). The lowest point alone decides, not a count: a cell
+// whose ground is seen has its lowest point on that ground.
+//
 // Steps: add_point (cell of (x, y), reject outside or non-finite) / add_to_cell (the cell given by
 // the binning), each summing count, sum z, sum z^2 and min z; finish() applies the cell rule per
 // measured cell (the noise floor: each forward row's first) and the neighbour fill per empty cell.
@@ -74,6 +95,8 @@
 //                  mean of an empty cell)
 //                  + 8 C more with the noise-floor rule (each cell's variance collected for three
 //                  rows, a linear-time selection, the subtraction)
+//                  + with occlusion_upper_bounds: 2 per accepted point (the flag tested, the lowest
+//                  point's flag kept) + 2 C in finish() (the mark, the fill's choice of sources)
 //                  + with the vertical-gap rule: 2 per accepted point (its cell and height stored),
 //                  3 P for the counting sort by cell, and per measured cell with n points
 //                  n ceil(log2 n) compares for its sort and n for the scan (summed over the cells)
@@ -81,7 +104,9 @@
 //                  accumulator cells, 4 + 3 x 8 bytes, read once by finish; they stay in the cache
 //                  while binning: 68 x 44 cells are 84 KiB) + 8 C (the heights written)
 //                  + with the vertical-gap rule 16 P (cell index and height written, then read back
-//                  by the counting sort, 4 + 4 bytes each way).
+//                  by the counting sort, 4 + 4 bytes each way)
+//                  + with occlusion_upper_bounds P (the point's flag byte) + 8 C (the lowest point's
+//                  flag per cell and the mark written).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -172,37 +197,41 @@ HeightGridAccumulator::HeightGridAccumulator(const TerrainGridSpec& spec) : spec
   sum_z_ = Eigen::MatrixXd::Zero(m0, m1);
   sum_z2_ = Eigen::MatrixXd::Zero(m0, m1);
   min_z_ = Eigen::MatrixXd::Constant(m0, m1, std::numeric_limits<double>::infinity());
+  if (spec_.occlusion_upper_bounds) lowest_over_occluder_ = Eigen::MatrixXi::Zero(m0, m1);
 }
 
-bool HeightGridAccumulator::add_point(const Eigen::Vector3d& point_vehicle_m) {
+bool HeightGridAccumulator::add_point(const Eigen::Vector3d& point_vehicle_m, bool over_occluder) {
   ++add_point_calls_;
   int i = 0, j = 0;
   if (!std::isfinite(point_vehicle_m.z()) || !spec_.cell_of(point_vehicle_m.x(), point_vehicle_m.y(), &i, &j)) {
     ++rejected_;
     return false;
   }
-  accumulate(i, j, point_vehicle_m.z());
+  accumulate(i, j, point_vehicle_m.z(), over_occluder);
   return true;
 }
 
-bool HeightGridAccumulator::add_to_cell(int forward_cell, int lateral_cell, double z_m) {
+bool HeightGridAccumulator::add_to_cell(int forward_cell, int lateral_cell, double z_m, bool over_occluder) {
   ++add_to_cell_calls_;
   if (forward_cell < 0 || lateral_cell < 0 || forward_cell >= count_.rows() || lateral_cell >= count_.cols() ||
       !std::isfinite(z_m)) {
     ++rejected_;
     return false;
   }
-  accumulate(forward_cell, lateral_cell, z_m);
+  accumulate(forward_cell, lateral_cell, z_m, over_occluder);
   return true;
 }
 
-void HeightGridAccumulator::accumulate(int forward_cell, int lateral_cell, double z_m) {
+void HeightGridAccumulator::accumulate(int forward_cell, int lateral_cell, double z_m, bool over_occluder) {
   ++accepted_;
   count_(forward_cell, lateral_cell) += 1;
   sum_z_(forward_cell, lateral_cell) += z_m;
   sum_z2_(forward_cell, lateral_cell) += z_m * z_m;
   double& lowest = min_z_(forward_cell, lateral_cell);
-  if (z_m < lowest) lowest = z_m;
+  if (z_m < lowest) {
+    lowest = z_m;
+    if (spec_.occlusion_upper_bounds) lowest_over_occluder_(forward_cell, lateral_cell) = over_occluder ? 1 : 0;
+  }
   if (spec_.vertical_gap_m > 0) {
     point_cell_.push_back(static_cast<int32_t>(forward_cell * count_.cols() + lateral_cell));
     point_z_m_.push_back(static_cast<float>(z_m));
@@ -306,22 +335,31 @@ HeightGrid HeightGridAccumulator::finish() const {
       grid.state(i, j) = kCellMeasured;
     }
   }
+  // Occlusion-aware sampling: a measured cell whose lowest point lies over an occluder is an upper bound.
+  const bool marks = spec_.occlusion_upper_bounds;
+  if (marks) grid.upper_bound = lowest_over_occluder_;
   for (Eigen::Index i = 0; i < m0; ++i) {
     for (Eigen::Index j = 0; j < m1; ++j) {
       if (rule_count(i, j) != 0) continue;
-      double sum = 0;
-      int neighbours = 0;
+      // sums of the measured 8-neighbours' heights, [0] unmarked, [1] marked upper bounds
+      double sum[2] = {0, 0};
+      int neighbours[2] = {0, 0};
       for (Eigen::Index di = -1; di <= 1; ++di) {
         for (Eigen::Index dj = -1; dj <= 1; ++dj) {
           const Eigen::Index ni = i + di, nj = j + dj;
           if ((di == 0 && dj == 0) || ni < 0 || nj < 0 || ni >= m0 || nj >= m1 || rule_count(ni, nj) == 0) continue;
-          sum += grid.height_m(ni, nj);
-          ++neighbours;
+          const int marked = marks && lowest_over_occluder_(ni, nj) != 0 ? 1 : 0;
+          sum[marked] += grid.height_m(ni, nj);
+          ++neighbours[marked];
         }
       }
-      if (neighbours == 0) continue;
-      grid.height_m(i, j) = sum / neighbours;
+      // Without the rule every neighbour is in [0]: the plain mean. With it, the unmarked neighbours
+      // when there are any; else the marked ones, and the fill is an upper bound like them.
+      const int source = neighbours[0] > 0 ? 0 : 1;
+      if (neighbours[source] == 0) continue;
+      grid.height_m(i, j) = sum[source] / neighbours[source];
       grid.state(i, j) = kCellFilled;
+      if (marks) grid.upper_bound(i, j) = source;
     }
   }
   return grid;
@@ -334,6 +372,10 @@ ArmWork HeightGridAccumulator::work() const {
   work.scalar_ops = 10 * static_cast<uint64_t>(add_point_calls_) + 6 * static_cast<uint64_t>(accepted_) +
                     2 * static_cast<uint64_t>(add_to_cell_calls_) + per_cell * cells;
   work.memory_bytes = 12 * static_cast<uint64_t>(accepted_) + (28 + 8) * cells;
+  if (spec_.occlusion_upper_bounds) {
+    work.scalar_ops += 2 * static_cast<uint64_t>(accepted_) + 2 * cells;
+    work.memory_bytes += static_cast<uint64_t>(accepted_) + 8 * cells;
+  }
   if (spec_.vertical_gap_m > 0) {
     const uint64_t points = static_cast<uint64_t>(accepted_);
     uint64_t sort_ops = 0;

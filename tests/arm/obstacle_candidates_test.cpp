@@ -3,7 +3,8 @@
 // 10 m ahead (d = 6 px) rising from the road. The candidates are exactly the points that
 // terrain::classify_points calls obstacle against the returned fit (the CandidateTest shortcut
 // changes no class), each with z - S as its height; 1, 2 and 3 threads give the same result field
-// for field; a thread count out of range is refused by name.
+// for field; a thread count out of range is refused by name; with the occlusion-aware sampling the
+// cells of a far sign seen over the box are marked as upper bounds and no road cell is.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -128,6 +129,50 @@ TEST(ObstacleCandidates, RefusesAThreadCountOutOfRange) {
       EXPECT_NE(text.find("[1, 16]"), std::string::npos) << text;
       EXPECT_NE(text.find("got " + std::to_string(threads)), std::string::npos) << text;
     }
+  }
+}
+
+// With the occlusion-aware sampling (grid.occlusion_upper_bounds): a far sign (d = 2 px, Z = 30 m,
+// rows 20-39) seen right above the box (d = 6 px from row 40): its bottom rows lie over the box, so
+// the sign's cells at 30 m, which hold nothing under the sign, are marked as upper bounds; no road
+// cell is; 1 and 3 threads give the same marks.
+TEST(ObstacleCandidates, OcclusionUpperBoundsMarkTheCellsOverANearerObject) {
+  Frame frame = make_frame();
+  for (int v = 20; v < 40; ++v)
+    for (int u = 60; u < 100; ++u) frame.disparity.at<int16_t>(u, v) = 2 * 16;
+  frame.camera = arm::triangulate(frame.disparity, arm::TriangulationParameters{kBaselineM, kFocalPx, kU0, kV0, 0, 64, 0});
+  o3::CandidateParameters parameters;
+  parameters.grid.occlusion_upper_bounds = true;
+  const auto run = [&](int threads) {
+    parameters.threads = threads;
+    return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+  };
+  const o3::CandidatePoints one = run(1), three = run(3);
+  ASSERT_TRUE(one.terrain.known) << one.note;
+  const arm::terrain::HeightGrid& grid = one.measured_grid;
+  ASSERT_EQ(grid.upper_bound.rows(), grid.spec.forward_cells());
+  EXPECT_EQ(three.measured_grid.upper_bound, grid.upper_bound);
+  int sign_cells = 0;
+  for (int i = 0; i < grid.spec.forward_cells(); ++i) {
+    for (int j = 0; j < grid.spec.lateral_cells(); ++j) {
+      if (grid.state(i, j) != arm::terrain::kCellMeasured) continue;
+      const double x = grid.spec.cell_centre_x_m(i);
+      if (x > 29 && x < 31 && grid.height_m(i, j) > 3) {  // the sign, 3.6-6.6 m up
+        EXPECT_EQ(grid.upper_bound(i, j), 1) << i << " " << j;
+        ++sign_cells;
+      } else if (x < 9.5 || x > 10.5) {  // the road (the box stands at 10 m)
+        EXPECT_EQ(grid.upper_bound(i, j), 0) << i << " " << j;
+      }
+    }
+  }
+  EXPECT_GE(sign_cells, 8);
+  // A bad image test is refused by name.
+  parameters.occluder.rows_below_px = 0;
+  try {
+    run(1);
+    ADD_FAILURE() << "accepted rows_below_px = 0";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()), "rows_below_px: expected in [1, 64], got 0");
   }
 }
 
