@@ -174,9 +174,9 @@ struct ObstacleTrackingParameters {
   double density_weight = 1.0;          // per unit of density, >= 0
   double max_association_distance = 6.0;  // > 0
   // Robust update (header, "Jumps"): an association whose normalized innovation squared exceeds this
-  // chi-square (3 degrees of freedom) is applied with its measurement noise scaled by NIS / gate;
-  // 0: off (the plain Kalman update). [0, 1000].
-  double innovation_gate_chi2 = 0.0;
+  // chi-square (3 degrees of freedom; 7.81 is its 95 % point) is applied with its measurement noise
+  // scaled by NIS / gate; 0: off (the plain Kalman update). [0, 1000].
+  double innovation_gate_chi2 = 7.81;
   int acceptance_frames = 3;            // [1, 1000]
   int ghost_frames = 5;                 // [0, 1000]
   double moving_speed_mps = 0.7;        // horizontal ground speed threshold, [0, 100]
