@@ -144,6 +144,8 @@ void OccupancyGridParameters::validate() const {
     throw_invalid_parameter("min_depth_gap_m", "in [0, 10] m", min_depth_gap_m);
   if (min_column_gap_px < 0 || min_column_gap_px > 64)
     throw_invalid_parameter("min_column_gap_px", "in [0, 64] px", min_column_gap_px);
+  if (!(min_concavity_px >= 0 && min_concavity_px <= 8))
+    throw_invalid_parameter("min_concavity_px", "in [0, 8] px (0 = off)", min_concavity_px);
   if (threads < 1 || threads > 16) throw_invalid_parameter("threads", "in [1, 16]", threads);
 }
 
@@ -881,17 +883,101 @@ std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoin
   return parts;
 }
 
+std::vector<std::vector<int>> split_at_concavity(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
+                                                 const StereoErrorModel& error_model, double min_concavity_px, double min_depth_gap_m,
+                                                 ArmWork* work) {
+  constexpr int kMinPointsPerColumn = 3;  // a column's median from fewer is noise
+  if (min_concavity_px <= 0 || indices.size() < 3 * kMinPointsPerColumn) return {indices};
+  const auto [u_min, u_max] = column_span_of(points, indices);
+  const size_t span = static_cast<size_t>(u_max - u_min) + 1;
+  // Disparities by column (a counting sort), then each column's median: the profile, in increasing u.
+  std::vector<int> first(span + 1, 0);
+  for (int index : indices) ++first[static_cast<size_t>(points[static_cast<size_t>(index)].u_px - u_min) + 1];
+  for (size_t column = 0; column < span; ++column) first[column + 1] += first[column];
+  std::vector<float> disparities(indices.size());
+  std::vector<int> next(first.begin(), first.end() - 1);
+  for (int index : indices) {
+    const ObstaclePoint& point = points[static_cast<size_t>(index)];
+    disparities[static_cast<size_t>(next[static_cast<size_t>(point.u_px - u_min)]++)] = point.disparity_px;
+  }
+  std::vector<int> profile_u;    // columns (relative to u_min) with at least kMinPointsPerColumn points
+  std::vector<float> profile_d;  // their median disparity
+  for (size_t column = 0; column < span; ++column) {
+    const int count = first[column + 1] - first[column];
+    if (count < kMinPointsPerColumn) continue;
+    auto begin = disparities.begin() + first[column], middle = begin + count / 2;
+    std::nth_element(begin, middle, begin + count);
+    profile_u.push_back(static_cast<int>(column));
+    profile_d.push_back(*middle);
+  }
+  const size_t n = profile_u.size();
+  // The concave envelope: the upper hull of the profile's (u, d) points (Andrew's monotone chain;
+  // the points come sorted by u). A hull vertex b stays when it lies strictly above the chord from
+  // the previous vertex a to the next point k.
+  std::vector<size_t> hull;
+  for (size_t k = 0; k < n; ++k) {
+    while (hull.size() >= 2) {
+      const size_t a = hull[hull.size() - 2], b = hull.back();
+      const double cross = static_cast<double>(profile_u[b] - profile_u[a]) * (profile_d[k] - profile_d[a]) -
+                           static_cast<double>(profile_d[b] - profile_d[a]) * (profile_u[k] - profile_u[a]);
+      if (cross < 0) break;
+      hull.pop_back();
+    }
+    hull.push_back(k);
+  }
+  // Each column's depth under the envelope, in disparity and in metres along its ray; the deepest
+  // column beyond both thresholds (by its excess in pixels) is where two objects meet.
+  const double focal_baseline = error_model.focal_px * error_model.baseline_m;
+  size_t deepest = n;
+  double best_excess_px = 0;
+  size_t edge = 0;
+  for (size_t k = 1; k + 1 < n; ++k) {
+    while (edge + 2 < hull.size() && hull[edge + 1] <= k) ++edge;
+    const size_t a = hull[edge], b = hull[edge + 1];
+    if (k <= a || k >= b) continue;  // a hull vertex: on the envelope
+    const double chord_px = profile_d[a] + (profile_d[b] - profile_d[a]) * static_cast<double>(profile_u[k] - profile_u[a]) /
+                                               static_cast<double>(profile_u[b] - profile_u[a]);
+    const double excess_px = chord_px - profile_d[k] - min_concavity_px;
+    if (excess_px <= best_excess_px) continue;
+    if (profile_d[k] <= 0 || focal_baseline / profile_d[k] - focal_baseline / chord_px <= min_depth_gap_m) continue;
+    best_excess_px = excess_px;
+    deepest = k;
+  }
+  if (work != nullptr) {
+    work->scalar_ops += 6 * indices.size() + 20 * span;
+    work->memory_bytes += 8 * indices.size() + 20 * span;
+  }
+  if (deepest == n) return {indices};
+  // The deepest column goes with the side whose neighbouring column is nearer to it in disparity
+  // (the surface it belongs to).
+  const bool with_left = std::abs(profile_d[deepest - 1] - profile_d[deepest]) <= std::abs(profile_d[deepest + 1] - profile_d[deepest]);
+  const int last_left = (with_left ? profile_u[deepest] : profile_u[deepest - 1]) + u_min;
+  std::vector<std::vector<int>> parts(2);
+  for (int index : indices) parts[points[static_cast<size_t>(index)].u_px <= last_left ? 0 : 1].push_back(index);
+  return parts;
+}
+
 std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
                                            const OccupancyGridParameters& parameters, ArmWork* work) {
   std::vector<std::vector<int>> parts = split_at_column_gaps(points, indices, parameters.min_column_gap_px, work);
-  if (!parameters.split_at_range_peaks) return parts;
-  const double row_cell_m = parameters.kind == GridKind::column_disparity ? 0.0 : parameters.row_cell;
-  std::vector<std::vector<int>> pieces;
-  for (const std::vector<int>& part : parts)
-    for (std::vector<int>& piece : split_at_range_peak(points, part, parameters.error_model, parameters.window_sigmas, row_cell_m,
-                                                       parameters.min_depth_gap_m, work))
-      pieces.push_back(std::move(piece));
-  return pieces;
+  if (parameters.split_at_range_peaks) {
+    const double row_cell_m = parameters.kind == GridKind::column_disparity ? 0.0 : parameters.row_cell;
+    std::vector<std::vector<int>> pieces;
+    for (const std::vector<int>& part : parts)
+      for (std::vector<int>& piece : split_at_range_peak(points, part, parameters.error_model, parameters.window_sigmas, row_cell_m,
+                                                         parameters.min_depth_gap_m, work))
+        pieces.push_back(std::move(piece));
+    parts = std::move(pieces);
+  }
+  if (parameters.min_concavity_px > 0) {
+    std::vector<std::vector<int>> pieces;
+    for (const std::vector<int>& part : parts)
+      for (std::vector<int>& piece :
+           split_at_concavity(points, part, parameters.error_model, parameters.min_concavity_px, parameters.min_depth_gap_m, work))
+        pieces.push_back(std::move(piece));
+    parts = std::move(pieces);
+  }
+  return parts;
 }
 
 Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id) {
