@@ -797,6 +797,42 @@ std::pair<int, int> column_span_of(const std::vector<ObstaclePoint>& points, con
   }
   return {u_min, u_max};
 }
+
+// The profiles of the occlusion and concavity splits: the median of value(point) over the selected
+// points of each left-image column u_min .. u_min + span - 1 (a counting sort by column, then a
+// selection per column); `none` for a column with fewer than min_points points.
+constexpr int kMinPointsPerColumn = 3;  // the occlusion split: a column's median from fewer is noise
+// The concavity split: a column's median disparity from fewer points follows the matcher's streaks.
+// SGM aggregates along image paths, so its errors are correlated along rows, and on a surface seen
+// at a grazing angle it leaves fronto-parallel terraces (plateaus of 10-20 columns, 0.5-1 px steps
+// between them): each step followed by a plateau is a concavity. A low surface 0.2-0.6 m above the
+// terrain fit at 15-30 m (the mining scene's berm along the road) holds 4-8 points per column, and
+// with 3 its profile was cut 57 times in 12 frames of bench/obstacles3d_eval (mining seed 1, the
+// false positives along it 231 -> 317 in 100 frames); with 10, 5 times. A standing object's columns
+// hold dozens (a car's side or a pedestrian at 15 m: 40-60), the median spanning many rows' streaks.
+constexpr int kMinPointsPerConcavityColumn = 10;
+template <typename Value>
+std::vector<float> column_medians(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int u_min, size_t span,
+                                  int min_points, float none, Value value) {
+  std::vector<int> first(span + 1, 0);
+  for (int index : indices) ++first[static_cast<size_t>(points[static_cast<size_t>(index)].u_px - u_min) + 1];
+  for (size_t column = 0; column < span; ++column) first[column + 1] += first[column];
+  std::vector<float> values(indices.size());
+  std::vector<int> next(first.begin(), first.end() - 1);
+  for (int index : indices) {
+    const ObstaclePoint& point = points[static_cast<size_t>(index)];
+    values[static_cast<size_t>(next[static_cast<size_t>(point.u_px - u_min)]++)] = value(point);
+  }
+  std::vector<float> profile(span, none);
+  for (size_t column = 0; column < span; ++column) {
+    const int count = first[column + 1] - first[column];
+    if (count < min_points) continue;
+    auto begin = values.begin() + first[column], middle = begin + count / 2;
+    std::nth_element(begin, middle, begin + count);
+    profile[column] = *middle;
+  }
+  return profile;
+}
 }  // namespace
 
 std::vector<std::vector<int>> split_at_column_gaps(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
@@ -828,29 +864,14 @@ std::vector<std::vector<int>> split_at_column_gaps(const std::vector<ObstaclePoi
 std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
                                                   const StereoErrorModel& error_model, double window_sigmas, double row_cell_m,
                                                   double min_depth_gap_m, ArmWork* work) {
-  constexpr int kMinPointsPerColumn = 3;  // a column's median from fewer is noise
   if (indices.size() < 2 * kMinPointsPerColumn) return {indices};
   const auto [u_min, u_max] = column_span_of(points, indices);
   const size_t span = static_cast<size_t>(u_max - u_min) + 1;
-  // Ranges by column (a counting sort), then each column's median.
-  std::vector<int> first(span + 1, 0);
-  for (int index : indices) ++first[static_cast<size_t>(points[static_cast<size_t>(index)].u_px - u_min) + 1];
-  for (size_t column = 0; column < span; ++column) first[column + 1] += first[column];
-  std::vector<float> ranges(indices.size());
-  std::vector<int> next(first.begin(), first.end() - 1);
-  for (int index : indices) {
-    const ObstaclePoint& point = points[static_cast<size_t>(index)];
-    ranges[static_cast<size_t>(next[static_cast<size_t>(point.u_px - u_min)]++)] = std::hypot(point.camera_m.x(), point.camera_m.z());
-  }
   const float kNone = std::numeric_limits<float>::infinity();
-  std::vector<float> profile(span, kNone);  // median range, +inf: fewer than kMinPointsPerColumn points
-  for (size_t column = 0; column < span; ++column) {
-    const int count = first[column + 1] - first[column];
-    if (count < kMinPointsPerColumn) continue;
-    auto begin = ranges.begin() + first[column], middle = begin + count / 2;
-    std::nth_element(begin, middle, begin + count);
-    profile[column] = *middle;
-  }
+  // Median range per column, +inf: fewer than kMinPointsPerColumn points.
+  const std::vector<float> profile =
+      column_medians(points, indices, u_min, span, kMinPointsPerColumn, kNone,
+                     [](const ObstaclePoint& point) { return static_cast<float>(std::hypot(point.camera_m.x(), point.camera_m.z())); });
   // Prefix and suffix minima of the profile; a column's prominence is how far both sides fall from it.
   std::vector<float> prefix_min(span), suffix_min(span);
   for (size_t column = 0; column < span; ++column) prefix_min[column] = std::min(profile[column], column > 0 ? prefix_min[column - 1] : kNone);
@@ -886,29 +907,18 @@ std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoin
 std::vector<std::vector<int>> split_at_concavity(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
                                                  const StereoErrorModel& error_model, double min_concavity_px, double min_depth_gap_m,
                                                  ArmWork* work) {
-  constexpr int kMinPointsPerColumn = 3;  // a column's median from fewer is noise
-  if (min_concavity_px <= 0 || indices.size() < 3 * kMinPointsPerColumn) return {indices};
+  if (min_concavity_px <= 0 || indices.size() < 3 * kMinPointsPerConcavityColumn) return {indices};
   const auto [u_min, u_max] = column_span_of(points, indices);
   const size_t span = static_cast<size_t>(u_max - u_min) + 1;
-  // Disparities by column (a counting sort), then each column's median: the profile, in increasing u.
-  std::vector<int> first(span + 1, 0);
-  for (int index : indices) ++first[static_cast<size_t>(points[static_cast<size_t>(index)].u_px - u_min) + 1];
-  for (size_t column = 0; column < span; ++column) first[column + 1] += first[column];
-  std::vector<float> disparities(indices.size());
-  std::vector<int> next(first.begin(), first.end() - 1);
-  for (int index : indices) {
-    const ObstaclePoint& point = points[static_cast<size_t>(index)];
-    disparities[static_cast<size_t>(next[static_cast<size_t>(point.u_px - u_min)]++)] = point.disparity_px;
-  }
-  std::vector<int> profile_u;    // columns (relative to u_min) with at least kMinPointsPerColumn points
+  // Median disparity per column (0: fewer than kMinPointsPerConcavityColumn points; disparities are > 0).
+  const std::vector<float> medians = column_medians(points, indices, u_min, span, kMinPointsPerConcavityColumn, 0.0f,
+                                                    [](const ObstaclePoint& point) { return point.disparity_px; });
+  std::vector<int> profile_u;    // the columns (relative to u_min) with a median, increasing
   std::vector<float> profile_d;  // their median disparity
   for (size_t column = 0; column < span; ++column) {
-    const int count = first[column + 1] - first[column];
-    if (count < kMinPointsPerColumn) continue;
-    auto begin = disparities.begin() + first[column], middle = begin + count / 2;
-    std::nth_element(begin, middle, begin + count);
+    if (medians[column] <= 0) continue;
     profile_u.push_back(static_cast<int>(column));
-    profile_d.push_back(*middle);
+    profile_d.push_back(medians[column]);
   }
   const size_t n = profile_u.size();
   // The concave envelope: the upper hull of the profile's (u, d) points (Andrew's monotone chain;
@@ -939,7 +949,7 @@ std::vector<std::vector<int>> split_at_concavity(const std::vector<ObstaclePoint
                                                static_cast<double>(profile_u[b] - profile_u[a]);
     const double excess_px = chord_px - profile_d[k] - min_concavity_px;
     if (excess_px <= best_excess_px) continue;
-    if (profile_d[k] <= 0 || focal_baseline / profile_d[k] - focal_baseline / chord_px <= min_depth_gap_m) continue;
+    if (focal_baseline / profile_d[k] - focal_baseline / chord_px <= min_depth_gap_m) continue;  // within one body's depth
     best_excess_px = excess_px;
     deepest = k;
   }

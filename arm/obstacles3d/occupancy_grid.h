@@ -107,7 +107,9 @@
 // Bleyer, Rhemann, Rother, "PatchMatch Stereo - Stereo Matching with Slanted Support Windows", BMVC
 // 2011: a plane's disparity is d = a u + b v + c). The near side of one convex object (a box, a car
 // seen at its corner, a pedestrian) is therefore the upper boundary of a convex set in (u, d): the
-// median disparity per image column is a concave function of u. Where the profile dips under its
+// median disparity per image column (of the columns holding at least 10 of its points: from fewer,
+// the median follows the matcher's streaks and terraces; a low berm's columns hold 4-8) is a
+// concave function of u. Where the profile dips under its
 // concave envelope (its upper hull), the top view turns away from the camera and back: two objects
 // meet there, the farther one's end in the pocket. The cut needs that dip to exceed
 // min_concavity_px (0.5 px = 2 disparity_sigma_px; a column's median scatters 0.06 px about a planar
@@ -347,15 +349,18 @@ std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoin
                                                   double min_depth_gap_m, ArmWork* work = nullptr);
 
 // The concavity split (see the header comment): the disparity profile of `indices` over the
-// left-image columns is the median disparity_px of each column holding at least 3 of them. One convex
-// object's profile is a concave function of u (it is the upper boundary of the object's image in (u, d),
-// which is convex); a column lying more than min_concavity_px below the profile's concave envelope
-// (its upper hull) and more than min_depth_gap_m behind it along its ray (f B / d - f B / d_envelope)
-// is where two objects meet. The points are cut once, at the column deepest in pixels beyond
-// min_concavity_px: the columns up to it (it goes with the neighbour nearer to it in disparity) and
-// after it, each part in the order of `indices`. None, or min_concavity_px <= 0: one part, `indices`.
-// `work` (optional) gets 6 ops and 8 bytes per point (its column, its disparity, the median selection)
-// and 20 ops and 20 bytes per column spanned (the counts, the profile, the hull, the depth).
+// left-image columns is the median disparity_px of each column holding at least 10 of them (from
+// fewer it follows the matcher's row-correlated streaks: SGM's terraces on a low surface seen at a
+// grazing angle are a concavity at every step; occupancy_grid.cpp, kMinPointsPerConcavityColumn).
+// One convex object's profile is a concave function of u (the upper boundary of the object's image
+// in (u, d), which is convex); a column lying more than min_concavity_px below the profile's concave
+// envelope (its upper hull) and more than min_depth_gap_m behind it along its ray (f B / d - f B /
+// d_envelope) is where two objects meet. The points are cut once, at the column deepest in pixels
+// beyond min_concavity_px: the columns up to it (it goes with the neighbour nearer to it in
+// disparity) and after it, each part in the order of `indices`. None, fewer than 30 points, or
+// min_concavity_px <= 0: one part, `indices`. `work` (optional) gets 6 ops and 8 bytes per point (its
+// column, its disparity, the median selection) and 20 ops and 20 bytes per column spanned (the
+// counts, the profile, the hull, the depth).
 std::vector<std::vector<int>> split_at_concavity(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
                                                  const StereoErrorModel& error_model, double min_concavity_px, double min_depth_gap_m,
                                                  ArmWork* work = nullptr);

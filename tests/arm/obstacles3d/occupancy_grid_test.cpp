@@ -730,6 +730,22 @@ TEST(OccupancyGridConcavity, SingleConvexObjectsAreNotCut) {
   }
 }
 
+TEST(OccupancyGridConcavity, ATerracedProfileFromFewPointsPerColumnIsNotCut) {
+  // A surface seen at a grazing angle as the matcher leaves it: five fronto-parallel terraces of 12
+  // columns (u 100-159) at 12, 11, 10, 9 and 8 px. The envelope runs through each terrace's last
+  // column, so the first column of the next lies 1 - 1 / 12 = 0.92 px under it (1.26-1.9 m along
+  // the ray): a concavity at every step. With 12 points per column (a standing object's columns
+  // hold dozens) it is cut; with 6 (a low berm's at 15-30 m) the columns give no median for the
+  // concavity split (it needs 10 points a column) and it is not.
+  for (int per_column : {12, 6}) {
+    std::vector<ObstaclePoint> points;
+    for (int u = 100; u < 160; ++u) add_column_at_range(points, u, kFocalPx * kBaselineM / (12.0 - (u - 100) / 12), per_column);
+    const std::vector<int> all = all_indices(points);
+    EXPECT_EQ(split_at_concavity(points, all, testing::error_model(), 0.5, 1.0).size(), per_column >= 10 ? 2u : 1u)
+        << per_column << " points per column";
+  }
+}
+
 TEST(OccupancyGridConcavity, ThePedestrianBesideTheCarSideIsItsOwnObstacleInEveryGrid) {
   // Through the grids' clusters, modes and cuts: with the concavity split one obstacle lies on the
   // pedestrian (its centre within 0.3 m of x -2.75 m, z 15.0 m, the eval's gate is 1.25 m); with it off
