@@ -807,9 +807,10 @@ constexpr int kMinPointsPerColumn = 3;  // the occlusion split: a column's media
 // at a grazing angle it leaves fronto-parallel terraces (plateaus of 10-20 columns, 0.5-1 px steps
 // between them): each step followed by a plateau is a concavity. A low surface 0.2-0.6 m above the
 // terrain fit at 15-30 m (the mining scene's berm along the road) holds 4-8 points per column, and
-// with 3 its profile was cut 57 times in 12 frames of bench/obstacles3d_eval (mining seed 1, the
-// false positives along it 231 -> 317 in 100 frames); with 10, 5 times. A standing object's columns
-// hold dozens (a car's side or a pedestrian at 15 m: 40-60), the median spanning many rows' streaks.
+// with 3 its profile was cut 57 times in 12 frames of bench/obstacles3d_eval (mining seed 1, polar:
+// the false positives along it 231 -> 317 in 100 frames, main -> the split); with 10, 5 of those
+// cuts remain (231 -> 247). A standing object's columns hold dozens (a car's side or a pedestrian at
+// 15 m: 40-60), the median spanning many rows' streaks.
 constexpr int kMinPointsPerConcavityColumn = 10;
 template <typename Value>
 std::vector<float> column_medians(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int u_min, size_t span,
