@@ -78,7 +78,9 @@
 //      between them say they are two objects; then each part is cut at an occlusion peak of its
 //      range profile over the image columns (split_at_range_peak, grid.split_at_range_peaks: a
 //      car's side receding to its far end with a pedestrian nearer beside it, the gap between them
-//      filled by stereo fattening); each part of at least min_obstacle_points points is
+//      filled by stereo fattening), and then where its disparity profile over the image columns dips
+//      under its concave envelope (split_at_concavity, grid.min_concavity_px: a pedestrian touching
+//      the far end of a car's side at the side's range); each part of at least min_obstacle_points points is
 //      an obstacle with the cluster's height interval, and a stixel takes the obstacle of the part
 //      holding most of its points. Each part's points give
 //      its Obstacle3d (occupancy_grid.h, obstacle_from_points) with the interval above as its
@@ -91,8 +93,9 @@
 // and the fragment test 20 ops per stixel pair tested (the stixels of the (2 n + 1) x 3 cells
 // around, n range cells reached along the bearing, and of (2 n + 1) x 5 for fragments) and the
 // Obstacle3d's 10 ops + sizeof(ObstaclePoint) per point, and the column gap split's (occupancy_grid.h:
-// 4 ops + 2 bytes per point, 2 ops + 5 bytes per image column spanned) and the occlusion split's
-// (6 ops + 8 bytes per point, 12 ops + 24 bytes per column spanned).
+// 4 ops + 2 bytes per point, 2 ops + 5 bytes per image column spanned), the occlusion split's
+// (6 ops + 8 bytes per point, 12 ops + 24 bytes per column spanned) and the concavity split's (6 ops
+// + 8 bytes per point, 20 ops + 20 bytes per column spanned).
 #pragma once
 
 #include <array>

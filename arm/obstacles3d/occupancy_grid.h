@@ -100,9 +100,31 @@
 // nearer object beside it (urban: a car's side receding to 16 m, a pedestrian at 14.2 m next to it,
 // 0.3-0.8 m from the side, the gap filled by stereo fattening so no column is empty;
 // bench/obstacles3d_eval, urban, 60 frames: polar 98.5 -> 99.2 % on seed 2 and 96.4 -> 97.1 % on
-// seed 3, the false positives added all in the frames of terrain-fit junk). Parts under
-// min_obstacle_points give no obstacle. A cluster with no such object (held only by memory, or a few
-// scattered points) is kept (hull, cells) but gives no Obstacle3d (counted in clusters_without_points).
+// seed 3, the false positives added all in the frames of terrain-fit junk). Then each piece is cut
+// once more where it is concave (split_at_concavity, min_concavity_px, default 0.5 px, 0 = off): the
+// map (x, z) -> (u, d) = (u0 + f x / z, f B / z) is a projective map of the half-plane z > 0, so it
+// takes lines to lines and convex sets to convex sets (a vertical plane's disparity is affine in u;
+// Bleyer, Rhemann, Rother, "PatchMatch Stereo - Stereo Matching with Slanted Support Windows", BMVC
+// 2011: a plane's disparity is d = a u + b v + c). The near side of one convex object (a box, a car
+// seen at its corner, a pedestrian) is therefore the upper boundary of a convex set in (u, d): the
+// median disparity per image column (of the columns holding at least 10 of its points: from fewer,
+// the median follows the matcher's streaks and terraces; a low berm's columns hold 4-8) is a
+// concave function of u. Where the profile dips under its
+// concave envelope (its upper hull), the top view turns away from the camera and back: two objects
+// meet there, the farther one's end in the pocket. The cut needs that dip to exceed
+// min_concavity_px (0.5 px = 2 disparity_sigma_px; a column's median scatters 0.06 px about a planar
+// face, so 8 of those) and min_depth_gap_m along the ray (f B / d - f B / d_envelope > 1 m, one
+// body's own depth: at 5 m, 0.5 px is 8 cm). It is what separates a pedestrian touching the far end
+// of a parked car's side in the image: the side's disparity falls linearly in u to its far end, the
+// pedestrian's stays flat beside it, no column is empty and no range falls after the side's end (the
+// occlusion cut's case), but the knee between them lies 0.6-2 px under the chord from the car's
+// corner to the pedestrian's far edge (bench/obstacles3d_eval, urban, 60 frames, seeds 1-3: polar
+// 99.3 / 99.2 / 97.1 -> 99.3 / 100.0 / 100.0 %, stixels 97.8 / 97.7 / 97.1 -> 99.3 / 99.2 / 100.0 %,
+// false positives within 0.05 a frame). It also cuts a depth step down to a farther object beside a
+// nearer one (the flat far part after the step lies under the chord), which the Cartesian grid's
+// one object per group kept together. Parts under min_obstacle_points give no obstacle. A cluster
+// with no such object (held only by memory, or a few scattered points) is kept (hull, cells) but
+// gives no Obstacle3d (counted in clusters_without_points).
 //
 // Bad input: points with a non-finite position or disparity <= 0 are rejected; points whose mean
 // lies outside the grid are clipped; both counted and reported in status(). An empty cloud is a
@@ -125,7 +147,8 @@
 //     (remaining corner x hull vertex) visited;
 //   per object: the column gap split's 4 ops + 2 bytes per inlier and 2 ops + 5 bytes per image
 //     column between its smallest and largest u; the occlusion split's 6 ops + 8 bytes per point
-//     and 12 ops + 24 bytes per column of each part;
+//     and 12 ops + 24 bytes per column of each part; the concavity split's 6 ops + 8 bytes per point
+//     and 20 ops + 20 bytes per column of each piece (counts, medians' bookkeeping, hull, depths);
 //   per point again: 10 ops + sizeof(ObstaclePoint) for the obstacles' statistics, and 12 ops for
 //     the inlier test (its row sigma, the distance to its cell's mode); 6 ops per cell holding
 //     points (rays: its mode looked up; Cartesian: its column's mode, three columns' evidence
@@ -184,6 +207,12 @@ struct OccupancyGridParameters {
   // profile over the image columns rises to a peak and falls again by more than a window is cut at
   // the peak. false: off.
   bool split_at_range_peaks = true;
+  // The concavity split (split_at_concavity; see the header comment): [0, 8] disparity px, 0 = off.
+  // A column whose median disparity lies more than this below the concave envelope of the object's
+  // disparity profile over the image columns (and more than min_depth_gap_m behind it along its
+  // ray) is where two objects meet. 0.5 px = 2 disparity_sigma_px, 8x the scatter of one column's
+  // median about a planar face (0.06 px; bench/obstacles3d_eval, urban: a car's rear and side).
+  double min_concavity_px = 0.5;
   int threads = 1;                     // evidence accumulation split over this many threads, 1..16
   // V: the camera in the vehicle frame (arm::CameraToVehicle's rotation and translation). Default:
   // a level camera looking forward at the vehicle origin (arm::optical_to_body()).
@@ -319,10 +348,29 @@ std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoin
                                                   const StereoErrorModel& error_model, double window_sigmas, double row_cell_m,
                                                   double min_depth_gap_m, ArmWork* work = nullptr);
 
-// Both cuts as the grids and the stixels apply them to one object's points: split_at_column_gaps
+// The concavity split (see the header comment): the disparity profile of `indices` over the
+// left-image columns is the median disparity_px of each column holding at least 10 of them (from
+// fewer it follows the matcher's row-correlated streaks: SGM's terraces on a low surface seen at a
+// grazing angle are a concavity at every step; occupancy_grid.cpp, kMinPointsPerConcavityColumn).
+// One convex object's profile is a concave function of u (the upper boundary of the object's image
+// in (u, d), which is convex); a column lying more than min_concavity_px below the profile's concave
+// envelope (its upper hull) and more than min_depth_gap_m behind it along its ray (f B / d - f B /
+// d_envelope) is where two objects meet. The points are cut once, at the column deepest in pixels
+// beyond min_concavity_px: the columns up to it (it goes with the neighbour nearer to it in
+// disparity) and after it, each part in the order of `indices`. None, fewer than 30 points, or
+// min_concavity_px <= 0: one part, `indices`. `work` (optional) gets 6 ops and 8 bytes per point (its
+// column, its disparity, the median selection) and 20 ops and 20 bytes per column spanned (the
+// counts, the profile, the hull, the depth).
+std::vector<std::vector<int>> split_at_concavity(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
+                                                 const StereoErrorModel& error_model, double min_concavity_px, double min_depth_gap_m,
+                                                 ArmWork* work = nullptr);
+
+// The three cuts as the grids and the stixels apply them to one object's points: split_at_column_gaps
 // (parameters.min_column_gap_px), then, when parameters.split_at_range_peaks, split_at_range_peak on
 // each part with the grid's error model, window and row cell (0 for the column/disparity grid, whose
-// rows are disparities, not metres) and min_depth_gap_m. Parts in that order; `work` gets both cuts'.
+// rows are disparities, not metres) and min_depth_gap_m, then, when parameters.min_concavity_px > 0,
+// split_at_concavity on each piece (min_concavity_px, min_depth_gap_m). Parts in that order; `work`
+// gets the cuts'.
 std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
                                            const OccupancyGridParameters& parameters, ArmWork* work = nullptr);
 

@@ -14,7 +14,9 @@
 // scan counts 8 ops per point of a stixel cell; bad parameters throw; the counted
 // work adds the header's binning terms to the grid's; a car's rear and a pedestrian at one depth in
 // neighbouring cells with 4 empty image columns between them are two obstacles (one with the column
-// gap split off), and a wide object with 2 empty columns stays one.
+// gap split off), and a wide object with 2 empty columns stays one; a pedestrian touching the far end
+// of a car's side (no empty column, no range peak) is its own obstacle with the concavity split and
+// not without it, and the car alone stays one.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -462,6 +464,52 @@ TEST(AugmentedStixels, AWideObjectWithTwoEmptyColumnsStaysOneObstacle) {
   for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
   ASSERT_EQ(stixels.obstacles().size(), 1u) << stixels.status();
   EXPECT_NEAR(stixels.obstacles()[0].size_m.x(), 100 * 10.0 / testing::kFocalPx, 0.05);
+}
+
+TEST(AugmentedStixels, APedestrianTouchingACarSidesFarEndIsItsOwnObstacle) {
+  // synthetic_points.h, add_car_side_and_pedestrian (occupancy_grid_test.cpp, OccupancyGridConcavity):
+  // no empty image column and no range peak between the side's far end and the pedestrian, so only
+  // the concavity split separates them. With it, an obstacle on the pedestrian (centre within 0.3 m
+  // of x -2.75, z 15.0 m) with the pedestrian's stixels; off, one obstacle over both, 2.29 m wide
+  // and centred 1.75 m nearer than the pedestrian.
+  // The car at its corner alone stays one obstacle.
+  for (double concavity_px : {0.5, 0.0}) {
+    AugmentedStixelParameters parameters = stixel_parameters();
+    parameters.grid.min_concavity_px = concavity_px;
+    AugmentedStixels stixels(parameters);
+    std::vector<ObstaclePoint> points;
+    testing::add_car_side_and_pedestrian(points);
+    for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+    int pedestrian = -1;
+    for (const Obstacle3d& obstacle : stixels.obstacles())
+      if (std::abs(obstacle.position_m.x() + 2.75) < 0.3 && std::abs(obstacle.position_m.z() - 15.0) < 0.3) pedestrian = obstacle.id;
+    if (concavity_px == 0) {
+      EXPECT_EQ(pedestrian, -1) << stixels.status();
+      ASSERT_EQ(stixels.obstacles().size(), 1u) << stixels.status();
+      EXPECT_NEAR(stixels.obstacles()[0].size_m.x(), 2.29, 0.05);
+      EXPECT_NEAR(stixels.obstacles()[0].position_m.z(), 13.25, 0.1);
+      continue;
+    }
+    ASSERT_GE(pedestrian, 0) << stixels.status();
+    EXPECT_EQ(stixels.obstacles().size(), 2u) << stixels.status();
+    EXPECT_NEAR(stixels.obstacles()[static_cast<size_t>(pedestrian)].max_height_m, 1.7, 0.1);
+    // The stixels at 15 m beyond the side's far end (x > -2.9 m) name the pedestrian's obstacle.
+    int named = 0;
+    for (const AugmentedStixel& stixel : stixels.stixels()) {
+      const Eigen::Vector2d xz = stixels.grid().camera_xz_of(parameters.grid.column_min + (stixel.angle_cell + 0.5) * parameters.grid.column_cell,
+                                                             parameters.grid.row_min + (stixel.range_cell + 0.5) * parameters.grid.row_cell);
+      if (xz.x() > -2.9 && std::abs(xz.y() - 15.0) < 0.5) {
+        EXPECT_EQ(stixel.cluster, pedestrian) << "stixel at column " << stixel.angle_cell;
+        ++named;
+      }
+    }
+    EXPECT_GT(named, 0);
+  }
+  AugmentedStixels car_alone(stixel_parameters());
+  std::vector<ObstaclePoint> car;
+  testing::add_car_side_and_pedestrian(car, true, false);
+  for (int frame = 0; frame < 3; ++frame) car_alone.update(car, EgoMotion{});
+  EXPECT_EQ(car_alone.obstacles().size(), 1u) << car_alone.status();
 }
 
 TEST(AugmentedStixels, StixelsCarryTheirPointsAndColours) {

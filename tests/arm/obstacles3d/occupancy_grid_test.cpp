@@ -14,7 +14,12 @@
 // the image-column gap split on hand-made columns, two objects at one depth with 4 empty image
 // columns between them are two obstacles (one with the split off), and a wide object with 2 empty
 // columns stays one; the range-peak split cuts a receding surface's far end from a nearer object
-// beside it when both sides fall by more than the threshold, and not under it nor a convex profile.
+// beside it when both sides fall by more than the threshold, and not under it nor a convex profile;
+// the concavity split cuts a pedestrian touching a car side's far end (no empty column, no range
+// peak: the old cuts leave it) at the knee of the disparity profile, not under either threshold, and
+// every grid gives the pedestrian its own obstacle (the polar grid one joint obstacle with the split
+// off), while a car's side, a car at its corner, a wide box and a pedestrian alone are not cut and stay
+// one obstacle in every grid.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -23,6 +28,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "arm/obstacles3d/occupancy_grid.h"
@@ -413,42 +419,48 @@ TEST(OccupancyGridClusters, APedestrianJustBehindACarOnOneBearingIsItsOwnObstacl
   std::mt19937 generator(11);
   // (The column/disparity grid splits on the same rule, but here the two depths are 10 and 8.8 px,
   // within its window of 3 sigma_d + a 0.5 px cell = 1.25 px: one object there.)
-  for (GridKind kind : {GridKind::polar, GridKind::cartesian}) {
-    OccupancyGrid grid(grid_parameters(kind));
-    for (int frame = 0; frame < 3; ++frame) {
-      std::vector<ObstaclePoint> points;
-      add_noisy_patch(points, -1.0, 1.0, 1.4, 15.0, generator);
-      std::vector<ObstaclePoint> pedestrian;
-      add_noisy_patch(pedestrian, 0.9, 1.4, 1.7, 17.0, generator);
-      for (const ObstaclePoint& point : pedestrian)  // hidden behind the car where its bearing meets the car's
-        if (point.u_px > testing::kPrincipalUPx + kFocalPx * 1.0 / 15.0) points.push_back(point);
-      grid.update(points, EgoMotion{});
-    }
-    if (kind == GridKind::cartesian) {
-      // A Cartesian column is not a ray: it keeps one object per group of cells (see the header),
-      // so here one obstacle holds both, its box running over both depths.
-      ASSERT_EQ(grid.obstacles().size(), 1u) << grid.status();
-      EXPECT_GT(grid.obstacles()[0].size_m.z(), 4.0);
-      continue;
-    }
-    int nearest_of[2] = {-1, -1};
-    const double depths_m[2] = {15.0, 17.0}, lateral_m[2] = {0.0, 1.15};
-    for (int k = 0; k < 2; ++k) {
-      double nearest_distance_m = 1e9;
-      for (size_t i = 0; i < grid.obstacles().size(); ++i) {
-        const Eigen::Vector3d& centre = grid.obstacles()[i].position_m;
-        const double distance_m = std::hypot(centre.x() - lateral_m[k], centre.z() - depths_m[k]);
-        if (distance_m < nearest_distance_m) nearest_distance_m = distance_m, nearest_of[k] = static_cast<int>(i);
+  // A Cartesian column is not a ray: it keeps one object per group of cells (see the header), so there
+  // the two are separated by the concavity split alone (the car's 10 px disparity profile steps down
+  // to the pedestrian's 8.8 px for his 12 visible columns: 1.1 px and 1.8 m under the envelope); with
+  // it off (min_concavity_px = 0), one obstacle holds both, its box running over both depths.
+  for (double concavity_px : {0.5, 0.0}) {
+    for (GridKind kind : {GridKind::polar, GridKind::cartesian}) {
+      OccupancyGridParameters parameters = grid_parameters(kind);
+      parameters.min_concavity_px = concavity_px;
+      OccupancyGrid grid(parameters);
+      for (int frame = 0; frame < 3; ++frame) {
+        std::vector<ObstaclePoint> points;
+        add_noisy_patch(points, -1.0, 1.0, 1.4, 15.0, generator);
+        std::vector<ObstaclePoint> pedestrian;
+        add_noisy_patch(pedestrian, 0.9, 1.4, 1.7, 17.0, generator);
+        for (const ObstaclePoint& point : pedestrian)  // hidden behind the car where its bearing meets the car's
+          if (point.u_px > testing::kPrincipalUPx + kFocalPx * 1.0 / 15.0) points.push_back(point);
+        grid.update(points, EgoMotion{});
       }
-      ASSERT_GE(nearest_of[k], 0) << grid_kind_name(kind) << ": " << grid.status();
-      const Obstacle3d& obstacle = grid.obstacles()[static_cast<size_t>(nearest_of[k])];
-      EXPECT_NEAR(obstacle.position_m.z(), depths_m[k], 0.5) << grid_kind_name(kind) << " object at " << depths_m[k] << " m";
-      // Its inliers lie within a window (3 sigma_Z + half a 0.2 m cell) of its depth; both objects
-      // in one box would run from 14 to 18.5 m.
-      EXPECT_LT(obstacle.size_m.z(), 2 * (3 * model.depth_sigma_m(depths_m[k]) + 0.1) + 0.1)
-          << grid_kind_name(kind) << " object at " << depths_m[k] << " m";
+      if (kind == GridKind::cartesian && concavity_px == 0) {
+        ASSERT_EQ(grid.obstacles().size(), 1u) << grid.status();
+        EXPECT_GT(grid.obstacles()[0].size_m.z(), 4.0);
+        continue;
+      }
+      int nearest_of[2] = {-1, -1};
+      const double depths_m[2] = {15.0, 17.0}, lateral_m[2] = {0.0, 1.15};
+      for (int k = 0; k < 2; ++k) {
+        double nearest_distance_m = 1e9;
+        for (size_t i = 0; i < grid.obstacles().size(); ++i) {
+          const Eigen::Vector3d& centre = grid.obstacles()[i].position_m;
+          const double distance_m = std::hypot(centre.x() - lateral_m[k], centre.z() - depths_m[k]);
+          if (distance_m < nearest_distance_m) nearest_distance_m = distance_m, nearest_of[k] = static_cast<int>(i);
+        }
+        ASSERT_GE(nearest_of[k], 0) << grid_kind_name(kind) << ": " << grid.status();
+        const Obstacle3d& obstacle = grid.obstacles()[static_cast<size_t>(nearest_of[k])];
+        EXPECT_NEAR(obstacle.position_m.z(), depths_m[k], 0.5) << grid_kind_name(kind) << " object at " << depths_m[k] << " m";
+        // Its inliers lie within a window (3 sigma_Z + half a 0.2 m cell) of its depth; both objects
+        // in one box would run from 14 to 18.5 m.
+        EXPECT_LT(obstacle.size_m.z(), 2 * (3 * model.depth_sigma_m(depths_m[k]) + 0.1) + 0.1)
+            << grid_kind_name(kind) << " object at " << depths_m[k] << " m";
+      }
+      EXPECT_NE(nearest_of[0], nearest_of[1]) << grid_kind_name(kind) << ": " << grid.status();
     }
-    EXPECT_NE(nearest_of[0], nearest_of[1]) << grid_kind_name(kind) << ": " << grid.status();
   }
 }
 
@@ -637,6 +649,142 @@ TEST(OccupancyGridRangePeaks, AConvexObjectsProfileIsNotCut) {
   EXPECT_EQ(parts[0], all);
 }
 
+std::vector<int> all_indices(const std::vector<ObstaclePoint>& points) {
+  std::vector<int> all(points.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  return all;
+}
+
+// A pedestrian alone: a vertical cylinder of radius 0.25 m centred at (x 0.5, z 12.25), 0.2-1.7 m,
+// its near half seen over the columns its outline covers (each column's depth where the ray meets the
+// circle first): a profile bulging towards the camera.
+void add_pedestrian_cylinder(std::vector<ObstaclePoint>& points) {
+  const double xc = 0.5, zc = 12.25, radius = 0.25;
+  for (int u = 0; u < 640; ++u) {
+    const double a = (u - testing::kPrincipalUPx) / kFocalPx;  // the ray (a t, t)
+    const double qa = a * a + 1, qb = a * xc + zc, qc = xc * xc + zc * zc - radius * radius;
+    const double discriminant = qb * qb - qa * qc;
+    if (discriminant <= 0) continue;
+    testing::add_pixel_column(points, u, 0.2, 1.7, (qb - std::sqrt(discriminant)) / qa);
+  }
+}
+
+// The single objects that must stay one: a car's side alone (x = -3 m, 8.9-14.9 m), a car at its
+// corner (rear and side), a wide box (2.5 m at 10 m) and a pedestrian alone (a cylinder).
+std::vector<std::pair<std::string, std::vector<ObstaclePoint>>> single_objects() {
+  std::vector<std::pair<std::string, std::vector<ObstaclePoint>>> objects(4);
+  objects[0].first = "car side";
+  testing::add_side_columns(objects[0].second, 150, 219, -3.0, 0.2, 1.5);
+  objects[1].first = "car at its corner";
+  testing::add_car_side_and_pedestrian(objects[1].second, true, false);
+  objects[2].first = "wide box";
+  testing::add_pixel_columns(objects[2].second, 257, 382, 0.2, 1.2, 10.0);
+  objects[3].first = "pedestrian";
+  add_pedestrian_cylinder(objects[3].second);
+  return objects;
+}
+
+TEST(OccupancyGridConcavity, APedestrianTouchingACarSidesFarEndIsCutWhereTheOldCutsAreNot) {
+  // synthetic_points.h, add_car_side_and_pedestrian. Disparity (f B / z, f B = 150 px m): the rear
+  // 13.04 px, the side falling linearly in u to 10.05 px at column 219 (a plane's disparity is affine
+  // in u), the pedestrian 10.0 px. The concave envelope runs from the car's corner (189, 13.04) to
+  // the pedestrian's last column (236, 10.0); at column 219 it is at 13.04 - 3.04 x 30 / 47 = 11.10 px,
+  // 1.05 px above the profile, and 14.93 - 150 / 11.10 = 1.42 m nearer along the ray: both beyond the
+  // thresholds (0.5 px, 1 m). Column 219 goes with the pedestrian (its neighbour 220 is 0.05 px away,
+  // 218 0.10 px).
+  const StereoErrorModel model = testing::error_model();
+  std::vector<ObstaclePoint> points;
+  testing::add_car_side_and_pedestrian(points);
+  const std::vector<int> all = all_indices(points);
+  // The old cuts: no empty column, no range peak (the range rises along the side to 15.23 m and stays
+  // at the pedestrian's 15.2-15.3 m).
+  EXPECT_EQ(split_at_column_gaps(points, all, 3).size(), 1u);
+  EXPECT_EQ(split_at_range_peak(points, all, model, 3.0, 0.2, 1.0).size(), 1u);
+  ArmWork work;
+  const std::vector<std::vector<int>> parts = split_at_concavity(points, all, model, 0.5, 1.0, &work);
+  ASSERT_EQ(parts.size(), 2u);
+  size_t pedestrian_side = 0;
+  for (const ObstaclePoint& point : points) pedestrian_side += point.u_px >= 219 ? 1 : 0;
+  EXPECT_EQ(parts[1].size(), pedestrian_side);
+  for (int index : parts[0]) EXPECT_LE(points[static_cast<size_t>(index)].u_px, 218);
+  for (int index : parts[1]) EXPECT_GE(points[static_cast<size_t>(index)].u_px, 219);
+  // 6 ops and 8 bytes per point, 20 and 20 per column from 111 to 236 (126).
+  EXPECT_EQ(work.scalar_ops, 6u * points.size() + 20u * 126);
+  EXPECT_EQ(work.memory_bytes, 8u * points.size() + 20u * 126);
+  // Either threshold above the concavity keeps it one part; 0 px is off.
+  EXPECT_EQ(split_at_concavity(points, all, model, 1.2, 1.0).size(), 1u);
+  EXPECT_EQ(split_at_concavity(points, all, model, 0.5, 1.5).size(), 1u);
+  EXPECT_EQ(split_at_concavity(points, all, model, 0.0, 1.0).size(), 1u);
+  // split_object with the defaults applies it after the other two cuts.
+  EXPECT_EQ(split_object(points, all, grid_parameters(GridKind::polar)).size(), 2u);
+}
+
+TEST(OccupancyGridConcavity, SingleConvexObjectsAreNotCut) {
+  // Each one's disparity profile is concave (a plane's is linear in u; the car's corner, the box and
+  // the cylinder's near half bulge towards the camera): no column under the envelope.
+  for (const auto& [name, points] : single_objects()) {
+    ASSERT_GT(points.size(), 500u) << name;
+    const std::vector<int> all = all_indices(points);
+    EXPECT_EQ(split_at_concavity(points, all, testing::error_model(), 0.5, 1.0).size(), 1u) << name;
+    EXPECT_EQ(split_object(points, all, grid_parameters(GridKind::polar)).size(), 1u) << name;
+  }
+}
+
+TEST(OccupancyGridConcavity, ATerracedProfileFromFewPointsPerColumnIsNotCut) {
+  // A surface seen at a grazing angle as the matcher leaves it: five fronto-parallel terraces of 12
+  // columns (u 100-159) at 12, 11, 10, 9 and 8 px. The envelope runs through each terrace's last
+  // column, so the first column of the next lies 1 - 1 / 12 = 0.92 px under it (1.26-1.9 m along
+  // the ray): a concavity at every step. With 12 points per column (a standing object's columns
+  // hold dozens) it is cut; with 6 (a low berm's at 15-30 m) the columns give no median for the
+  // concavity split (it needs 10 points a column) and it is not.
+  for (int per_column : {12, 6}) {
+    std::vector<ObstaclePoint> points;
+    for (int u = 100; u < 160; ++u) add_column_at_range(points, u, kFocalPx * kBaselineM / (12.0 - (u - 100) / 12), per_column);
+    const std::vector<int> all = all_indices(points);
+    EXPECT_EQ(split_at_concavity(points, all, testing::error_model(), 0.5, 1.0).size(), per_column >= 10 ? 2u : 1u)
+        << per_column << " points per column";
+  }
+}
+
+TEST(OccupancyGridConcavity, ThePedestrianBesideTheCarSideIsItsOwnObstacleInEveryGrid) {
+  // Through the grids' clusters, modes and cuts: with the concavity split one obstacle lies on the
+  // pedestrian (its centre within 0.3 m of x -2.75 m, z 15.0 m, the eval's gate is 1.25 m); with it off
+  // (min_concavity_px = 0) the polar grid's one obstacle holds the car and the pedestrian, 2.29 m
+  // wide (x from -4.80 to -2.51 m) and 3.5 m long, its centre 0.9 m left of the pedestrian and 1.75 m
+  // nearer (outside the eval's gate, 1.375 m deep at 15 m).
+  for (GridKind kind : {GridKind::polar, GridKind::cartesian, GridKind::column_disparity}) {
+    for (double concavity_px : {0.5, 0.0}) {
+      OccupancyGridParameters parameters = grid_parameters(kind);
+      parameters.min_concavity_px = concavity_px;
+      OccupancyGrid grid(parameters);
+      std::vector<ObstaclePoint> points;
+      testing::add_car_side_and_pedestrian(points);
+      for (int frame = 0; frame < 3; ++frame) grid.update(points, EgoMotion{});
+      bool on_pedestrian = false;
+      for (const Obstacle3d& obstacle : grid.obstacles())
+        on_pedestrian = on_pedestrian || (std::abs(obstacle.position_m.x() + 2.75) < 0.3 && std::abs(obstacle.position_m.z() - 15.0) < 0.3);
+      if (concavity_px > 0) {
+        EXPECT_TRUE(on_pedestrian) << grid_kind_name(kind) << ": " << grid.status();
+      } else if (kind == GridKind::polar) {
+        EXPECT_FALSE(on_pedestrian) << grid.status();
+        ASSERT_EQ(grid.obstacles().size(), 1u) << grid.status();
+        EXPECT_NEAR(grid.obstacles()[0].size_m.x(), 2.29, 0.05);
+        EXPECT_NEAR(grid.obstacles()[0].position_m.z(), 13.25, 0.1);
+      }
+    }
+  }
+}
+
+TEST(OccupancyGridConcavity, SingleObjectsStayOneObstacleInEveryGrid) {
+  for (GridKind kind : {GridKind::polar, GridKind::cartesian, GridKind::column_disparity}) {
+    for (const auto& [name, points] : single_objects()) {
+      OccupancyGrid grid(grid_parameters(kind));
+      for (int frame = 0; frame < 3; ++frame) grid.update(points, EgoMotion{});
+      EXPECT_EQ(grid.obstacles().size(), 1u) << grid_kind_name(kind) << ", " << name << ": " << grid.status();
+    }
+  }
+}
+
 TEST(OccupancyGridGeometry, RowSigmaIsTheMeasurementsRowSigma) {
   // row_sigma_at (the depth-jump split's window) equals the row sigma of a point at the cell centre
   // (measurement_gaussian), for each kind.
@@ -752,6 +900,9 @@ TEST(OccupancyGridBadInput, BadCellSizesAndParametersThrowNamingTheParameter) {
   parameters = grid_parameters(GridKind::polar);
   parameters.min_column_gap_px = -1;
   EXPECT_EQ(message_of(parameters), "min_column_gap_px: expected in [0, 64] px, got -1");
+  parameters = grid_parameters(GridKind::polar);
+  parameters.min_concavity_px = -0.5;
+  EXPECT_EQ(message_of(parameters), "min_concavity_px: expected in [0, 8] px (0 = off), got -0.5");
 }
 
 TEST(OccupancyGridWork, AnEmptyFrameCostsTheHeadersPerCellModel) {

@@ -65,4 +65,33 @@ inline void add_pixel_columns(std::vector<ObstaclePoint>& points, int u_first, i
       points.push_back(point_at((u - kPrincipalUPx) * pixel_m, height, z_m));
 }
 
+// One left-image column u of a surface at depth z (x = (u - u0) z / f): points every pixel row
+// (z / f) from h0 to h1, noise-free.
+inline void add_pixel_column(std::vector<ObstaclePoint>& points, int u, double h0_m, double h1_m, double z_m) {
+  const double pixel_m = z_m / kFocalPx;
+  for (double height = h0_m; height <= h1_m + 1e-9; height += pixel_m)
+    points.push_back(point_at((u - kPrincipalUPx) * pixel_m, height, z_m));
+}
+
+// A vertical plane at lateral x (a parked car's side, along the camera's axis) seen over columns
+// u_first..u_last on one side of u0: each column's depth is z = f x / (u - u0).
+inline void add_side_columns(std::vector<ObstaclePoint>& points, int u_first, int u_last, double x_m, double h0_m, double h1_m) {
+  for (int u = u_first; u <= u_last; ++u) add_pixel_column(points, u, h0_m, h1_m, kFocalPx * x_m / (u - kPrincipalUPx));
+}
+
+// A parked car left of the camera seen at its rear-right corner, and a pedestrian touching the far
+// end of its right side in the image (urban seed 3 frames 15-19 in bench/obstacles3d_eval): the rear
+// (0.2-1.5 m) at 11.5 m over columns 111-189 (x from -4.8 to -3.0 m), the right side x = -3.0 m over
+// columns 190-219 receding from 11.58 to 14.93 m, and the pedestrian (0.2-1.7 m) at 15 m over
+// columns 220-236 (x from -2.99 to -2.51 m). No image column is empty and the range does not fall
+// after the side's far end.
+inline void add_car_side_and_pedestrian(std::vector<ObstaclePoint>& points, bool car = true, bool pedestrian = true) {
+  if (car) {
+    for (int u = 111; u <= 189; ++u) add_pixel_column(points, u, 0.2, 1.5, 11.5);
+    add_side_columns(points, 190, 219, -3.0, 0.2, 1.5);
+  }
+  if (pedestrian)
+    for (int u = 220; u <= 236; ++u) add_pixel_column(points, u, 0.2, 1.7, 15.0);
+}
+
 }  // namespace lpstereo::arm::obstacles3d::testing
