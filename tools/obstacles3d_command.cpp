@@ -325,8 +325,8 @@ int Obstacles3dCommand::run() const {
         motion.statistics.valid, motion.increment, mount_known ? method.to_vehicle->vehicle_from_camera() : Eigen::Isometry3d::Identity());
     if (i > 0 && (!motion.statistics.valid || ego_motion_source.rejected_implausible())) {
       if (dropout_frames == 0) {
-        std::fprintf(stderr, "obstacles3d: frame %d: visual odometry %d inliers: %s (later failures are counted in the summary)\n",
-                     index, motion.statistics.inliers, ego_motion_source.note().c_str());
+        std::fprintf(stderr, "obstacles3d: frame %d (%d odometry inliers): %s (later ones are counted in the summary)\n", index,
+                     motion.statistics.inliers, ego_motion_source.note().c_str());
       }
       ++dropout_frames;
       if (ego_motion_source.source() == o3::EgoMotionSource::static_camera) ++static_frames;
