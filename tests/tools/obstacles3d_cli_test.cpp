@@ -232,6 +232,40 @@ TEST_F(Obstacles3dCli, TheMountIsEstimatedFromTheGroundWhenNotGiven) {
   EXPECT_NEAR(roll_deg, 0.0, 1.0);
 }
 
+TEST_F(Obstacles3dCli, AnOdometryDropoutIsBridgedWithTheLastIncrementAndSaysSo) {
+  // Frames 0-1 the lineup (the odometry finds the identity: valid), frame 2 a uniform grey pair (no
+  // features: the odometry fails), frame 3 the lineup again. Frame 2 gets the last valid increment
+  // (arm/obstacles3d/ego_motion.h), not a static camera, and its status and stderr say so.
+  const std::string folder = path("dropout");
+  fs::create_directories(folder);
+  const cv::Mat grey(288, 640, CV_8UC1, cv::Scalar(128));
+  char name[32];
+  for (int frame = 0; frame < 4; ++frame) {
+    for (const char* view : {"left", "right"}) {
+      std::snprintf(name, sizeof name, "/%s_%06d.png", view, frame);
+      if (frame == 2) {
+        ASSERT_TRUE(cv::imwrite(folder + name, grey));
+      } else {
+        fs::copy_file(sequence() + "/" + view + "_000000.png", folder + name, fs::copy_options::overwrite_existing);
+      }
+    }
+  }
+  const std::string output = path("dropout.jsonl");
+  const Result result = run("obstacles3d --left " + folder + "/left_%06d.png --right " + folder + "/right_%06d.png --calib " + sequence() +
+                            "/calib.yaml --num-disp 64 --camera-height-m 1.5 --method polar -o " + output);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("frame 2 (0 odometry inliers): odometry failed: last increment applied (dropout 1 of at most 5)"), std::string::npos)
+      << result.err;
+  EXPECT_EQ(result.err.find("static camera assumed"), std::string::npos) << result.err;
+  const std::vector<nlohmann::json> lines = read_lines(output);
+  ASSERT_EQ(lines.size(), 4u);
+  EXPECT_TRUE(lines[2].at("ego_motion").get<bool>());
+  EXPECT_NE(lines[2].at("status").get<std::string>().find("odometry failed: last increment applied (dropout 1 of at most 5)"), std::string::npos)
+      << lines[2].dump();
+  EXPECT_NE(lines[1].at("status").get<std::string>().find("ego-motion applied"), std::string::npos) << lines[1].dump();
+  EXPECT_NE(result.out.find("(2 bridged with the last increment, 0 without ego-motion"), std::string::npos) << result.out;
+}
+
 TEST_F(Obstacles3dCli, TexturelessFramesGiveEmptyCloudsAndAStaticCamera) {
   // Two uniform grey pairs: no disparity (no texture to match), so an empty cloud per frame, and no
   // features for the odometry, so frame 1 has no ego-motion: stderr says the camera is assumed static.
