@@ -16,30 +16,35 @@ jobs=$(nproc)
 ./scripts/install-deps.sh
 
 start_seconds=$SECONDS
-echo "== release: build and test"
+# Each stage's header carries the seconds since the start, so a slow CI run shows where it went.
+stage() { echo "== [$((SECONDS - start_seconds)) s] $*"; }
+stage "release: build and test"
 cmake --preset release >/dev/null
 cmake --build --preset release -j "$jobs"
+stage "release: ctest"
 ctest --preset release
-echo "== real-driver tests in the VM: their logs"
+stage "real-driver tests in the VM: their logs"
 ./scripts/print-vm-test-logs.sh build/release
 
 if [ "${LPSTEREO_CHECK_SKIP_ASAN:-0}" != "1" ]; then
-  echo "== debug-asan: build and test"
+  stage "debug-asan: build and test"
   cmake --preset debug-asan >/dev/null
   cmake --build --preset debug-asan -j "$jobs"
+  stage "debug-asan: ctest"
   ctest --preset debug-asan
 fi
 
-echo "== release binaries on a CPU without AVX-512 (qemu-x86_64 -cpu Haswell)"
+stage "release binaries on a CPU without AVX-512 (qemu-x86_64 -cpu Haswell)"
 ./scripts/test-without-avx512.sh build/release
 
 if [ "${LPSTEREO_CHECK_SKIP_AARCH64:-0}" != "1" ]; then
-  echo "== aarch64 (NEON): cross-build, test through qemu-aarch64"
+  stage "aarch64 (NEON): cross-build, test through qemu-aarch64"
   cmake --preset aarch64 >/dev/null
   cmake --build --preset aarch64 -j "$jobs"
+  stage "aarch64: ctest"
   ctest --preset aarch64
 fi
 
-echo "== 4K budget on cv1-class: every graph at 3840x1728, --enforce"
+stage "4K budget on cv1-class: every graph at 3840x1728, --enforce"
 ./scripts/profile-graphs.sh build/release/tools/lpstereo
 echo "check: all stages passed in $((SECONDS - start_seconds)) s"
