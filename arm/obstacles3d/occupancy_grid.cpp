@@ -373,6 +373,8 @@ void OccupancyGrid::update(const std::vector<ObstaclePoint>& points, const EgoMo
   // This frame's evidence, the points split into contiguous chunks over the threads (each with its
   // own evidence matrix, summed in chunk order: the result does not depend on scheduling).
   point_cells_.assign(points.size(), -1);
+  point_row_means_.resize(points.size());
+  point_row_sigmas_.resize(points.size());
   const int thread_count =
       static_cast<int>(std::min<size_t>(static_cast<size_t>(parameters_.threads), std::max<size_t>(1, points.size() / 4096)));
   std::vector<GridMatrix> partial(static_cast<size_t>(thread_count));
@@ -396,6 +398,8 @@ void OccupancyGrid::update(const std::vector<ObstaclePoint>& points, const EgoMo
         continue;
       }
       point_cells_[i] = row * columns_ + column;
+      point_row_means_[i] = gaussian.mean(1);
+      point_row_sigmas_[i] = std::sqrt(gaussian.covariance(1, 1));
       ++used[static_cast<size_t>(chunk)];
       add_likelihood(gaussian, evidence, &partial_work[static_cast<size_t>(chunk)]);
     }
@@ -626,15 +630,13 @@ void OccupancyGrid::cluster_and_describe(const std::vector<ObstaclePoint>& point
     }
     std::vector<int> object_of_root(modes.size(), -1);
     for (int index : group_points[group]) {
-      const ObstaclePoint& point = points[static_cast<size_t>(index)];
       const int cell = point_cells_[static_cast<size_t>(index)];
       const int column = cell % columns_;
       const int mode_row = mode_row_of_cell[static_cast<size_t>(cell)];
       const int mode_index = mode_of_mode_cell[static_cast<size_t>(mode_row) * columns_ + column];
-      const GridGaussian gaussian = measurement_gaussian(point);
       const double mode_b = parameters_.row_min + (mode_row + 0.5) * parameters_.row_cell;
-      if (std::abs(gaussian.mean(1) - mode_b) >
-          parameters_.window_sigmas * std::sqrt(gaussian.covariance(1, 1)) + 0.5 * parameters_.row_cell)
+      if (std::abs(point_row_means_[static_cast<size_t>(index)] - mode_b) >
+          parameters_.window_sigmas * point_row_sigmas_[static_cast<size_t>(index)] + 0.5 * parameters_.row_cell)
         continue;
       int& object = object_of_root[static_cast<size_t>(root_of(mode_index))];
       if (object < 0) {

@@ -150,10 +150,11 @@
 //     and 12 ops + 24 bytes per column of each part; the concavity split's 6 ops + 8 bytes per point
 //     and 20 ops + 20 bytes per column of each piece (counts, medians' bookkeeping, hull, depths);
 //   per point again: 10 ops + sizeof(ObstaclePoint) for the obstacles' statistics, and 12 ops for
-//     the inlier test (its row sigma, the distance to its cell's mode); 6 ops per cell holding
-//     points (rays: its mode looked up; Cartesian: its column's mode, three columns' evidence
-//     summed and compared); rays also 8 ops per climbing step along a column (two rows' three-column
-//     evidence sums, the comparisons; each cell climbed at most once per frame) and 6 ops per pair
+//     the inlier test (its row mean and sigma, kept from the evidence pass, against its cell's
+//     mode); 6 ops per cell holding points (rays: its mode looked up; Cartesian: its column's mode,
+//     three columns' evidence summed and compared); rays also 8 ops per climbing step along a
+//     column (two rows' three-column evidence sums, the comparisons; each cell climbed at most once
+//     per frame) and 6 ops per pair
 //     of a group's modes compared (columns, the window at the farther mode, the union), 20 more
 //     when they lie beyond the window (the two cells' ranges: sin, cos or a division, a root).
 #pragma once
@@ -308,6 +309,10 @@ class OccupancyGrid {
   std::vector<GridCluster> clusters_;
   std::vector<Obstacle3d> obstacles_;
   std::vector<int> point_cells_;
+  // Each used point's measurement along the grid's row axis (mean, standard deviation), kept from
+  // update() for the depth-jump split, which would otherwise compute the Gaussian (an atan2 and a
+  // square root per point on the polar grid) a second time.
+  std::vector<double> point_row_means_, point_row_sigmas_;
   OccupancyGridStatistics statistics_;
   std::string status_;
   ArmWork work_;
