@@ -59,22 +59,45 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   }
   parameters.occluder.validate();
   CandidatePoints result;
-  // The image split into contiguous bands of rows, one per thread: each band's points are built
-  // and later classified on its own thread, and every sequential step (the 2.5D grid's sums, the
-  // candidates' order) takes the bands in row order, so the result is the single-threaded one bit
-  // for bit whatever the scheduling.
+  // The image split into contiguous bands of rows, one per thread: each band's points are built on
+  // its own thread, then the points are classified in equal shares, one per thread; every sequential
+  // step (the 2.5D grid's sums, the candidates' order) takes the points in row order, so the result
+  // is the single-threaded one bit for bit whatever the scheduling.
   struct Band {
     std::vector<ObstaclePoint> points;
     std::vector<Eigen::Vector3d> vehicle_points;
     std::vector<uint8_t> over_occluder;  // per point, with grid.occlusion_upper_bounds
-    std::vector<ObstaclePoint> candidates;
-    int64_t outside_area = 0;
+    std::vector<ObstaclePoint> candidates;  // of the points classified by this band's worker (its share)
+    int64_t outside_area = 0;               // likewise
   };
   const int band_count = std::max(1, std::min(parameters.threads, disparity_q4.height() / 16));
   std::vector<Band> bands(static_cast<size_t>(band_count));
+  // The bands' row boundaries balance the valid disparities (the points to build), not the rows: a
+  // road scene has its sky, with no disparity, in the top rows, and equal row bands left one thread
+  // with almost every point (measured on the urban sequence: 300 against 144 000 points).
+  std::vector<int> band_first_row(static_cast<size_t>(band_count) + 1, disparity_q4.height());
+  band_first_row[0] = 0;
+  if (band_count > 1) {
+    std::vector<int64_t> valid_before_row(static_cast<size_t>(disparity_q4.height()) + 1, 0);
+    for (int v = 0; v < disparity_q4.height(); ++v) {
+      const int16_t* disparity_row = disparity_q4.row<const int16_t>(v);
+      int64_t valid = 0;
+      for (int u = 0; u < disparity_q4.width(); ++u) valid += (disparity_row[u] != invalid_disparity_q4 && disparity_row[u] > 0) ? 1 : 0;
+      valid_before_row[static_cast<size_t>(v) + 1] = valid_before_row[static_cast<size_t>(v)] + valid;
+    }
+    const int64_t total = valid_before_row.back();
+    for (int band = 1; band < band_count; ++band) {
+      const int64_t target = total * band / band_count;
+      // the first row whose points start at or after the band's share
+      band_first_row[static_cast<size_t>(band)] = static_cast<int>(
+          std::lower_bound(valid_before_row.begin(), valid_before_row.end(), target) - valid_before_row.begin());
+      band_first_row[static_cast<size_t>(band)] =
+          std::clamp(band_first_row[static_cast<size_t>(band)], band_first_row[static_cast<size_t>(band) - 1], disparity_q4.height());
+    }
+  }
   const auto band_rows = [&](int band, int* first_row, int* end_row) {
-    *first_row = disparity_q4.height() * band / band_count;
-    *end_row = disparity_q4.height() * (band + 1) / band_count;
+    *first_row = band_first_row[static_cast<size_t>(band)];
+    *end_row = band_first_row[static_cast<size_t>(band) + 1];
   };
   const auto run_bands = [&](const auto& work) {
     std::vector<std::thread> workers;
@@ -143,16 +166,29 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     return result;
   }
   const CandidateTest test(result.terrain.surface, parameters.obstacle_height_m);
-  run_bands([&](int band_index) {
-    Band& band = bands[static_cast<size_t>(band_index)];
-    for (size_t i = 0; i < band.points.size(); ++i) {
+  // The classification splits the points, not the rows, into equal shares (worker w takes the
+  // points [N w / T, N (w + 1) / T) of the bands' concatenation, in row order), and the shares'
+  // candidates are joined in worker order: the candidates' order is the single-threaded one.
+  std::vector<size_t> points_before_band(bands.size() + 1, 0);
+  for (size_t b = 0; b < bands.size(); ++b) points_before_band[b + 1] = points_before_band[b] + bands[b].points.size();
+  const size_t point_count = points_before_band.back();
+  run_bands([&](int worker) {
+    Band& share = bands[static_cast<size_t>(worker)];  // the worker's candidates and count
+    const size_t first = point_count * static_cast<size_t>(worker) / static_cast<size_t>(band_count);
+    const size_t end = point_count * static_cast<size_t>(worker + 1) / static_cast<size_t>(band_count);
+    size_t band_index = static_cast<size_t>(std::upper_bound(points_before_band.begin(), points_before_band.end(), first) -
+                                            points_before_band.begin()) - 1;
+    for (size_t global = first; global < end; ++global) {
+      while (global >= points_before_band[band_index + 1]) ++band_index;
+      const Band& band = bands[band_index];
+      const size_t i = global - points_before_band[band_index];
       double height_above_m = 0;
       const CandidateTest::Class point_class = test.classify(band.vehicle_points[i], &height_above_m);
       if (point_class == CandidateTest::Class::outside) {
-        ++band.outside_area;
+        ++share.outside_area;
       } else if (point_class == CandidateTest::Class::candidate) {
-        band.candidates.push_back(band.points[i]);
-        band.candidates.back().height_above_ground_m = static_cast<float>(height_above_m);
+        share.candidates.push_back(band.points[i]);
+        share.candidates.back().height_above_ground_m = static_cast<float>(height_above_m);
       }
     }
   });

@@ -7,8 +7,9 @@
 // (arm/terrain: height_grid, fit_terrain; with grid.occlusion_upper_bounds each point carries
 // arm::pixels_over_occluder's flag of its pixel into the grid); (3) classify_points's rule keeps the points more than
 // obstacle_height_m above the fitted surface, with their height above it (CandidateTest: S evaluated
-// only where the control heights' bound cannot decide; the same classes). Steps 1 and 3 run
-// on `threads` bands of rows, joined in row order. When the terrain is
+// only where the control heights' bound cannot decide; the same classes). Step 1 runs on `threads`
+// bands of rows (balanced by valid disparities), step 3 on `threads` equal shares of the points,
+// both joined in row order. When the terrain is
 // unknown (too few cells, a wall filling the view ...) there are no candidates and `note` says why.
 #pragma once
 
@@ -41,8 +42,8 @@ struct CandidateParameters {
   // the floating scene, docs/obstacles3d.md): the image test that flags each point over a nearer
   // occluder (arm::pixels_over_occluder on the disparity map), for the 2.5D grid's upper-bound cells.
   OccluderTest occluder;
-  // [1, 16]: steps 1 and 3 split the image into this many bands of rows, one thread each (at most
-  // one band per 16 rows); the result is the same for any count (the bands are joined in row order).
+  // [1, 16]: steps 1 and 3 run on this many threads (step 1 on bands of rows, at most one band per 16
+  // rows; step 3 on shares of the points); the result is the same for any count (joined in row order).
   int threads = 1;
 };
 

@@ -64,9 +64,18 @@ int knot_span(const std::vector<double>& knots, int degree, double t) {
   const double low = knots[static_cast<size_t>(degree)], high = knots[static_cast<size_t>(control_points)];
   if (!(t < high)) return control_points - 1;  // the domain's end (and beyond) belongs to the last span
   if (!(t > low)) return degree;
-  // The largest s in [degree, n - 1] with knots[s] <= t.
-  const auto first = knots.begin() + degree, last = knots.begin() + control_points;
-  return static_cast<int>(std::upper_bound(first, last, t) - knots.begin()) - 1;
+  // The largest s in [degree, n - 1] with knots[s] <= t. The knots are uniform between low and high
+  // in every surface we build, so the span's position in the domain is a first guess, and the two
+  // walks make it exact for any non-decreasing knots: after the first, knots[s] <= t (or s is the
+  // first span, whose knot low < t); after the second, knots[s + 1] > t or s is the last span. This
+  // replaced a binary search, which mispredicts a branch per step for every point a frame classifies
+  // (the same spans).
+  const int spans = control_points - degree;
+  int s = degree + static_cast<int>(static_cast<double>(spans) * ((t - low) / (high - low)));
+  s = std::clamp(s, degree, control_points - 1);
+  while (s > degree && knots[static_cast<size_t>(s)] > t) --s;
+  while (s < control_points - 1 && knots[static_cast<size_t>(s) + 1] <= t) ++s;
+  return s;
 }
 
 void basis_functions(const std::vector<double>& knots, int degree, int span, double t, double* values, double* derivatives) {

@@ -43,6 +43,44 @@ TEST(BsplineBasis, PartitionOfUnityAndNonNegative) {
   }
 }
 
+// knot_span guesses the span from t's place in a uniform domain and walks to the exact one: it must
+// equal the definition (the largest s in [degree, n - 1] with knots[s] <= t, the last span at the
+// end and beyond, the first before the start) for uniform knots, for knots far from uniform (a guess
+// several spans off) and for repeated interior knots, at the knots themselves and between them.
+TEST(BsplineBasis, KnotSpanIsTheLargestSpanStartingAtOrBeforeT) {
+  const auto by_definition = [](const std::vector<double>& knots, int degree, double t) {
+    const int control_points = static_cast<int>(knots.size()) - degree - 1;
+    if (!(t < knots[static_cast<size_t>(control_points)])) return control_points - 1;
+    int span = degree;
+    for (int s = degree; s < control_points; ++s) {
+      if (knots[static_cast<size_t>(s)] <= t) span = s;
+    }
+    return span;
+  };
+  const std::vector<std::vector<double>> knot_vectors = {
+      clamped_uniform_knots(25, 3, 0.0, 34.0),
+      clamped_uniform_knots(43, 3, -11.0, 11.0),
+      {0, 0, 0, 0, 0.1, 0.2, 0.3, 9, 9.5, 10, 10, 10, 10},  // crowded at the start
+      {0, 0, 0, 0, 2, 2, 2, 5, 7, 7, 10, 10, 10, 10},       // repeated interior knots
+  };
+  std::mt19937 random(7);
+  for (const std::vector<double>& knots : knot_vectors) {
+    const int degree = 3;
+    const double low = knots.front(), high = knots.back();
+    std::vector<double> samples = {low - 1, low, high, high + 1, std::nextafter(high, low), std::nextafter(low, high)};
+    for (const double knot : knots) {
+      samples.push_back(knot);
+      samples.push_back(std::nextafter(knot, low - 1));
+      samples.push_back(std::nextafter(knot, high + 1));
+    }
+    std::uniform_real_distribution<double> anywhere(low, high);
+    for (int k = 0; k < 2000; ++k) samples.push_back(anywhere(random));
+    for (const double t : samples) {
+      EXPECT_EQ(knot_span(knots, degree, t), by_definition(knots, degree, t)) << "t " << t << ", knots from " << low << " to " << high;
+    }
+  }
+}
+
 // Cubic, knots {0,0,0,0,0.5,1,1,1,1}. By hand from eq. 3.4 at t = 0.5 (span 4, N_4,0 = 1):
 // N_3,1 = (1 - .5)/.5 = 1; N_2,2 = (1 - .5)/1 = .5, N_3,2 = (.5 - 0)/1 = .5;
 // N_1,3 = .5/1 * .5 = .25, N_2,3 = .5 * .5 + .5 * .5 = .5, N_3,3 = .5 * .5 = .25, N_4,3 = 0.
