@@ -33,7 +33,9 @@
 // points of frame n + 1 while the other runs terrain, stixels and traversability of frame n (that
 // stage single-threaded). Throughput = frames / wall time of the whole pass (median over passes);
 // each stage on one thread (its own disparity engine with one worker); the results digest must
-// equal the sequential one (checked: exit 1 otherwise).
+// equal the sequential one (checked: exit 1 otherwise). Printed beside it, not counted for the
+// line: the same pipeline with the disparity engine on 2 workers, 3 threads on the 2 cores (the
+// engine leaves a core idle in its single-threaded speckle filter, and stage 2 fills it).
 // Exits 1 when neither the sequential median total nor the pipelined throughput reaches 30 fps.
 // Usage: obstacles3d_chain_bench [--scene urban|country|mining|floating] [--seed K] [--frames N] [--passes P]
 #include <algorithm>
@@ -243,52 +245,67 @@ int run(int argc, char** argv) {
     Plane disparity;
     arm::CameraPoints camera;
   };
-  arm::DisparityEngine stage1_engine(width, height, disparity_parameters, {}, 1);  // one thread per stage: 2 in all
   o3::CandidateParameters stage2_candidates = candidate_parameters;
   stage2_candidates.threads = 1;
   o3::AugmentedStixelParameters stage2_stixels = stixel_parameters;
   stage2_stixels.grid.threads = 1;
-  const auto stage1 = [&](int n) {
-    const RenderedFrame& frame = frames[static_cast<size_t>(n)];
-    PointsOfFrame points;
-    points.disparity = stage1_engine.compute(frame.left, frame.right).clone();
-    points.camera = arm::triangulate(points.disparity, triangulation);
-    return points;
+  struct PipelinedRun {
+    double frame_ms = NAN;  // median over the passes
+    bool same_results = false;
   };
-  std::vector<double> pipelined_frame_ms;
-  long long pipelined_candidates = 0, pipelined_stixels = 0, pipelined_obstacles = 0, pipelined_occupied = 0;
-  for (int pass = 0; pass < settings.passes; ++pass) {
-    o3::AugmentedStixels stixels(stage2_stixels);
-    long long candidates_sum = 0, stixels_sum = 0, obstacles_sum = 0, occupied_sum = 0;
-    const auto started = std::chrono::steady_clock::now();
-    std::future<PointsOfFrame> next = std::async(std::launch::async, stage1, 0);
-    for (int n = 0; n < settings.frames; ++n) {
-      const PointsOfFrame points = next.get();
-      if (n + 1 < settings.frames) next = std::async(std::launch::async, stage1, n + 1);
+  // stage1_workers: the disparity engine's threads in stage 1. 1: one thread per stage, 2 in all;
+  // 2: three threads on the machine's two cores, the engine's idle worker time (its single-threaded
+  // speckle filter, the census) and stage 2 sharing the cores.
+  const auto run_pipelined = [&](int stage1_workers) {
+    arm::DisparityEngine stage1_engine(width, height, disparity_parameters, {}, stage1_workers);
+    const auto stage1 = [&](int n) {
       const RenderedFrame& frame = frames[static_cast<size_t>(n)];
-      o3::EgoMotion ego_motion;
-      if (n > 0) {
-        ego_motion.available = true;
-        ego_motion.previous_from_current = vehicle_from_camera *
-                                           io::camera_previous_from_current(frames[static_cast<size_t>(n - 1)].pose, frame.pose) *
-                                           vehicle_from_camera.inverse();
+      PointsOfFrame points;
+      points.disparity = stage1_engine.compute(frame.left, frame.right).clone();
+      points.camera = arm::triangulate(points.disparity, triangulation);
+      return points;
+    };
+    std::vector<double> pipelined_frame_ms;
+    long long pipelined_candidates = 0, pipelined_stixels = 0, pipelined_obstacles = 0, pipelined_occupied = 0;
+    for (int pass = 0; pass < settings.passes; ++pass) {
+      o3::AugmentedStixels stixels(stage2_stixels);
+      long long candidates_sum = 0, stixels_sum = 0, obstacles_sum = 0, occupied_sum = 0;
+      const auto started = std::chrono::steady_clock::now();
+      std::future<PointsOfFrame> next = std::async(std::launch::async, stage1, 0);
+      for (int n = 0; n < settings.frames; ++n) {
+        const PointsOfFrame points = next.get();
+        if (n + 1 < settings.frames) next = std::async(std::launch::async, stage1, n + 1);
+        const RenderedFrame& frame = frames[static_cast<size_t>(n)];
+        o3::EgoMotion ego_motion;
+        if (n > 0) {
+          ego_motion.available = true;
+          ego_motion.previous_from_current = vehicle_from_camera *
+                                             io::camera_previous_from_current(frames[static_cast<size_t>(n - 1)].pose, frame.pose) *
+                                             vehicle_from_camera.inverse();
+        }
+        const o3::CandidatePoints candidates = o3::extract_obstacle_candidates(
+            points.disparity, engine.invalid_disparity_q4(), points.camera, frame.left,
+            o3::ColourView{frame.left_colour.data, frame.left_colour.step, true}, to_vehicle, stage2_candidates);
+        stixels.update(candidates.points, ego_motion);
+        arm::terrain::TraversabilityMap map;
+        if (candidates.terrain.known) map = arm::terrain::compute_traversability(candidates.terrain, candidates.measured_grid, traversability_parameters);
+        candidates_sum += static_cast<long long>(candidates.points.size());
+        stixels_sum += static_cast<long long>(stixels.stixels().size());
+        obstacles_sum += static_cast<long long>(stixels.obstacles().size());
+        for (Eigen::Index i = 0; i < map.occupancy.size(); ++i) occupied_sum += map.occupancy.data()[i] == 1.0;
       }
-      const o3::CandidatePoints candidates = o3::extract_obstacle_candidates(
-          points.disparity, engine.invalid_disparity_q4(), points.camera, frame.left,
-          o3::ColourView{frame.left_colour.data, frame.left_colour.step, true}, to_vehicle, stage2_candidates);
-      stixels.update(candidates.points, ego_motion);
-      arm::terrain::TraversabilityMap map;
-      if (candidates.terrain.known) map = arm::terrain::compute_traversability(candidates.terrain, candidates.measured_grid, traversability_parameters);
-      candidates_sum += static_cast<long long>(candidates.points.size());
-      stixels_sum += static_cast<long long>(stixels.stixels().size());
-      obstacles_sum += static_cast<long long>(stixels.obstacles().size());
-      for (Eigen::Index i = 0; i < map.occupancy.size(); ++i) occupied_sum += map.occupancy.data()[i] == 1.0;
+      pipelined_frame_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count() /
+                                   settings.frames);
+      pipelined_candidates += candidates_sum, pipelined_stixels += stixels_sum;
+      pipelined_obstacles += obstacles_sum, pipelined_occupied += occupied_sum;
     }
-    pipelined_frame_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count() /
-                                 settings.frames);
-    pipelined_candidates += candidates_sum, pipelined_stixels += stixels_sum;
-    pipelined_obstacles += obstacles_sum, pipelined_occupied += occupied_sum;
-  }
+    PipelinedRun run;
+    run.frame_ms = median(pipelined_frame_ms);
+    run.same_results = pipelined_candidates == digest_candidates && pipelined_stixels == digest_stixels &&
+                       pipelined_obstacles == digest_obstacles && pipelined_occupied == digest_occupied;
+    return run;
+  };
+  const PipelinedRun two_threads = run_pipelined(1), three_threads = run_pipelined(2);
 
   std::printf("\n  median over %zu frames           wall ms   process CPU ms   thesis ms (i7-3840QM, 4 cores)\n", total_wall_ms.size());
   for (int s = 0; s < kStages; ++s) {
@@ -310,15 +327,17 @@ int run(int argc, char** argv) {
   std::printf("  from the process CPU time (%.2f ms per frame): on an idle 2-core machine between %.1f fps (no overlap) and %.1f fps "
               "(both threads busy throughout)\n",
               total_cpu_median_ms, 1000.0 / total_cpu_median_ms, 2000.0 / total_cpu_median_ms);
-  const double pipelined_fps = 1000.0 / median(pipelined_frame_ms);
-  const bool same_results = pipelined_candidates == digest_candidates && pipelined_stixels == digest_stixels &&
-                            pipelined_obstacles == digest_obstacles && pipelined_occupied == digest_occupied;
-  std::printf("  pipelined (disparity + points of frame n+1 beside the rest of frame n): %.2f ms per frame, %.1f fps (median of %d "
-              "passes); results digest %s the sequential one\n",
-              median(pipelined_frame_ms), pipelined_fps, settings.passes, same_results ? "equals" : "DIFFERS FROM");
+  const double pipelined_fps = 1000.0 / two_threads.frame_ms;
+  const bool same_results = two_threads.same_results && three_threads.same_results;
+  std::printf("  pipelined (disparity + points of frame n+1 beside the rest of frame n), one thread per stage: %.2f ms per frame, %.1f fps "
+              "(median of %d passes); results digest %s the sequential one\n",
+              two_threads.frame_ms, pipelined_fps, settings.passes, two_threads.same_results ? "equals" : "DIFFERS FROM");
+  std::printf("  the same with the disparity engine on 2 workers (3 threads on the 2 cores; not the line's 2 threads): %.2f ms per frame, "
+              "%.1f fps; results digest %s the sequential one\n",
+              three_threads.frame_ms, 1000.0 / three_threads.frame_ms, three_threads.same_results ? "equals" : "DIFFERS FROM");
   const bool meets = same_results && std::max(fps, pipelined_fps) >= kLineFps;
-  std::printf("%s: full chain at %.1f fps sequential, %.1f fps pipelined: %s the %.0f fps line\n", meets ? "PASS" : "MISSED", fps, pipelined_fps,
-              meets ? "meets" : "misses", kLineFps);
+  std::printf("%s: full chain with 2 threads at %.1f fps sequential, %.1f fps pipelined: %s the %.0f fps line\n", meets ? "PASS" : "MISSED", fps,
+              pipelined_fps, meets ? "meets" : "misses", kLineFps);
   return meets ? 0 : 1;
 }
 
