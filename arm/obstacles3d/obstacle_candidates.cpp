@@ -67,9 +67,14 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     std::vector<ObstaclePoint> points;
     std::vector<Eigen::Vector3d> vehicle_points;
     std::vector<uint8_t> over_occluder;  // per point, with grid.occlusion_upper_bounds
-    std::vector<ObstaclePoint> candidates;  // of the points classified by this band's worker (its share)
-    int64_t outside_area = 0;               // likewise
   };
+  // One classification worker's share of the points: its candidates and its count outside the area.
+  struct Share {
+    std::vector<ObstaclePoint> candidates;
+    int64_t outside_area = 0;
+  };
+  // A pixel that becomes a point (the build skips the others; the bands balance these).
+  const auto has_disparity = [&](int16_t d_q4) { return d_q4 != invalid_disparity_q4 && d_q4 > 0; };
   const int band_count = std::max(1, std::min(parameters.threads, disparity_q4.height() / 16));
   std::vector<Band> bands(static_cast<size_t>(band_count));
   // The bands' row boundaries balance the valid disparities (the points to build), not the rows: a
@@ -82,7 +87,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     for (int v = 0; v < disparity_q4.height(); ++v) {
       const int16_t* disparity_row = disparity_q4.row<const int16_t>(v);
       int64_t valid = 0;
-      for (int u = 0; u < disparity_q4.width(); ++u) valid += (disparity_row[u] != invalid_disparity_q4 && disparity_row[u] > 0) ? 1 : 0;
+      for (int u = 0; u < disparity_q4.width(); ++u) valid += has_disparity(disparity_row[u]) ? 1 : 0;
       valid_before_row[static_cast<size_t>(v) + 1] = valid_before_row[static_cast<size_t>(v)] + valid;
     }
     const int64_t total = valid_before_row.back();
@@ -126,7 +131,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
       for (int u = 0; u < disparity_q4.width(); ++u) {
         const int32_t x_mm = x_row[u];
         const int16_t d_q4 = disparity_row[u];
-        if (x_mm == kernels::kNoPointMm || d_q4 == invalid_disparity_q4 || d_q4 <= 0) continue;
+        if (x_mm == kernels::kNoPointMm || !has_disparity(d_q4)) continue;
         ObstaclePoint point;
         point.camera_m = Eigen::Vector3f(static_cast<float>(x_mm) * 1e-3f, static_cast<float>(y_row[u]) * 1e-3f,
                                          static_cast<float>(z_row[u]) * 1e-3f);
@@ -172,8 +177,9 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   std::vector<size_t> points_before_band(bands.size() + 1, 0);
   for (size_t b = 0; b < bands.size(); ++b) points_before_band[b + 1] = points_before_band[b] + bands[b].points.size();
   const size_t point_count = points_before_band.back();
+  std::vector<Share> shares(bands.size());
   run_bands([&](int worker) {
-    Band& share = bands[static_cast<size_t>(worker)];  // the worker's candidates and count
+    Share& share = shares[static_cast<size_t>(worker)];
     const size_t first = point_count * static_cast<size_t>(worker) / static_cast<size_t>(band_count);
     const size_t end = point_count * static_cast<size_t>(worker + 1) / static_cast<size_t>(band_count);
     size_t band_index = static_cast<size_t>(std::upper_bound(points_before_band.begin(), points_before_band.end(), first) -
@@ -193,11 +199,11 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     }
   });
   size_t candidate_count = 0;
-  for (const Band& band : bands) candidate_count += band.candidates.size();
+  for (const Share& share : shares) candidate_count += share.candidates.size();
   result.points.reserve(candidate_count);
-  for (const Band& band : bands) {
-    result.points.insert(result.points.end(), band.candidates.begin(), band.candidates.end());
-    result.outside_area += band.outside_area;
+  for (const Share& share : shares) {
+    result.points.insert(result.points.end(), share.candidates.begin(), share.candidates.end());
+    result.outside_area += share.outside_area;
   }
   char note[160];
   std::snprintf(note, sizeof note, "terrain: %lld points, %zu obstacle candidates, %lld outside the terrain area",

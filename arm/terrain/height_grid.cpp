@@ -142,7 +142,7 @@ int TerrainGridSpec::lateral_cells() const { return cells_over(lateral_min_m, la
 namespace {
 
 // TerrainGridSpec::cell_of with the grid's cell counts given: the accumulator, which bins every
-// point of a frame, knows them and saves their four divides per point.
+// point of a frame, knows them and saves the two divides that computing them costs per point.
 bool cell_of_grid(const TerrainGridSpec& spec, int forward_cells, int lateral_cells, double x_m, double y_m, int* forward_cell,
                   int* lateral_cell) {
   if (!std::isfinite(x_m) || !std::isfinite(y_m)) return false;
