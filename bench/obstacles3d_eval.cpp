@@ -53,7 +53,10 @@
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 // (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2;
 // --first-seed: seeds S .. S + N - 1, default 1; --misses: one CSV row per missed object and per false
-// positive of every method, with the nearest obstacle, for finding out why; --moving-log: one CSV row
+// positive of every method, with the nearest obstacle, and per hanging object whose reported lower
+// edge is off by more than 10 cm (lower_edge_high / lower_edge_low, with the in-gate obstacle of the
+// highest lower edge) or whose free space is lost (free_space_lost, with the first obstacle under
+// it), for finding out why; --moving-log: one CSV row
 // per object-frame the voxels detected, with the truth's motion and the reported track's flag,
 // velocity and update count, for finding out why a flag is wrong; --vertical-gap-m: the
 // terrain's 2.5D sampling leaves out of a cell the points above a vertical gap wider than G, default
@@ -314,7 +317,11 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
       ++tally.floating_seen;
       const double error_m = highest_lower_edge->min_height_m - object.truth.min_height_m;
       tally.floating_error_m.push_back(error_m);
-      if (std::abs(error_m) <= 0.10) ++tally.floating_within;
+      if (std::abs(error_m) <= 0.10) {
+        ++tally.floating_within;
+      } else {
+        log_row(log, method, error_m > 0 ? "lower_edge_high" : "lower_edge_low", &object, measurable_count, highest_lower_edge);
+      }
       if (highest_lower_edge_below_top) {  // none: every in-gate obstacle lies above the object
         const double below_top_error_m = highest_lower_edge_below_top->min_height_m - object.truth.min_height_m;
         tally.floating_error_below_top_m.push_back(below_top_error_m);
@@ -327,6 +334,7 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
         for (const o3::Obstacle3d& obstacle : obstacles) {
           if (in_gate(obstacle, object, gate) && std::abs(obstacle.position_m.x() - object.truth.position_m[0]) <= inner_m &&
               obstacle.min_height_m < object.truth.min_height_m - 0.10) {
+            if (kept) log_row(log, method, "free_space_lost", &object, measurable_count, &obstacle);
             kept = false;
           }
         }
