@@ -324,11 +324,12 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
     // (scattered terrain-fit outliers, mismatches) give no obstacle.
     if (static_cast<int>(members.size()) < parameters_.min_cluster_stixels || static_cast<int>(obstacle_points.size()) < parameters_.min_obstacle_points)
       continue;
-    // The grids' three cuts (occupancy_grid.h, split_object). The image-column gap split: neighbouring cells
+    // The grids' four cuts (occupancy_grid.h, split_object). The image-column gap split: neighbouring cells
     // join stixels whose points lie up to two 0.01 rad cells apart in the image; a run of at least
     // grid.min_column_gap_px columns without a point between them makes two obstacles. Then the
     // occlusion split (split_at_range_peak): a range peak over the image columns that both sides
     // fall from by more than a window is a far surface's end beside a nearer object. Then the
+    // range-step split (split_at_range_step): such an end left at the part's edge. Then the
     // concavity split (split_at_concavity): a dip of the disparity profile under its concave
     // envelope is where two objects meet (one convex object's profile is concave). Each part
     // keeps the cluster's height interval; a stixel belongs to the part holding most of its points.

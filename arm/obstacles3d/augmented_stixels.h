@@ -78,7 +78,9 @@
 //      between them say they are two objects; then each part is cut at an occlusion peak of its
 //      range profile over the image columns (split_at_range_peak, grid.split_at_range_peaks: a
 //      car's side receding to its far end with a pedestrian nearer beside it, the gap between them
-//      filled by stereo fattening), and then where its disparity profile over the image columns dips
+//      filled by stereo fattening), then at a step of its disparity profile (split_at_range_step,
+//      grid.max_range_step_columns_px: a far surface's end left at a part's edge with a nearer
+//      object beside it), and then where its disparity profile over the image columns dips
 //      under its concave envelope (split_at_concavity, grid.min_concavity_px: a pedestrian touching
 //      the far end of a car's side at the side's range); each part of at least min_obstacle_points points is
 //      an obstacle with the cluster's height interval, and a stixel takes the obstacle of the part

@@ -144,6 +144,8 @@ void OccupancyGridParameters::validate() const {
     throw_invalid_parameter("min_depth_gap_m", "in [0, 10] m", min_depth_gap_m);
   if (min_column_gap_px < 0 || min_column_gap_px > 64)
     throw_invalid_parameter("min_column_gap_px", "in [0, 64] px", min_column_gap_px);
+  if (max_range_step_columns_px < 0 || max_range_step_columns_px > 16)
+    throw_invalid_parameter("max_range_step_columns_px", "in [0, 16] px (0 = off)", max_range_step_columns_px);
   if (!(min_concavity_px >= 0 && min_concavity_px <= 8))
     throw_invalid_parameter("min_concavity_px", "in [0, 8] px (0 = off)", min_concavity_px);
   if (threads < 1 || threads > 16) throw_invalid_parameter("threads", "in [1, 16]", threads);
@@ -814,6 +816,14 @@ constexpr int kMinPointsPerColumn = 3;  // the occlusion split: a column's media
 // cuts remain (231 -> 247). A standing object's columns hold dozens (a car's side or a pedestrian at
 // 15 m: 40-60), the median spanning many rows' streaks.
 constexpr int kMinPointsPerConcavityColumn = 10;
+// The range-step split: each side of a step keeps at least this many measured columns, so the
+// silhouette of one object, whose one or two border columns mix its range with the background's,
+// is not cut off as an object of its own.
+constexpr int kMinStepSideColumns = 3;
+// The range-step split: a step must also exceed this many disparity sigmas (1.25 px at 0.25 px):
+// SGM leaves a surface seen at a grazing angle as fronto-parallel terraces with steps of up to
+// 1 px (see kMinPointsPerConcavityColumn), 2 m of depth at 9 px, beyond the window there.
+constexpr double kMinStepSigmas = 5.0;
 template <typename Value>
 std::vector<float> column_medians(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int u_min, size_t span,
                                   int min_points, float none, Value value) {
@@ -835,6 +845,39 @@ std::vector<float> column_medians(const std::vector<ObstaclePoint>& points, cons
     profile[column] = *middle;
   }
   return profile;
+}
+
+// The profile of the range-step and concavity splits: the median disparity of each column holding
+// at least kMinPointsPerConcavityColumn points, in increasing column order (u relative to u_min),
+// over the columns u_min .. u_min + span - 1 the points span (indices not empty).
+struct DisparityProfile {
+  int u_min = 0;
+  size_t span = 0;
+  std::vector<int> u;
+  std::vector<float> d;
+};
+DisparityProfile disparity_profile(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices) {
+  DisparityProfile profile;
+  const auto [u_min, u_max] = column_span_of(points, indices);
+  profile.u_min = u_min;
+  profile.span = static_cast<size_t>(u_max - u_min) + 1;
+  // 0: fewer than kMinPointsPerConcavityColumn points (disparities are > 0).
+  const std::vector<float> medians = column_medians(points, indices, u_min, profile.span, kMinPointsPerConcavityColumn, 0.0f,
+                                                    [](const ObstaclePoint& point) { return point.disparity_px; });
+  for (size_t column = 0; column < profile.span; ++column) {
+    if (medians[column] <= 0) continue;
+    profile.u.push_back(static_cast<int>(column));
+    profile.d.push_back(medians[column]);
+  }
+  return profile;
+}
+
+// The two parts of a cut: the points in columns up to last_left_u and those after, each in the order
+// of `indices`.
+std::vector<std::vector<int>> cut_after_column(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int last_left_u) {
+  std::vector<std::vector<int>> parts(2);
+  for (int index : indices) parts[points[static_cast<size_t>(index)].u_px <= last_left_u ? 0 : 1].push_back(index);
+  return parts;
 }
 }  // namespace
 
@@ -902,27 +945,51 @@ std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoin
   };
   const double left_m = neighbour_range(peak, -1), right_m = neighbour_range(peak, +1);
   const int last_left = static_cast<int>(std::abs(left_m - profile[peak]) <= std::abs(right_m - profile[peak]) ? peak : peak - 1) + u_min;
-  std::vector<std::vector<int>> parts(2);
-  for (int index : indices) parts[points[static_cast<size_t>(index)].u_px <= last_left ? 0 : 1].push_back(index);
-  return parts;
+  return cut_after_column(points, indices, last_left);
+}
+
+std::vector<std::vector<int>> split_at_range_step(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
+                                                  const StereoErrorModel& error_model, double window_sigmas, double row_cell_m,
+                                                  double min_depth_gap_m, int max_step_columns_px, ArmWork* work) {
+  if (max_step_columns_px <= 0 || indices.size() < 2 * kMinStepSideColumns * kMinPointsPerConcavityColumn) return {indices};
+  const auto [u_min, span, profile_u, profile_d] = disparity_profile(points, indices);
+  const size_t n = profile_u.size();
+  if (work != nullptr) {
+    work->scalar_ops += 6 * indices.size() + 8 * span;
+    work->memory_bytes += 8 * indices.size() + 12 * span;
+  }
+  if (n < 2 * static_cast<size_t>(kMinStepSideColumns)) return {indices};
+  // The largest jump between a column a and a column b at most max_step_columns_px to its right
+  // (the columns in between are the matcher's mix of the two surfaces), each side keeping
+  // kMinStepSideColumns measured columns: beyond a window in depth at the farther one, and beyond
+  // kMinStepSigmas disparity sigmas (the matcher's terraces on one surface step by up to 1 px).
+  const double focal_baseline = error_model.focal_px * error_model.baseline_m;
+  const double min_step_px = kMinStepSigmas * error_model.disparity_sigma_px;
+  size_t best_a = n, best_b = n;
+  double best_excess_m = 0;
+  for (size_t a = kMinStepSideColumns - 1; a + kMinStepSideColumns < n; ++a) {
+    for (size_t b = a + 1; b + kMinStepSideColumns <= n && profile_u[b] - profile_u[a] <= max_step_columns_px; ++b) {
+      if (std::abs(profile_d[a] - profile_d[b]) <= min_step_px) continue;
+      const double near_m = focal_baseline / std::max(profile_d[a], profile_d[b]);
+      const double far_m = focal_baseline / std::min(profile_d[a], profile_d[b]);
+      const double threshold_m = std::max(window_sigmas * error_model.depth_sigma_m(far_m) + row_cell_m, min_depth_gap_m);
+      const double excess_m = far_m - near_m - threshold_m;
+      if (excess_m > best_excess_m) best_excess_m = excess_m, best_a = a, best_b = b;
+    }
+  }
+  if (best_a == n) return {indices};
+  // The cut: after the column of the largest change between consecutive measured columns in [a, b].
+  size_t last_left = best_a;
+  for (size_t k = best_a + 1; k < best_b; ++k)
+    if (std::abs(profile_d[k + 1] - profile_d[k]) > std::abs(profile_d[last_left + 1] - profile_d[last_left])) last_left = k;
+  return cut_after_column(points, indices, profile_u[last_left] + u_min);
 }
 
 std::vector<std::vector<int>> split_at_concavity(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
                                                  const StereoErrorModel& error_model, double min_concavity_px, double min_depth_gap_m,
                                                  ArmWork* work) {
   if (min_concavity_px <= 0 || indices.size() < 3 * kMinPointsPerConcavityColumn) return {indices};
-  const auto [u_min, u_max] = column_span_of(points, indices);
-  const size_t span = static_cast<size_t>(u_max - u_min) + 1;
-  // Median disparity per column (0: fewer than kMinPointsPerConcavityColumn points; disparities are > 0).
-  const std::vector<float> medians = column_medians(points, indices, u_min, span, kMinPointsPerConcavityColumn, 0.0f,
-                                                    [](const ObstaclePoint& point) { return point.disparity_px; });
-  std::vector<int> profile_u;    // the columns (relative to u_min) with a median, increasing
-  std::vector<float> profile_d;  // their median disparity
-  for (size_t column = 0; column < span; ++column) {
-    if (medians[column] <= 0) continue;
-    profile_u.push_back(static_cast<int>(column));
-    profile_d.push_back(medians[column]);
-  }
+  const auto [u_min, span, profile_u, profile_d] = disparity_profile(points, indices);
   const size_t n = profile_u.size();
   // The concave envelope: the upper hull of the profile's (u, d) points (Andrew's monotone chain;
   // the points come sorted by u). A hull vertex b stays when it lies strictly above the chord from
@@ -964,31 +1031,35 @@ std::vector<std::vector<int>> split_at_concavity(const std::vector<ObstaclePoint
   // The deepest column goes with the side whose neighbouring column is nearer to it in disparity
   // (the surface it belongs to).
   const bool with_left = std::abs(profile_d[deepest - 1] - profile_d[deepest]) <= std::abs(profile_d[deepest + 1] - profile_d[deepest]);
-  const int last_left = (with_left ? profile_u[deepest] : profile_u[deepest - 1]) + u_min;
-  std::vector<std::vector<int>> parts(2);
-  for (int index : indices) parts[points[static_cast<size_t>(index)].u_px <= last_left ? 0 : 1].push_back(index);
-  return parts;
+  return cut_after_column(points, indices, (with_left ? profile_u[deepest] : profile_u[deepest - 1]) + u_min);
 }
 
 std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
                                            const OccupancyGridParameters& parameters, ArmWork* work) {
   std::vector<std::vector<int>> parts = split_at_column_gaps(points, indices, parameters.min_column_gap_px, work);
-  if (parameters.split_at_range_peaks) {
-    const double row_cell_m = parameters.kind == GridKind::column_disparity ? 0.0 : parameters.row_cell;
+  // Applies one cut to every part so far, the pieces in order.
+  const auto cut_each = [&parts](auto&& cut) {
     std::vector<std::vector<int>> pieces;
     for (const std::vector<int>& part : parts)
-      for (std::vector<int>& piece : split_at_range_peak(points, part, parameters.error_model, parameters.window_sigmas, row_cell_m,
-                                                         parameters.min_depth_gap_m, work))
-        pieces.push_back(std::move(piece));
+      for (std::vector<int>& piece : cut(part)) pieces.push_back(std::move(piece));
     parts = std::move(pieces);
+  };
+  const double row_cell_m = parameters.kind == GridKind::column_disparity ? 0.0 : parameters.row_cell;
+  if (parameters.split_at_range_peaks) {
+    cut_each([&](const std::vector<int>& part) {
+      return split_at_range_peak(points, part, parameters.error_model, parameters.window_sigmas, row_cell_m, parameters.min_depth_gap_m, work);
+    });
+  }
+  if (parameters.max_range_step_columns_px > 0) {
+    cut_each([&](const std::vector<int>& part) {
+      return split_at_range_step(points, part, parameters.error_model, parameters.window_sigmas, row_cell_m, parameters.min_depth_gap_m,
+                                 parameters.max_range_step_columns_px, work);
+    });
   }
   if (parameters.min_concavity_px > 0) {
-    std::vector<std::vector<int>> pieces;
-    for (const std::vector<int>& part : parts)
-      for (std::vector<int>& piece :
-           split_at_concavity(points, part, parameters.error_model, parameters.min_concavity_px, parameters.min_depth_gap_m, work))
-        pieces.push_back(std::move(piece));
-    parts = std::move(pieces);
+    cut_each([&](const std::vector<int>& part) {
+      return split_at_concavity(points, part, parameters.error_model, parameters.min_concavity_px, parameters.min_depth_gap_m, work);
+    });
   }
   return parts;
 }

@@ -100,7 +100,9 @@
 // nearer object beside it (urban: a car's side receding to 16 m, a pedestrian at 14.2 m next to it,
 // 0.3-0.8 m from the side, the gap filled by stereo fattening so no column is empty;
 // bench/obstacles3d_eval, urban, 60 frames: polar 98.5 -> 99.2 % on seed 2 and 96.4 -> 97.1 % on
-// seed 3, the false positives added all in the frames of terrain-fit junk). Then each piece is cut
+// seed 3, the false positives added all in the frames of terrain-fit junk). Then at a step of its
+// disparity profile (split_at_range_step, max_range_step_columns_px, default 4 px, 0 = off; see its
+// comment): such a far end left at the edge of a part, beside a nearer object. Then each piece is cut
 // once more where it is concave (split_at_concavity, min_concavity_px, default 0.5 px, 0 = off): the
 // map (x, z) -> (u, d) = (u0 + f x / z, f B / z) is a projective map of the half-plane z > 0, so it
 // takes lines to lines and convex sets to convex sets (a vertical plane's disparity is affine in u;
@@ -208,6 +210,10 @@ struct OccupancyGridParameters {
   // profile over the image columns rises to a peak and falls again by more than a window is cut at
   // the peak. false: off.
   bool split_at_range_peaks = true;
+  // The range-step split (split_at_range_step; see its comment): [0, 16] image columns (px), 0 = off.
+  // An object whose range profile jumps by more than a window within this many columns, with at
+  // least 3 measured columns on each side, is cut at the jump.
+  int max_range_step_columns_px = 4;
   // The concavity split (split_at_concavity; see the header comment): [0, 8] disparity px, 0 = off.
   // A column whose median disparity lies more than this below the concave envelope of the object's
   // disparity profile over the image columns (and more than min_depth_gap_m behind it along its
@@ -353,6 +359,27 @@ std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoin
                                                   const StereoErrorModel& error_model, double window_sigmas, double row_cell_m,
                                                   double min_depth_gap_m, ArmWork* work = nullptr);
 
+// The range-step split: the disparity profile of `indices` over the left-image columns is the
+// median disparity_px of each column holding at least 10 of them (as the concavity split's, for the
+// same reason: from fewer it follows the matcher's streaks). The occlusion split needs a range peak
+// with both sides falling; after the column-gap split has cut a far surface apart, its end can be
+// left at the edge of a part with a nearer object beside it, the columns between them filled by
+// stereo fattening (urban: a parked car's side receding to 15 m, a pedestrian at 12.7 m beside its
+// far end, one obstacle whose centre lay 1.3 m behind the pedestrian, outside its gate). Where the
+// depths f B / d of two measured columns at most max_step_columns_px apart differ by more than
+// max(window_sigmas sigma_Z(the farther) + row_cell_m, min_depth_gap_m), their disparities by more
+// than 5 disparity_sigma_px (SGM's terraces on one surface step by up to 1 px), and at least 3
+// measured columns lie on each side, two surfaces meet: one object's surface seen obliquely changes
+// depth by a fraction of that over a few columns (a car's side at 12-16 m: 0.08 m per column). The
+// points are cut once, at the largest such jump (its excess over the depth threshold), after the
+// column of the largest change between consecutive measured columns inside it; each part in the
+// order of `indices`. None or max_step_columns_px <= 0: one part, `indices`. `work` (optional) gets
+// 6 ops and 8 bytes per point (its column, its disparity, the median selection) and 8 ops and 12
+// bytes per column spanned.
+std::vector<std::vector<int>> split_at_range_step(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
+                                                  const StereoErrorModel& error_model, double window_sigmas, double row_cell_m,
+                                                  double min_depth_gap_m, int max_step_columns_px, ArmWork* work = nullptr);
+
 // The concavity split (see the header comment): the disparity profile of `indices` over the
 // left-image columns is the median disparity_px of each column holding at least 10 of them (from
 // fewer it follows the matcher's row-correlated streaks: SGM's terraces on a low surface seen at a
@@ -370,10 +397,11 @@ std::vector<std::vector<int>> split_at_concavity(const std::vector<ObstaclePoint
                                                  const StereoErrorModel& error_model, double min_concavity_px, double min_depth_gap_m,
                                                  ArmWork* work = nullptr);
 
-// The three cuts as the grids and the stixels apply them to one object's points: split_at_column_gaps
+// The four cuts as the grids and the stixels apply them to one object's points: split_at_column_gaps
 // (parameters.min_column_gap_px), then, when parameters.split_at_range_peaks, split_at_range_peak on
 // each part with the grid's error model, window and row cell (0 for the column/disparity grid, whose
-// rows are disparities, not metres) and min_depth_gap_m, then, when parameters.min_concavity_px > 0,
+// rows are disparities, not metres) and min_depth_gap_m, then, when parameters.max_range_step_columns_px
+// > 0, split_at_range_step on each piece (the same window), then, when parameters.min_concavity_px > 0,
 // split_at_concavity on each piece (min_concavity_px, min_depth_gap_m). Parts in that order; `work`
 // gets the cuts'.
 std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,

@@ -420,13 +420,16 @@ TEST(OccupancyGridClusters, APedestrianJustBehindACarOnOneBearingIsItsOwnObstacl
   // (The column/disparity grid splits on the same rule, but here the two depths are 10 and 8.8 px,
   // within its window of 3 sigma_d + a 0.5 px cell = 1.25 px: one object there.)
   // A Cartesian column is not a ray: it keeps one object per group of cells (see the header), so there
-  // the two are separated by the concavity split alone (the car's 10 px disparity profile steps down
-  // to the pedestrian's 8.8 px for his 12 visible columns: 1.1 px and 1.8 m under the envelope); with
-  // it off (min_concavity_px = 0), one obstacle holds both, its box running over both depths.
+  // the two are separated by the profile cuts alone (the car's 10 px disparity profile steps down
+  // to the pedestrian's 8.8 px for his 12 visible columns: 1.1 px and 1.8 m under the envelope, a
+  // step of about 1.2 px and 2 m with the noise); with the concavity and range-step splits off
+  // (min_concavity_px = 0, max_range_step_columns_px = 0), one obstacle holds both, its box running
+  // over both depths.
   for (double concavity_px : {0.5, 0.0}) {
     for (GridKind kind : {GridKind::polar, GridKind::cartesian}) {
       OccupancyGridParameters parameters = grid_parameters(kind);
       parameters.min_concavity_px = concavity_px;
+      if (concavity_px == 0) parameters.max_range_step_columns_px = 0;
       OccupancyGrid grid(parameters);
       for (int frame = 0; frame < 3; ++frame) {
         std::vector<ObstaclePoint> points;
@@ -746,6 +749,90 @@ TEST(OccupancyGridConcavity, ATerracedProfileFromFewPointsPerColumnIsNotCut) {
   }
 }
 
+// A parked car's far end beside a nearer pedestrian, as the column-gap split leaves it (urban seed 2
+// frame 21 in bench/obstacles3d_eval: the rest of the car cut off at an empty column): three columns
+// of the car at 15.2, 15.0 and 14.8 m (198-200), two columns the matcher mixed (201-202, a third and
+// two thirds of the way), and the pedestrian (0.2-1.7 m) at `pedestrian_m` over 203-218. The
+// disparity profile rises and then stays flat (concave), and the range falls: no peak.
+void add_far_end_and_pedestrian(std::vector<ObstaclePoint>& points, double pedestrian_m = 12.7) {
+  const double car_m[3] = {15.2, 15.0, 14.8};
+  for (int k = 0; k < 3; ++k) testing::add_pixel_column(points, 198 + k, 0.2, 1.5, car_m[k]);
+  testing::add_pixel_column(points, 201, 0.2, 1.5, 14.8 + (pedestrian_m - 14.8) / 3);
+  testing::add_pixel_column(points, 202, 0.2, 1.5, 14.8 + 2 * (pedestrian_m - 14.8) / 3);
+  for (int u = 203; u <= 218; ++u) testing::add_pixel_column(points, u, 0.2, 1.7, pedestrian_m);
+}
+
+TEST(OccupancyGridRangeSteps, AFarSurfacesEndBesideANearerObjectIsCutAtTheStep) {
+  // Disparity (f B / z, f B = 150 px m): the car's third column (200, 14.8 m) is 10.14 px, the
+  // pedestrian's first (203) 11.81 px: 1.68 px (beyond 5 x 0.25 px) and 2.1 m nearer (beyond
+  // max(3 sigma_Z(14.8) + 0.2, 1) = 1.30 m) within 3 columns; the car's first two columns cannot be a
+  // step's end (3 measured columns on each side). The mixed columns are 10.64 and 11.19 px; the
+  // largest change between consecutive columns inside the step is 202 -> 203 (0.62 px), so the cut
+  // is after 202.
+  const StereoErrorModel model = testing::error_model();
+  std::vector<ObstaclePoint> points;
+  add_far_end_and_pedestrian(points);
+  const std::vector<int> all = all_indices(points);
+  // The other cuts leave it whole: no empty column, no range peak, no concavity.
+  EXPECT_EQ(split_at_column_gaps(points, all, 3).size(), 1u);
+  EXPECT_EQ(split_at_range_peak(points, all, model, 3.0, 0.2, 1.0).size(), 1u);
+  EXPECT_EQ(split_at_concavity(points, all, model, 0.5, 1.0).size(), 1u);
+  ArmWork work;
+  const std::vector<std::vector<int>> parts = split_at_range_step(points, all, model, 3.0, 0.2, 1.0, 4, &work);
+  ASSERT_EQ(parts.size(), 2u);
+  size_t car_side = 0;
+  for (const ObstaclePoint& point : points) car_side += point.u_px <= 202 ? 1 : 0;
+  EXPECT_EQ(parts[0].size(), car_side);
+  for (int index : parts[0]) EXPECT_LE(points[static_cast<size_t>(index)].u_px, 202);
+  for (int index : parts[1]) EXPECT_GE(points[static_cast<size_t>(index)].u_px, 203);
+  // 6 ops and 8 bytes per point, 8 and 12 per column from 198 to 218 (21).
+  EXPECT_EQ(work.scalar_ops, 6u * points.size() + 8u * 21);
+  EXPECT_EQ(work.memory_bytes, 8u * points.size() + 12u * 21);
+  // Within 2 columns no pair is both 1.25 px and a window apart (200 -> 202: 1.06 px; 201 -> 203:
+  // 1.17 px); within 3 the step is found. Off at 0.
+  EXPECT_EQ(split_at_range_step(points, all, model, 3.0, 0.2, 1.0, 3).size(), 2u);
+  EXPECT_EQ(split_at_range_step(points, all, model, 3.0, 0.2, 1.0, 2).size(), 1u);
+  EXPECT_EQ(split_at_range_step(points, all, model, 3.0, 0.2, 1.0, 0).size(), 1u);
+  // A larger depth threshold (min_depth_gap_m 2.5 m) keeps it one part.
+  EXPECT_EQ(split_at_range_step(points, all, model, 3.0, 0.2, 2.5, 4).size(), 1u);
+  // split_object with the defaults applies it; with max_range_step_columns_px = 0 it is one part.
+  OccupancyGridParameters parameters = grid_parameters(GridKind::polar);
+  EXPECT_EQ(split_object(points, all, parameters).size(), 2u);
+  parameters.max_range_step_columns_px = 0;
+  EXPECT_EQ(split_object(points, all, parameters).size(), 1u);
+}
+
+TEST(OccupancyGridRangeSteps, StepsUnderTheThresholdsAndBorderColumnsAreNotCut) {
+  const StereoErrorModel model = testing::error_model();
+  // The pedestrian at 14.0 m: 0.8 m nearer than the car's end, under 1.30 m.
+  std::vector<ObstaclePoint> near_step;
+  add_far_end_and_pedestrian(near_step, 14.0);
+  EXPECT_EQ(split_at_range_step(near_step, all_indices(near_step), model, 3.0, 0.2, 1.0, 4).size(), 1u);
+  // SGM's terraces on a surface seen at a grazing angle (12, 11, 10, 9, 8 px, 12 columns each, 12
+  // points a column): each 1 px step is 1.1-2.1 m of depth, beyond the window at 9-10 px, but not
+  // beyond 5 disparity sigmas (1.25 px).
+  std::vector<ObstaclePoint> terraces;
+  for (int u = 100; u < 160; ++u) add_column_at_range(terraces, u, kFocalPx * kBaselineM / (12.0 - (u - 100) / 12), 12);
+  EXPECT_EQ(split_at_range_step(terraces, all_indices(terraces), model, 3.0, 0.2, 1.0, 4).size(), 1u);
+  // A car's rear at 11.5 m whose two border columns took the background's 16 m: fewer than 3
+  // measured columns on that side, no cut.
+  std::vector<ObstaclePoint> border;
+  testing::add_pixel_column(border, 109, 0.2, 1.5, 16.0);
+  testing::add_pixel_column(border, 110, 0.2, 1.5, 16.0);
+  for (int u = 111; u <= 189; ++u) testing::add_pixel_column(border, u, 0.2, 1.5, 11.5);
+  EXPECT_EQ(split_at_range_step(border, all_indices(border), model, 3.0, 0.2, 1.0, 4).size(), 1u);
+  // With a third such column the far side is a surface of its own.
+  testing::add_pixel_column(border, 108, 0.2, 1.5, 16.0);
+  EXPECT_EQ(split_at_range_step(border, all_indices(border), model, 3.0, 0.2, 1.0, 4).size(), 2u);
+  // The single objects, and the pedestrian touching the car side's far end at its depth (the
+  // concavity split's case: no step), are not cut.
+  for (const auto& [name, points] : single_objects())
+    EXPECT_EQ(split_at_range_step(points, all_indices(points), model, 3.0, 0.2, 1.0, 4).size(), 1u) << name;
+  std::vector<ObstaclePoint> touching;
+  testing::add_car_side_and_pedestrian(touching);
+  EXPECT_EQ(split_at_range_step(touching, all_indices(touching), model, 3.0, 0.2, 1.0, 4).size(), 1u);
+}
+
 TEST(OccupancyGridConcavity, ThePedestrianBesideTheCarSideIsItsOwnObstacleInEveryGrid) {
   // Through the grids' clusters, modes and cuts: with the concavity split one obstacle lies on the
   // pedestrian (its centre within 0.3 m of x -2.75 m, z 15.0 m, the eval's gate is 1.25 m); with it off
@@ -900,6 +987,9 @@ TEST(OccupancyGridBadInput, BadCellSizesAndParametersThrowNamingTheParameter) {
   parameters = grid_parameters(GridKind::polar);
   parameters.min_column_gap_px = -1;
   EXPECT_EQ(message_of(parameters), "min_column_gap_px: expected in [0, 64] px, got -1");
+  parameters = grid_parameters(GridKind::polar);
+  parameters.max_range_step_columns_px = 17;
+  EXPECT_EQ(message_of(parameters), "max_range_step_columns_px: expected in [0, 16] px (0 = off), got 17");
   parameters = grid_parameters(GridKind::polar);
   parameters.min_concavity_px = -0.5;
   EXPECT_EQ(message_of(parameters), "min_concavity_px: expected in [0, 8] px (0 = off), got -0.5");
