@@ -1064,6 +1064,9 @@ std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& poi
   return parts;
 }
 
+// obstacle_from_points: the share of an object's points left out at each end of each axis of its box.
+constexpr double kBoxTrimFraction = 0.01;
+
 Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id) {
   Obstacle3d obstacle;
   obstacle.id = id;
@@ -1081,6 +1084,19 @@ Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const 
     max_height = std::max<double>(max_height, point.height_above_ground_m);
     u0 = std::min<int>(u0, point.u_px), u1 = std::max<int>(u1, point.u_px);
     v0 = std::min<int>(v0, point.v_px), v1 = std::max<int>(v1, point.v_px);
+  }
+  // The box trimmed by kBoxTrimFraction of the points at each end of each axis: a few mismatches
+  // chained into an object through neighbouring modes stretch the full box by metres along the ray.
+  const size_t trim = static_cast<size_t>(kBoxTrimFraction * static_cast<double>(indices.size()));
+  if (trim > 0) {
+    std::vector<float> values(indices.size());
+    for (int axis = 0; axis < 3; ++axis) {
+      for (size_t k = 0; k < indices.size(); ++k) values[k] = points[static_cast<size_t>(indices[k])].camera_m[axis];
+      std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(trim), values.end());
+      low[axis] = values[trim];
+      std::nth_element(values.begin(), values.end() - 1 - static_cast<std::ptrdiff_t>(trim), values.end());
+      high[axis] = values[values.size() - 1 - trim];
+    }
   }
   obstacle.position_m = (low + high) / 2;
   obstacle.size_m = high - low;
