@@ -60,7 +60,11 @@
 //      lower edge, the first stixel at which the stixels so far hold more than a third of the
 //      cluster's points: one stixel pulled down by a fattened border does not move it, and the
 //      thin, sparse stixels of a pole's foot or a post that chain into a board's or a ball's
-//      cluster in steps under max_lower_edge_step_m count by their few points, not as stixels).
+//      cluster in steps under max_lower_edge_step_m count by their few points, not as stixels),
+//      and the lower edge itself is step 3's estimate on the pooled points of the member stixels
+//      whose own edge lies within max_lower_edge_step_m of that tercile (a hanging board's bottom
+//      rows, given a slightly lower disparity by the matcher, fall in farther range cells than the
+//      rows above, so most of its stixels hold no bottom row and their edges lie above its edge).
 //      Fragments: the lower-edge step also cuts pieces off a hanging obstacle: the top rows of a
 //      board whose points scattered into other range cells ([1.5, 1.6] m beside a [0.9, 1.6] m
 //      board), a sign's arm between the sign and its post ([2.9, 3.0] m beside a [1.9, 3.0] m
@@ -91,7 +95,8 @@
 // Counted work (ArmWork): the grid's own (occupancy_grid.h), plus per point 8 ops + 8 bytes (count)
 // and 6 ops + 8 bytes (placement); per cell 4 ops + 4 bytes (prefix sum); per point of a stixel
 // cell 12 ops (the height sort, ~log2 of a cell's few dozen points, sums) + 16 bytes, and 8 ops for
-// the support split's scan when support_density_ratio > 0 (two spans, two densities, a compare); clustering
+// the support split's scan when support_density_ratio > 0 (two spans, two densities, a compare); per
+// point pooled for an obstacle's lower edge 10 ops + 8 bytes (the gather, two selections); clustering
 // and the fragment test 20 ops per stixel pair tested (the stixels of the (2 n + 1) x 3 cells
 // around, n range cells reached along the bearing, and of (2 n + 1) x 5 for fragments) and the
 // Obstacle3d's 10 ops + sizeof(ObstaclePoint) per point, and the column gap split's (occupancy_grid.h:
