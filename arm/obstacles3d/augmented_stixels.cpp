@@ -370,7 +370,7 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
     for (size_t part = 0; part < parts.size(); ++part) {
       if (static_cast<int>(parts[part].size()) < parameters_.min_obstacle_points) continue;
       obstacle_of_part[part] = static_cast<int>(obstacles_.size());
-      Obstacle3d obstacle = obstacle_from_points(points, parts[part], static_cast<int>(obstacles_.size()));
+      Obstacle3d obstacle = obstacle_from_points(points, parts[part], static_cast<int>(obstacles_.size()), &work_);
       obstacle.min_height_m = cluster_lower[index];  // trimmed, as the stixels'
       obstacle.max_height_m = cluster_upper[index];
       obstacles_.push_back(obstacle);

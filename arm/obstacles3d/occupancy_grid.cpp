@@ -691,7 +691,7 @@ void OccupancyGrid::cluster_and_describe(const std::vector<ObstaclePoint>& point
           if (static_cast<int>(members.size()) < parameters_.min_obstacle_points) continue;
           if (cluster.obstacle_count == 0) cluster.obstacle_index = static_cast<int>(obstacles_.size());
           ++cluster.obstacle_count;
-          obstacles_.push_back(obstacle_from_points(points, members, static_cast<int>(obstacles_.size())));
+          obstacles_.push_back(obstacle_from_points(points, members, static_cast<int>(obstacles_.size()), &work_));
         }
       }
     }
@@ -1067,7 +1067,7 @@ std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& poi
 // obstacle_from_points: the share of an object's points left out at each end of each axis of its box.
 constexpr double kBoxTrimFraction = 0.01;
 
-Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id) {
+Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id, ArmWork* work) {
   Obstacle3d obstacle;
   obstacle.id = id;
   if (indices.empty()) return obstacle;
@@ -1096,6 +1096,10 @@ Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const 
       low[axis] = values[trim];
       std::nth_element(values.begin(), values.end() - 1 - static_cast<std::ptrdiff_t>(trim), values.end());
       high[axis] = values[values.size() - 1 - trim];
+    }
+    if (work != nullptr) {
+      work->scalar_ops += 24 * indices.size();
+      work->memory_bytes += 12 * indices.size();
     }
   }
   obstacle.position_m = (low + high) / 2;

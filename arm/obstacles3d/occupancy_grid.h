@@ -152,6 +152,8 @@
 //     column between its smallest and largest u; the occlusion split's 6 ops + 8 bytes per point
 //     and 12 ops + 24 bytes per column of each part; the concavity split's 6 ops + 8 bytes per point
 //     and 20 ops + 20 bytes per column of each piece (counts, medians' bookkeeping, hull, depths);
+//   per object: the range-step split's 6 ops + 8 bytes per point and 8 ops + 12 bytes per column;
+//     the trimmed box's 24 ops + 12 bytes per point of an object of 100 points or more;
 //   per point again: 10 ops + sizeof(ObstaclePoint) for the obstacles' statistics, and 12 ops for
 //     the inlier test (its row mean and sigma, kept from the evidence pass, against its cell's
 //     mode); 6 ops per cell holding points (rays: its mode looked up; Cartesian: its column's mode,
@@ -414,7 +416,9 @@ std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& poi
 // bench/obstacles3d_eval floating seed 2 frame 58) stretched it by metres along the ray and moved
 // its centre out of the object's gate; the height range and the pixel box keep every point.
 // `indices` selects the points; empty selection -> nothing changed but id. Used by the grids and the
-// stixels.
-Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id);
+// stixels. `work` (optional) gets the trimmed box's 24 ops and 12 bytes per point (three axes
+// copied, two selections each) when it leaves any point out (100 points or more).
+Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id,
+                                ArmWork* work = nullptr);
 
 }  // namespace lpstereo::arm::obstacles3d

@@ -617,8 +617,11 @@ TEST(OccupancyGridObstacleBox, AFewMismatchesAlongTheRayDoNotStretchTheBox) {
   for (int k = 0; k < 22; ++k) points.push_back(testing::point_at(-3.0 + 0.01 * k, 1.2, 13.7 + 0.02 * k));
   std::vector<int> all(points.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
-  const Obstacle3d board = obstacle_from_points(points, all, 7);
+  ArmWork work;
+  const Obstacle3d board = obstacle_from_points(points, all, 7, &work);
   EXPECT_EQ(board.id, 7);
+  EXPECT_EQ(work.scalar_ops, 24u * points.size());  // three axes copied, two selections each
+  EXPECT_EQ(work.memory_bytes, 12u * points.size());
   EXPECT_NEAR(board.position_m.z(), 11.7, 1e-4);
   EXPECT_NEAR(board.size_m.z(), 0.0, 1e-4);
   EXPECT_NEAR(board.position_m.x(), -2.7, 0.03);
@@ -633,7 +636,9 @@ TEST(OccupancyGridObstacleBox, AFewMismatchesAlongTheRayDoNotStretchTheBox) {
   std::vector<int> all_few(few.size());
   for (size_t i = 0; i < all_few.size(); ++i) all_few[i] = static_cast<int>(i);
   ASSERT_LT(few.size(), 100u);
-  const Obstacle3d small = obstacle_from_points(few, all_few, 0);
+  ArmWork few_work;
+  const Obstacle3d small = obstacle_from_points(few, all_few, 0, &few_work);
+  EXPECT_EQ(few_work.scalar_ops, 0u);
   EXPECT_NEAR(small.size_m.z(), 2.0, 1e-4);
   EXPECT_NEAR(small.position_m.z(), 12.7, 1e-4);
 }
