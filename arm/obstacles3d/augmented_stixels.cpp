@@ -289,10 +289,12 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
     }
     const size_t n = pooled_heights.size();
     const size_t lower = static_cast<size_t>(std::floor(parameters_.lower_edge_fraction * static_cast<double>(n)));
-    std::nth_element(pooled_heights.begin(), pooled_heights.begin() + static_cast<std::ptrdiff_t>(lower), pooled_heights.end());
-    const float lower_percentile_m = pooled_heights[lower];
-    std::nth_element(pooled_heights.begin(), pooled_heights.begin() + static_cast<std::ptrdiff_t>(n / 2), pooled_heights.end());
-    const float median_m = pooled_heights[n / 2];
+    const auto lower_slot = pooled_heights.begin() + static_cast<std::ptrdiff_t>(lower);
+    std::nth_element(pooled_heights.begin(), lower_slot, pooled_heights.end());
+    const float lower_percentile_m = *lower_slot;
+    const auto median_slot = pooled_heights.begin() + static_cast<std::ptrdiff_t>(n / 2);
+    if (median_slot > lower_slot) std::nth_element(lower_slot + 1, median_slot, pooled_heights.end());  // the rest are >= it
+    const float median_m = *median_slot;
     cluster_lower[index] = static_cast<float>(std::min<double>(lower_edge_m(lower_percentile_m, median_m, range_sum, static_cast<double>(n)), upper));
     work_.scalar_ops += 10 * static_cast<uint64_t>(n);
     work_.memory_bytes += 8 * static_cast<uint64_t>(n);

@@ -103,7 +103,7 @@
 // 4 ops + 2 bytes per point, 2 ops + 5 bytes per image column spanned), the occlusion split's
 // (6 ops + 8 bytes per point, 12 ops + 24 bytes per column spanned), the range-step split's (6 ops +
 // 8 bytes per point, 8 ops + 12 bytes per column spanned), the concavity split's (6 ops + 8 bytes
-// per point, 20 ops + 20 bytes per column spanned) and the trimmed box's (24 ops + 12 bytes per
+// per point, 20 ops + 20 bytes per column spanned) and the trimmed box's (16 ops + 8 bytes per
 // point of an obstacle of 100 points or more).
 #pragma once
 

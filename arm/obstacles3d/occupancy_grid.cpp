@@ -847,29 +847,106 @@ std::vector<float> column_medians(const std::vector<ObstaclePoint>& points, cons
   return profile;
 }
 
-// The profile of the range-step and concavity splits: the median disparity of each column holding
-// at least kMinPointsPerConcavityColumn points, in increasing column order (u relative to u_min),
-// over the columns u_min .. u_min + span - 1 the points span (indices not empty).
+// The profile of the range-step and concavity splits: the median disparity of each left-image
+// column holding at least kMinPointsPerConcavityColumn of the points, in increasing column order;
+// span = the columns from the points' smallest to largest u (indices not empty). A cut at a column
+// leaves each side's columns whole, so a piece's profile is a run of its part's.
 struct DisparityProfile {
-  int u_min = 0;
   size_t span = 0;
-  std::vector<int> u;
-  std::vector<float> d;
+  std::vector<int> u;    // absolute left-image columns
+  std::vector<float> d;  // their median disparity
 };
 DisparityProfile disparity_profile(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices) {
   DisparityProfile profile;
   const auto [u_min, u_max] = column_span_of(points, indices);
-  profile.u_min = u_min;
   profile.span = static_cast<size_t>(u_max - u_min) + 1;
   // 0: fewer than kMinPointsPerConcavityColumn points (disparities are > 0).
   const std::vector<float> medians = column_medians(points, indices, u_min, profile.span, kMinPointsPerConcavityColumn, 0.0f,
                                                     [](const ObstaclePoint& point) { return point.disparity_px; });
   for (size_t column = 0; column < profile.span; ++column) {
     if (medians[column] <= 0) continue;
-    profile.u.push_back(static_cast<int>(column));
+    profile.u.push_back(u_min + static_cast<int>(column));
     profile.d.push_back(medians[column]);
   }
   return profile;
+}
+
+// The range-step split's rule (split_at_range_step) on the profile's measured columns [first, last):
+// the last column of the left part, -1 for no cut.
+int range_step_cut(const DisparityProfile& profile, size_t first, size_t last, const StereoErrorModel& error_model, double window_sigmas,
+                   double row_cell_m, double min_depth_gap_m, int max_step_columns_px) {
+  const std::vector<int>& profile_u = profile.u;
+  const std::vector<float>& profile_d = profile.d;
+  if (last - first < 2 * static_cast<size_t>(kMinStepSideColumns)) return -1;
+  // The largest jump between a column a and a column b at most max_step_columns_px to its right
+  // (the columns in between are the matcher's mix of the two surfaces), each side keeping
+  // kMinStepSideColumns measured columns: beyond a window in depth at the farther one, and beyond
+  // kMinStepSigmas disparity sigmas (the matcher's terraces on one surface step by up to 1 px).
+  const double focal_baseline = error_model.focal_px * error_model.baseline_m;
+  const double min_step_px = kMinStepSigmas * error_model.disparity_sigma_px;
+  size_t best_a = last, best_b = last;
+  double best_excess_m = 0;
+  for (size_t a = first + kMinStepSideColumns - 1; a + kMinStepSideColumns < last; ++a) {
+    for (size_t b = a + 1; b + kMinStepSideColumns <= last && profile_u[b] - profile_u[a] <= max_step_columns_px; ++b) {
+      if (std::abs(profile_d[a] - profile_d[b]) <= min_step_px) continue;
+      const double near_m = focal_baseline / std::max(profile_d[a], profile_d[b]);
+      const double far_m = focal_baseline / std::min(profile_d[a], profile_d[b]);
+      const double threshold_m = std::max(window_sigmas * error_model.depth_sigma_m(far_m) + row_cell_m, min_depth_gap_m);
+      const double excess_m = far_m - near_m - threshold_m;
+      if (excess_m > best_excess_m) best_excess_m = excess_m, best_a = a, best_b = b;
+    }
+  }
+  if (best_a == last) return -1;
+  // The cut: after the column of the largest change between consecutive measured columns in [a, b].
+  size_t last_left = best_a;
+  for (size_t k = best_a + 1; k < best_b; ++k)
+    if (std::abs(profile_d[k + 1] - profile_d[k]) > std::abs(profile_d[last_left + 1] - profile_d[last_left])) last_left = k;
+  return profile_u[last_left];
+}
+
+// The concavity split's rule (split_at_concavity) on the profile's measured columns [first, last):
+// the last column of the left part, -1 for no cut.
+int concavity_cut(const DisparityProfile& profile, size_t first, size_t last, const StereoErrorModel& error_model, double min_concavity_px,
+                  double min_depth_gap_m) {
+  const std::vector<int>& profile_u = profile.u;
+  const std::vector<float>& profile_d = profile.d;
+  // The concave envelope: the upper hull of the profile's (u, d) points (Andrew's monotone chain;
+  // the points come sorted by u). A hull vertex b stays when it lies strictly above the chord from
+  // the previous vertex a to the next point k.
+  std::vector<size_t> hull;
+  for (size_t k = first; k < last; ++k) {
+    while (hull.size() >= 2) {
+      const size_t a = hull[hull.size() - 2], b = hull.back();
+      const double cross = static_cast<double>(profile_u[b] - profile_u[a]) * (profile_d[k] - profile_d[a]) -
+                           static_cast<double>(profile_d[b] - profile_d[a]) * (profile_u[k] - profile_u[a]);
+      if (cross < 0) break;
+      hull.pop_back();
+    }
+    hull.push_back(k);
+  }
+  // Each column's depth under the envelope, in disparity and in metres along its ray; the deepest
+  // column beyond both thresholds (by its excess in pixels) is where two objects meet.
+  const double focal_baseline = error_model.focal_px * error_model.baseline_m;
+  size_t deepest = last;
+  double best_excess_px = 0;
+  size_t edge = 0;
+  for (size_t k = first + 1; k + 1 < last; ++k) {
+    while (edge + 2 < hull.size() && hull[edge + 1] <= k) ++edge;
+    const size_t a = hull[edge], b = hull[edge + 1];
+    if (k <= a || k >= b) continue;  // a hull vertex: on the envelope
+    const double chord_px = profile_d[a] + (profile_d[b] - profile_d[a]) * static_cast<double>(profile_u[k] - profile_u[a]) /
+                                               static_cast<double>(profile_u[b] - profile_u[a]);
+    const double excess_px = chord_px - profile_d[k] - min_concavity_px;
+    if (excess_px <= best_excess_px) continue;
+    if (focal_baseline / profile_d[k] - focal_baseline / chord_px <= min_depth_gap_m) continue;  // within one body's depth
+    best_excess_px = excess_px;
+    deepest = k;
+  }
+  if (deepest == last) return -1;
+  // The deepest column goes with the side whose neighbouring column is nearer to it in disparity
+  // (the surface it belongs to).
+  const bool with_left = std::abs(profile_d[deepest - 1] - profile_d[deepest]) <= std::abs(profile_d[deepest + 1] - profile_d[deepest]);
+  return with_left ? profile_u[deepest] : profile_u[deepest - 1];
 }
 
 // The two parts of a cut: the points in columns up to last_left_u and those after, each in the order
@@ -952,86 +1029,29 @@ std::vector<std::vector<int>> split_at_range_step(const std::vector<ObstaclePoin
                                                   const StereoErrorModel& error_model, double window_sigmas, double row_cell_m,
                                                   double min_depth_gap_m, int max_step_columns_px, ArmWork* work) {
   if (max_step_columns_px <= 0 || indices.size() < 2 * kMinStepSideColumns * kMinPointsPerConcavityColumn) return {indices};
-  const auto [u_min, span, profile_u, profile_d] = disparity_profile(points, indices);
-  const size_t n = profile_u.size();
+  const DisparityProfile profile = disparity_profile(points, indices);
   if (work != nullptr) {
-    work->scalar_ops += 6 * indices.size() + 8 * span;
-    work->memory_bytes += 8 * indices.size() + 12 * span;
+    work->scalar_ops += 6 * indices.size() + 8 * profile.span;
+    work->memory_bytes += 8 * indices.size() + 12 * profile.span;
   }
-  if (n < 2 * static_cast<size_t>(kMinStepSideColumns)) return {indices};
-  // The largest jump between a column a and a column b at most max_step_columns_px to its right
-  // (the columns in between are the matcher's mix of the two surfaces), each side keeping
-  // kMinStepSideColumns measured columns: beyond a window in depth at the farther one, and beyond
-  // kMinStepSigmas disparity sigmas (the matcher's terraces on one surface step by up to 1 px).
-  const double focal_baseline = error_model.focal_px * error_model.baseline_m;
-  const double min_step_px = kMinStepSigmas * error_model.disparity_sigma_px;
-  size_t best_a = n, best_b = n;
-  double best_excess_m = 0;
-  for (size_t a = kMinStepSideColumns - 1; a + kMinStepSideColumns < n; ++a) {
-    for (size_t b = a + 1; b + kMinStepSideColumns <= n && profile_u[b] - profile_u[a] <= max_step_columns_px; ++b) {
-      if (std::abs(profile_d[a] - profile_d[b]) <= min_step_px) continue;
-      const double near_m = focal_baseline / std::max(profile_d[a], profile_d[b]);
-      const double far_m = focal_baseline / std::min(profile_d[a], profile_d[b]);
-      const double threshold_m = std::max(window_sigmas * error_model.depth_sigma_m(far_m) + row_cell_m, min_depth_gap_m);
-      const double excess_m = far_m - near_m - threshold_m;
-      if (excess_m > best_excess_m) best_excess_m = excess_m, best_a = a, best_b = b;
-    }
-  }
-  if (best_a == n) return {indices};
-  // The cut: after the column of the largest change between consecutive measured columns in [a, b].
-  size_t last_left = best_a;
-  for (size_t k = best_a + 1; k < best_b; ++k)
-    if (std::abs(profile_d[k + 1] - profile_d[k]) > std::abs(profile_d[last_left + 1] - profile_d[last_left])) last_left = k;
-  return cut_after_column(points, indices, profile_u[last_left] + u_min);
+  const int last_left_u =
+      range_step_cut(profile, 0, profile.u.size(), error_model, window_sigmas, row_cell_m, min_depth_gap_m, max_step_columns_px);
+  if (last_left_u < 0) return {indices};
+  return cut_after_column(points, indices, last_left_u);
 }
 
 std::vector<std::vector<int>> split_at_concavity(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
                                                  const StereoErrorModel& error_model, double min_concavity_px, double min_depth_gap_m,
                                                  ArmWork* work) {
   if (min_concavity_px <= 0 || indices.size() < 3 * kMinPointsPerConcavityColumn) return {indices};
-  const auto [u_min, span, profile_u, profile_d] = disparity_profile(points, indices);
-  const size_t n = profile_u.size();
-  // The concave envelope: the upper hull of the profile's (u, d) points (Andrew's monotone chain;
-  // the points come sorted by u). A hull vertex b stays when it lies strictly above the chord from
-  // the previous vertex a to the next point k.
-  std::vector<size_t> hull;
-  for (size_t k = 0; k < n; ++k) {
-    while (hull.size() >= 2) {
-      const size_t a = hull[hull.size() - 2], b = hull.back();
-      const double cross = static_cast<double>(profile_u[b] - profile_u[a]) * (profile_d[k] - profile_d[a]) -
-                           static_cast<double>(profile_d[b] - profile_d[a]) * (profile_u[k] - profile_u[a]);
-      if (cross < 0) break;
-      hull.pop_back();
-    }
-    hull.push_back(k);
-  }
-  // Each column's depth under the envelope, in disparity and in metres along its ray; the deepest
-  // column beyond both thresholds (by its excess in pixels) is where two objects meet.
-  const double focal_baseline = error_model.focal_px * error_model.baseline_m;
-  size_t deepest = n;
-  double best_excess_px = 0;
-  size_t edge = 0;
-  for (size_t k = 1; k + 1 < n; ++k) {
-    while (edge + 2 < hull.size() && hull[edge + 1] <= k) ++edge;
-    const size_t a = hull[edge], b = hull[edge + 1];
-    if (k <= a || k >= b) continue;  // a hull vertex: on the envelope
-    const double chord_px = profile_d[a] + (profile_d[b] - profile_d[a]) * static_cast<double>(profile_u[k] - profile_u[a]) /
-                                               static_cast<double>(profile_u[b] - profile_u[a]);
-    const double excess_px = chord_px - profile_d[k] - min_concavity_px;
-    if (excess_px <= best_excess_px) continue;
-    if (focal_baseline / profile_d[k] - focal_baseline / chord_px <= min_depth_gap_m) continue;  // within one body's depth
-    best_excess_px = excess_px;
-    deepest = k;
-  }
+  const DisparityProfile profile = disparity_profile(points, indices);
   if (work != nullptr) {
-    work->scalar_ops += 6 * indices.size() + 20 * span;
-    work->memory_bytes += 8 * indices.size() + 20 * span;
+    work->scalar_ops += 6 * indices.size() + 20 * profile.span;
+    work->memory_bytes += 8 * indices.size() + 20 * profile.span;
   }
-  if (deepest == n) return {indices};
-  // The deepest column goes with the side whose neighbouring column is nearer to it in disparity
-  // (the surface it belongs to).
-  const bool with_left = std::abs(profile_d[deepest - 1] - profile_d[deepest]) <= std::abs(profile_d[deepest + 1] - profile_d[deepest]);
-  return cut_after_column(points, indices, (with_left ? profile_u[deepest] : profile_u[deepest - 1]) + u_min);
+  const int last_left_u = concavity_cut(profile, 0, profile.u.size(), error_model, min_concavity_px, min_depth_gap_m);
+  if (last_left_u < 0) return {indices};
+  return cut_after_column(points, indices, last_left_u);
 }
 
 std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
@@ -1050,21 +1070,54 @@ std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& poi
       return split_at_range_peak(points, part, parameters.error_model, parameters.window_sigmas, row_cell_m, parameters.min_depth_gap_m, work);
     });
   }
-  if (parameters.max_range_step_columns_px > 0) {
-    cut_each([&](const std::vector<int>& part) {
-      return split_at_range_step(points, part, parameters.error_model, parameters.window_sigmas, row_cell_m, parameters.min_depth_gap_m,
-                                 parameters.max_range_step_columns_px, work);
-    });
-  }
-  if (parameters.min_concavity_px > 0) {
-    cut_each([&](const std::vector<int>& part) {
-      return split_at_concavity(points, part, parameters.error_model, parameters.min_concavity_px, parameters.min_depth_gap_m, work);
+  // The range-step and concavity cuts read one disparity profile per part: a cut leaves each side's
+  // columns whole, so each piece's profile is a run of its part's (split_at_range_step and
+  // split_at_concavity give the same parts).
+  const bool step_on = parameters.max_range_step_columns_px > 0, concavity_on = parameters.min_concavity_px > 0;
+  const size_t step_min_points = 2 * kMinStepSideColumns * kMinPointsPerConcavityColumn;
+  const size_t concavity_min_points = 3 * kMinPointsPerConcavityColumn;
+  if (step_on || concavity_on) {
+    cut_each([&](const std::vector<int>& part) -> std::vector<std::vector<int>> {
+      const bool step_here = step_on && part.size() >= step_min_points, concavity_here = concavity_on && part.size() >= concavity_min_points;
+      if (!step_here && !concavity_here) return {part};
+      const DisparityProfile profile = disparity_profile(points, part);
+      const size_t columns = profile.u.size();
+      if (work != nullptr) {
+        work->scalar_ops += 6 * part.size() + (step_here ? 8 : 0) * profile.span + (concavity_here ? 20 : 0) * profile.span;
+        work->memory_bytes += 8 * part.size() + (step_here ? 12 : 0) * profile.span + (concavity_here ? 20 : 0) * profile.span;
+      }
+      // (piece, its run [first, last) of the profile's columns)
+      std::vector<std::pair<std::vector<int>, std::pair<size_t, size_t>>> pieces;
+      const int step_u = step_here ? range_step_cut(profile, 0, columns, parameters.error_model, parameters.window_sigmas, row_cell_m,
+                                                    parameters.min_depth_gap_m, parameters.max_range_step_columns_px)
+                                   : -1;
+      if (step_u < 0) {
+        pieces.push_back({part, {0, columns}});
+      } else {
+        std::vector<std::vector<int>> two = cut_after_column(points, part, step_u);
+        const size_t split = static_cast<size_t>(std::upper_bound(profile.u.begin(), profile.u.end(), step_u) - profile.u.begin());
+        pieces.push_back({std::move(two[0]), {0, split}});
+        pieces.push_back({std::move(two[1]), {split, columns}});
+      }
+      std::vector<std::vector<int>> result;
+      for (auto& [piece, run] : pieces) {
+        const int concavity_u = concavity_on && piece.size() >= concavity_min_points
+                                    ? concavity_cut(profile, run.first, run.second, parameters.error_model, parameters.min_concavity_px,
+                                                    parameters.min_depth_gap_m)
+                                    : -1;
+        if (concavity_u < 0) {
+          result.push_back(std::move(piece));
+          continue;
+        }
+        for (std::vector<int>& side : cut_after_column(points, piece, concavity_u)) result.push_back(std::move(side));
+      }
+      return result;
     });
   }
   return parts;
 }
 
-// obstacle_from_points: the share of an object's points left out at each end of each axis of its box.
+// obstacle_from_points: the share of an object's points left out at each end of x and of z of its box.
 constexpr double kBoxTrimFraction = 0.01;
 
 Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id, ArmWork* work) {
@@ -1085,21 +1138,24 @@ Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const 
     u0 = std::min<int>(u0, point.u_px), u1 = std::max<int>(u1, point.u_px);
     v0 = std::min<int>(v0, point.v_px), v1 = std::max<int>(v1, point.v_px);
   }
-  // The box trimmed by kBoxTrimFraction of the points at each end of each axis: a few mismatches
-  // chained into an object through neighbouring modes stretch the full box by metres along the ray.
+  // The box on the ground plane (x, z) trimmed by kBoxTrimFraction of the points at each end: a few
+  // mismatches chained into an object through neighbouring modes stretch the full box by metres
+  // along the ray. The vertical extent keeps every point, as the height range does.
   const size_t trim = static_cast<size_t>(kBoxTrimFraction * static_cast<double>(indices.size()));
   if (trim > 0) {
     std::vector<float> values(indices.size());
-    for (int axis = 0; axis < 3; ++axis) {
+    for (int axis : {0, 2}) {
       for (size_t k = 0; k < indices.size(); ++k) values[k] = points[static_cast<size_t>(indices[k])].camera_m[axis];
-      std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(trim), values.end());
-      low[axis] = values[trim];
-      std::nth_element(values.begin(), values.end() - 1 - static_cast<std::ptrdiff_t>(trim), values.end());
-      high[axis] = values[values.size() - 1 - trim];
+      const auto low_slot = values.begin() + static_cast<std::ptrdiff_t>(trim);
+      const auto high_slot = values.end() - 1 - static_cast<std::ptrdiff_t>(trim);
+      std::nth_element(values.begin(), low_slot, values.end());
+      std::nth_element(low_slot + 1, high_slot, values.end());  // the rest are >= the low one
+      low[axis] = *low_slot;
+      high[axis] = *high_slot;
     }
     if (work != nullptr) {
-      work->scalar_ops += 24 * indices.size();
-      work->memory_bytes += 12 * indices.size();
+      work->scalar_ops += 16 * indices.size();
+      work->memory_bytes += 8 * indices.size();
     }
   }
   obstacle.position_m = (low + high) / 2;

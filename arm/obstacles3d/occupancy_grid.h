@@ -84,7 +84,7 @@
 // along its ray (a thin pole's or a border's disparity taken from the background) and is left out
 // of the box, which it would stretch by metres. Every object of at least min_obstacle_points such
 // inlier points gives an Obstacle3d (GridCluster: obstacle_index, obstacle_count): position = centre
-// of the inliers' camera-frame bounding box (1 % left out at each end, obstacle_from_points), size =
+// of the inliers' camera-frame bounding box (1 % left out at each end of x and z, obstacle_from_points), size =
 // its extent, min/max height above the terrain,
 // bbox_px from their pixels. Before that, each object is split at gaps in the image columns
 // (split_at_column_gaps, min_column_gap_px, default 3 px): a run of at least that many left-image
@@ -153,7 +153,7 @@
 //     and 12 ops + 24 bytes per column of each part; the concavity split's 6 ops + 8 bytes per point
 //     and 20 ops + 20 bytes per column of each piece (counts, medians' bookkeeping, hull, depths);
 //   per object: the range-step split's 6 ops + 8 bytes per point and 8 ops + 12 bytes per column;
-//     the trimmed box's 24 ops + 12 bytes per point of an object of 100 points or more;
+//     the trimmed box's 16 ops + 8 bytes per point of an object of 100 points or more;
 //   per point again: 10 ops + sizeof(ObstaclePoint) for the obstacles' statistics, and 12 ops for
 //     the inlier test (its row mean and sigma, kept from the evidence pass, against its cell's
 //     mode); 6 ops per cell holding points (rays: its mode looked up; Cartesian: its column's mode,
@@ -411,13 +411,13 @@ std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& poi
                                            const OccupancyGridParameters& parameters, ArmWork* work = nullptr);
 
 // An Obstacle3d from points (camera-frame bounding box centre and extent, height range, pixel box).
-// The box leaves out 1 % of the points (rounded down) at each end of each axis: a few mismatches
+// The box leaves out 1 % of the points (rounded down) at each end of x and of z: a few mismatches
 // chained into an object through neighbouring modes (22 of a board's 3754 points 2 m behind it,
 // bench/obstacles3d_eval floating seed 2 frame 58) stretched it by metres along the ray and moved
-// its centre out of the object's gate; the height range and the pixel box keep every point.
-// `indices` selects the points; empty selection -> nothing changed but id. Used by the grids and the
-// stixels. `work` (optional) gets the trimmed box's 24 ops and 12 bytes per point (three axes
-// copied, two selections each) when it leaves any point out (100 points or more).
+// its centre out of the object's gate; its vertical extent, the height range and the pixel box keep
+// every point. `indices` selects the points; empty selection -> nothing changed but id. Used by the
+// grids and the stixels. `work` (optional) gets the trimmed box's 16 ops and 8 bytes per point (two
+// axes copied, two selections each) when it leaves any point out (100 points or more).
 Obstacle3d obstacle_from_points(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int id,
                                 ArmWork* work = nullptr);
 

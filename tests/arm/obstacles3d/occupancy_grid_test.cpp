@@ -611,7 +611,7 @@ TEST(OccupancyGridObstacleBox, AFewMismatchesAlongTheRayDoNotStretchTheBox) {
   // A board 2 m wide at 11.7 m (0.9-1.6 m, every 1 cm: 14271 points) and 22 points of it 2 m further
   // along their rays (floating seed 2 frame 58 in bench/obstacles3d_eval: 22 of 3754 points at
   // 13.5-14.2 m put the polar obstacle's centre 1 m behind the board, outside its gate). The box
-  // leaves out 1 % of the points at each end of each axis: its depth stays the board's.
+  // leaves out 1 % of the points at each end of x and z: its depth stays the board's.
   std::vector<ObstaclePoint> points;
   testing::add_patch(points, -3.7, -1.7, 0.9, 1.6, 11.7);
   for (int k = 0; k < 22; ++k) points.push_back(testing::point_at(-3.0 + 0.01 * k, 1.2, 13.7 + 0.02 * k));
@@ -620,13 +620,14 @@ TEST(OccupancyGridObstacleBox, AFewMismatchesAlongTheRayDoNotStretchTheBox) {
   ArmWork work;
   const Obstacle3d board = obstacle_from_points(points, all, 7, &work);
   EXPECT_EQ(board.id, 7);
-  EXPECT_EQ(work.scalar_ops, 24u * points.size());  // three axes copied, two selections each
-  EXPECT_EQ(work.memory_bytes, 12u * points.size());
+  EXPECT_EQ(work.scalar_ops, 16u * points.size());  // x and z copied, two selections each
+  EXPECT_EQ(work.memory_bytes, 8u * points.size());
   EXPECT_NEAR(board.position_m.z(), 11.7, 1e-4);
   EXPECT_NEAR(board.size_m.z(), 0.0, 1e-4);
   EXPECT_NEAR(board.position_m.x(), -2.7, 0.03);
   EXPECT_NEAR(board.size_m.x(), 2.0, 0.05);
-  // The heights and the pixel box keep every point.
+  // The vertical extent, the heights and the pixel box keep every point.
+  EXPECT_NEAR(board.size_m.y(), 0.7, 1e-4);
   EXPECT_NEAR(board.min_height_m, 0.9, 1e-4);
   EXPECT_NEAR(board.max_height_m, 1.6, 1e-4);
   // Under 100 points nothing is left out: 20 points at 11.7 m and one at 13.7 m span both.
