@@ -235,8 +235,9 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
   }
 
   // Each cluster's height interval: the upper edge is the highest stixel upper edge; the lower edge
-  // the point-weighted lower tercile of its stixels' lower edges: sorted by lower edge, the first
-  // stixel at which the stixels so far hold more than a third of the cluster's points. Weighted by
+  // starts from the point-weighted lower tercile of its stixels' lower edges (sorted by lower edge,
+  // the first stixel at which the stixels so far hold more than a third of the cluster's points),
+  // which picks the stixels the edge is then measured on (their pooled points, below). Weighted by
   // points because the stixels that pull a hanging obstacle's edge down are thin and sparse: a
   // pole's or a post's (8 and 5 cm in the floating scene, one angular cell, a few points per range
   // cell) chain into a board's cluster through stixels whose lower edges step down by less than
