@@ -43,6 +43,8 @@ inline Result run(const std::string& arguments) {
   };
   result.out = slurp(out_file);
   result.err = slurp(err_file);
+  std::error_code ignored;  // the capture folder is this call's own: leave nothing behind in the temp folder
+  fs::remove_all(directory, ignored);
   return result;
 }
 

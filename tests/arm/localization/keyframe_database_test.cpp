@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/support/scratch_directory.h"
+
 namespace lpstereo::arm::localization {
 namespace {
 
@@ -125,12 +127,8 @@ TEST(FeatureValidation3d, KeepsValidDisparitiesInRangeWithTheirPoints) {
 class KeyframeFile : public ::testing::Test {
  protected:
   void SetUp() override {
-    directory_ = std::filesystem::temp_directory_path() /
-                 ("lpstereo_keyframes_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    std::filesystem::create_directories(directory_);
     path_ = (directory_ / "map.bin").string();
   }
-  void TearDown() override { std::filesystem::remove_all(directory_); }
   std::vector<uint8_t> read_bytes() const {
     std::ifstream file(path_, std::ios::binary);
     return {std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
@@ -158,7 +156,8 @@ class KeyframeFile : public ::testing::Test {
     database.add(keyframe_at({4.5, 1, 2}, 7, 15));
     database.save(path_);
   }
-  std::filesystem::path directory_;
+  lpstereo::testing::ScratchDirectory scratch_{"lpstereo_keyframes"};  // per process and test: release and debug-asan may run it at once
+  const std::filesystem::path& directory_ = scratch_.root();
   std::string path_;
 };
 

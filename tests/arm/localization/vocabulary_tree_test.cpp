@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "arm/localization/vocabulary_tree.h"
+#include "tests/support/scratch_directory.h"
 
 namespace lpstereo::arm::localization {
 namespace {
@@ -223,15 +224,12 @@ TEST(VocabularyTree, RefusesBadParameters) {
 class VocabularyFile : public ::testing::Test {
  protected:
   void SetUp() override {
-    directory_ = std::filesystem::temp_directory_path() /
-                 ("lpstereo_vocabulary_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    std::filesystem::create_directories(directory_);
     tree_ = VocabularyTree::train(random_keyframes(30, 40, 8), {.branching = 6, .depth = 3, .max_iterations = 5, .seed = 3});
     path_ = (directory_ / "vocabulary.bin").string();
     tree_.save(path_);
   }
-  void TearDown() override { std::filesystem::remove_all(directory_); }
-  std::filesystem::path directory_;
+  lpstereo::testing::ScratchDirectory scratch_{"lpstereo_vocabulary"};  // per process and test: release and debug-asan may run it at once
+  const std::filesystem::path& directory_ = scratch_.root();
   VocabularyTree tree_;
   std::string path_;
 };
