@@ -326,23 +326,30 @@ TEST(OneSidedFit, KeepsTheSurfaceOnTheGroundUnderAnIslandOfMarkedCells) {
   EXPECT_DOUBLE_EQ(one_sided.grid.height_m(i, j), 1.9 + 0.12 * (12.75 - 10.5));
 }
 
+// Every cell of the default spec measured: height(x, y) plus Gaussian noise (seed 3) of noise_sigma_m.
+HeightGrid noisy_ground(const std::function<double(double, double)>& height, double noise_sigma_m) {
+  HeightGrid grid;
+  grid.spec = TerrainGridSpec{};
+  const int m0 = grid.spec.forward_cells(), m1 = grid.spec.lateral_cells();
+  std::mt19937 random(3);
+  std::normal_distribution<double> noise(0.0, noise_sigma_m);
+  grid.height_m.resize(m0, m1);
+  for (int i = 0; i < m0; ++i)
+    for (int j = 0; j < m1; ++j) grid.height_m(i, j) = height(grid.spec.cell_centre_x_m(i), grid.spec.cell_centre_y_m(j)) + noise(random);
+  grid.point_count = Eigen::MatrixXi::Constant(m0, m1, 10);
+  grid.state = Eigen::MatrixXi::Constant(m0, m1, terrain::kCellMeasured);
+  return grid;
+}
+
 TEST(OneSidedFit, MarkedGroundIsFittedAsUnmarkedGround) {
   // Noisy ground seen behind objects (3 cm noise, a 5 % climb): a marked sample within the
   // tolerance of the surface counts as any. Every cell marked (too few unmarked ones to start from:
   // all start two-sided): the same surface to the bit; a third of the cells marked (they start set
   // aside and come back at once): the same within 5 mm, not pushed low; a marked hollow below the
   // surface pulls it down as an unmarked one does.
-  TerrainGridSpec spec;
-  HeightGrid grid;
-  grid.spec = spec;
+  HeightGrid grid = noisy_ground([](double x, double) { return 0.05 * x; }, 0.03);
+  const TerrainGridSpec& spec = grid.spec;
   const int m0 = spec.forward_cells(), m1 = spec.lateral_cells();
-  std::mt19937 random(3);
-  std::normal_distribution<double> noise(0.0, 0.03);
-  grid.height_m.resize(m0, m1);
-  for (int i = 0; i < m0; ++i)
-    for (int j = 0; j < m1; ++j) grid.height_m(i, j) = 0.05 * spec.cell_centre_x_m(i) + noise(random);
-  grid.point_count = Eigen::MatrixXi::Constant(m0, m1, 10);
-  grid.state = Eigen::MatrixXi::Constant(m0, m1, terrain::kCellMeasured);
   const terrain::TerrainEstimate plain = terrain::fit_terrain(grid, {});
   grid.upper_bound = Eigen::MatrixXi::Ones(m0, m1);
   const terrain::TerrainEstimate marked = terrain::fit_terrain(grid, {});
@@ -434,23 +441,14 @@ TEST(HoleMembrane, HoldsTheGroundUnderAnUnmarkedIslandInTheShadow) {
   EXPECT_LT(fit.grid.height_m(i, j), 1.0) << "the island's sample should have been equalised down";
 }
 
-// A 5 % climb with a 0.3 m swell (sin(x / 4 m): 25 m from crest to crest), a 2 % cross slope, 2 cm
-// noise; with `hole`, a 6 m x 6 m hole at 12-18 m.
+// A 5 % climb with a 0.3 m swell (sin(x / 4 m): 25 m from crest to crest), a 2 % cross slope.
+double swell(double x_m, double y_m) { return 0.05 * x_m + 0.3 * std::sin(x_m / 4) + 0.02 * y_m; }
+// The swell with 2 cm noise; with `hole`, a 6 m x 6 m hole at 12-18 m.
 HeightGrid swell_with_hole(bool hole) {
-  TerrainGridSpec spec;
-  HeightGrid grid;
-  grid.spec = spec;
-  const int m0 = spec.forward_cells(), m1 = spec.lateral_cells();
-  std::mt19937 random(3);
-  std::normal_distribution<double> noise(0.0, 0.02);
-  grid.height_m.resize(m0, m1);
-  grid.point_count = Eigen::MatrixXi::Constant(m0, m1, 10);
-  grid.state = Eigen::MatrixXi::Constant(m0, m1, terrain::kCellMeasured);
-  for (int i = 0; i < m0; ++i) {
-    for (int j = 0; j < m1; ++j) {
-      const double x = spec.cell_centre_x_m(i), y = spec.cell_centre_y_m(j);
-      grid.height_m(i, j) = 0.05 * x + 0.3 * std::sin(x / 4) + 0.02 * y + noise(random);
-      if (hole && x > 12 && x < 18 && std::abs(y) < 3) {
+  HeightGrid grid = noisy_ground(swell, 0.02);
+  for (int i = 0; i < grid.spec.forward_cells(); ++i) {
+    for (int j = 0; j < grid.spec.lateral_cells(); ++j) {
+      if (hole && grid.spec.cell_centre_x_m(i) > 12 && grid.spec.cell_centre_x_m(i) < 18 && std::abs(grid.spec.cell_centre_y_m(j)) < 3) {
         grid.height_m(i, j) = std::numeric_limits<double>::quiet_NaN();
         grid.state(i, j) = terrain::kCellInvalid;
         grid.point_count(i, j) = 0;
@@ -468,7 +466,7 @@ HeightGrid swell_with_hole(bool hole) {
 TEST(HoleMembrane, BridgesAHoleOnASlopeAndMovesAFullGridLittle) {
   terrain::TerrainFitParameters with;
   with.hole_membrane = 1.0;
-  const auto truth = [](double x, double y) { return 0.05 * x + 0.3 * std::sin(x / 4) + 0.02 * y; };
+  const auto& truth = swell;
   // The largest and the RMS error against the true swell over the cells inside (or outside) the hole.
   const auto errors = [&](const terrain::TerrainEstimate& fit, bool in_hole) {
     double largest = 0, squares = 0;
