@@ -40,11 +40,7 @@ struct CandidateParameters {
   // The terrain fit, with the membrane over holes on (hole_membrane 1, terrain_fit.cpp): a nearer
   // object hides the ground under what stands behind it, and without the membrane the surface
   // follows that object up into the hole (a sign over a board: its heights 0.3-0.4 m low).
-  terrain::TerrainFitParameters fit = [] {
-    terrain::TerrainFitParameters parameters;
-    parameters.hole_membrane = 1.0;
-    return parameters;
-  }();
+  terrain::TerrainFitParameters fit{.hole_membrane = 1.0};
   // With grid.occlusion_upper_bounds (off by default, as in TerrainGridSpec: it measured no better on
   // the floating scene, docs/obstacles3d.md): the image test that flags each point over a nearer
   // occluder (arm::pixels_over_occluder on the disparity map), for the 2.5D grid's upper-bound cells.

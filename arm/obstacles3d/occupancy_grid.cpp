@@ -824,6 +824,10 @@ constexpr int kMinStepSideColumns = 3;
 // SGM leaves a surface seen at a grazing angle as fronto-parallel terraces with steps of up to
 // 1 px (see kMinPointsPerConcavityColumn), 2 m of depth at 9 px, beyond the window there.
 constexpr double kMinStepSigmas = 5.0;
+// The fewest points a part needs for each cut to be tried: the step split's measured columns on
+// both sides, the concavity split's three columns (two sides and the dip).
+constexpr size_t kMinRangeStepPoints = 2 * kMinStepSideColumns * kMinPointsPerConcavityColumn;
+constexpr size_t kMinConcavityPoints = 3 * kMinPointsPerConcavityColumn;
 template <typename Value>
 std::vector<float> column_medians(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices, int u_min, size_t span,
                                   int min_points, float none, Value value) {
@@ -1028,7 +1032,7 @@ std::vector<std::vector<int>> split_at_range_peak(const std::vector<ObstaclePoin
 std::vector<std::vector<int>> split_at_range_step(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
                                                   const StereoErrorModel& error_model, double window_sigmas, double row_cell_m,
                                                   double min_depth_gap_m, int max_step_columns_px, ArmWork* work) {
-  if (max_step_columns_px <= 0 || indices.size() < 2 * kMinStepSideColumns * kMinPointsPerConcavityColumn) return {indices};
+  if (max_step_columns_px <= 0 || indices.size() < kMinRangeStepPoints) return {indices};
   const DisparityProfile profile = disparity_profile(points, indices);
   if (work != nullptr) {
     work->scalar_ops += 6 * indices.size() + 8 * profile.span;
@@ -1043,7 +1047,7 @@ std::vector<std::vector<int>> split_at_range_step(const std::vector<ObstaclePoin
 std::vector<std::vector<int>> split_at_concavity(const std::vector<ObstaclePoint>& points, const std::vector<int>& indices,
                                                  const StereoErrorModel& error_model, double min_concavity_px, double min_depth_gap_m,
                                                  ArmWork* work) {
-  if (min_concavity_px <= 0 || indices.size() < 3 * kMinPointsPerConcavityColumn) return {indices};
+  if (min_concavity_px <= 0 || indices.size() < kMinConcavityPoints) return {indices};
   const DisparityProfile profile = disparity_profile(points, indices);
   if (work != nullptr) {
     work->scalar_ops += 6 * indices.size() + 20 * profile.span;
@@ -1074,11 +1078,9 @@ std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& poi
   // columns whole, so each piece's profile is a run of its part's (split_at_range_step and
   // split_at_concavity give the same parts).
   const bool step_on = parameters.max_range_step_columns_px > 0, concavity_on = parameters.min_concavity_px > 0;
-  const size_t step_min_points = 2 * kMinStepSideColumns * kMinPointsPerConcavityColumn;
-  const size_t concavity_min_points = 3 * kMinPointsPerConcavityColumn;
   if (step_on || concavity_on) {
     cut_each([&](const std::vector<int>& part) -> std::vector<std::vector<int>> {
-      const bool step_here = step_on && part.size() >= step_min_points, concavity_here = concavity_on && part.size() >= concavity_min_points;
+      const bool step_here = step_on && part.size() >= kMinRangeStepPoints, concavity_here = concavity_on && part.size() >= kMinConcavityPoints;
       if (!step_here && !concavity_here) return {part};
       const DisparityProfile profile = disparity_profile(points, part);
       const size_t columns = profile.u.size();
@@ -1101,7 +1103,7 @@ std::vector<std::vector<int>> split_object(const std::vector<ObstaclePoint>& poi
       }
       std::vector<std::vector<int>> result;
       for (auto& [piece, run] : pieces) {
-        const int concavity_u = concavity_on && piece.size() >= concavity_min_points
+        const int concavity_u = concavity_on && piece.size() >= kMinConcavityPoints
                                     ? concavity_cut(profile, run.first, run.second, parameters.error_model, parameters.min_concavity_px,
                                                     parameters.min_depth_gap_m)
                                     : -1;
