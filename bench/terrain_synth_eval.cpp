@@ -596,6 +596,9 @@ int main(int argc, char** argv) {
   try {  // bad values stop here, before the first scene renders
     settings.occluder.validate();
     settings.grid.validate();
+    // The fit's parameters: fit_terrain checks them (against the grid's cells) before any data, so a
+    // fit of the empty grid throws for a bad --control, --regularisation, --hole-membrane ...
+    (void)terrain::fit_terrain(terrain::HeightGridAccumulator(settings.grid).finish(), settings.fit);
   } catch (const std::invalid_argument& error) {
     std::fprintf(stderr, "terrain_synth_eval: %s\n", error.what());
     return 2;
