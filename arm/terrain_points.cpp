@@ -218,6 +218,39 @@ std::vector<uint8_t> pixels_over_occluder(const Plane& disparity_q4, int16_t inv
   return flags;
 }
 
+void OverhangTest::validate() const {
+  if (rows_above_px < 0 || rows_above_px > 64) {
+    throw std::invalid_argument("rows_above_px: expected in [0, 64], got " + std::to_string(rows_above_px));
+  }
+  if (!(jump_px > 0) || !std::isfinite(jump_px)) {
+    throw std::invalid_argument("jump_px: expected a finite value > 0, got " + localization::format_number(jump_px));
+  }
+}
+
+std::vector<uint8_t> pixels_under_overhang(const Plane& disparity_q4, int16_t invalid_q4, const OverhangTest& test) {
+  test.validate();
+  if (disparity_q4.format().type != ElementType::s16) throw std::invalid_argument("disparity_q4: expected an s16 plane");
+  const int width = disparity_q4.width(), height = disparity_q4.height();
+  const int jump_q4 = static_cast<int>(std::ceil(16 * test.jump_px));
+  std::vector<uint8_t> flags(static_cast<size_t>(width) * height, 0);
+  if (test.rows_above_px == 0) return flags;
+  // An invalid pixel (<= invalid_q4, below every valid value) never raises the maximum.
+  std::vector<int16_t> above_maximum(static_cast<size_t>(width));
+  for (int v = 1; v < height; ++v) {
+    std::fill(above_maximum.begin(), above_maximum.end(), invalid_q4);
+    for (int k = std::max(0, v - test.rows_above_px); k < v; ++k) {
+      const int16_t* above = disparity_q4.row<const int16_t>(k);
+      for (int u = 0; u < width; ++u) above_maximum[static_cast<size_t>(u)] = std::max(above_maximum[static_cast<size_t>(u)], above[u]);
+    }
+    const int16_t* row = disparity_q4.row<const int16_t>(v);
+    uint8_t* flag_row = flags.data() + static_cast<size_t>(v) * width;
+    for (int u = 0; u < width; ++u) {
+      flag_row[u] = static_cast<uint8_t>(row[u] > invalid_q4 && above_maximum[static_cast<size_t>(u)] - row[u] > jump_q4);
+    }
+  }
+  return flags;
+}
+
 std::string ground_extent_problem(const terrain::HeightGrid& grid, int min_rows, int min_columns) {
   // A row (column) counts when it holds at least 1 % of the points: a few mismatched pixels of a
   // wall, scattered into other rows, must not make up an extent.

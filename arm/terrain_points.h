@@ -110,6 +110,32 @@ struct OccluderTest {
 // Throws std::invalid_argument for a bad test or a non-s16 plane.
 std::vector<uint8_t> pixels_over_occluder(const Plane& disparity_q4, int16_t invalid_q4, const OccluderTest& test = {});
 
+// The far side under an overhang: a valid pixel p lies "under an overhang" when a valid pixel
+// within rows_above_px rows above it in its image column has a disparity more than jump_px larger
+// than p's, i.e. the bottom edge of a nearer surface (a board on poles, a hanging sign, a car's
+// body) seen over a farther one. The census window and SGM's smoothness carry the near surface's
+// disparity down into the farther surface for a few rows, decaying: on the floating sequence (seed
+// 2, frame 12: a board at 15 m whose lower edge is seen over road at 32 m) the road reads 2.5 px too
+// large one row under the edge and still 1.1 px six rows under it, 0.2-0.5 m above the road at
+// 24 m, where a sign stands: false obstacle points under it. Ground never triggers the test: going
+// down an image column, ground (and whatever stands on it, whose foot meets the ground at its
+// disparity) only gets nearer; only a surface hanging over a farther one makes the disparity fall.
+// The near surface's own fattened bottom row is kept (it is within jump_px of the rows above it).
+struct OverhangTest {
+  int rows_above_px = 6;  // [0, 64]: the rows looked up; 0: off (no pixel flagged)
+  double jump_px = 2.0;   // > 0: the discontinuity filter's jump (a flat ground changes 0.2 px a row)
+  // Throws std::invalid_argument "<name>: expected ..., got ..." when out of range.
+  void validate() const;
+};
+// The flags, row-major (index v * width + u), 1 under an overhang, 0 otherwise (and at invalid
+// pixels: disparity_q4 <= invalid_q4; invalid pixels above are stepped over, being below every valid
+// value). Per row, the column-wise maximum of the rows_above_px rows above, then one comparison.
+// Counted ARM work (for a caller that counts it): rows_above_px + 2 scalar ops per pixel (the
+// maximum, the validity and the comparison; the vector engine would take them 16 lanes at a time),
+// 3 bytes (the s16 read, the flag written).
+// Throws std::invalid_argument for a bad test or a non-s16 plane.
+std::vector<uint8_t> pixels_under_overhang(const Plane& disparity_q4, int16_t invalid_q4, const OverhangTest& test);
+
 // The camera-frame y (down, metres) of the fitted surface on the camera's vertical line through
 // (x_c, ., z_c): the y with p_vehicle = R C (x_c, y, z_c) + T on z = S(x, y), by Newton steps along
 // that line (dz_v / dy_c is the constant (R C)(2, 1); S's own slope enters through a secant

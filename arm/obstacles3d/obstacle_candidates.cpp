@@ -58,6 +58,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     throw std::invalid_argument("threads: expected a count in [1, 16], got " + std::to_string(parameters.threads));
   }
   parameters.occluder.validate();
+  parameters.overhang.validate();
   CandidatePoints result;
   // The image split into contiguous bands of rows, one per thread: each band's points are built on
   // its own thread, then the points are classified in equal shares, one per thread; every sequential
@@ -67,11 +68,13 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     std::vector<ObstaclePoint> points;
     std::vector<Eigen::Vector3d> vehicle_points;
     std::vector<uint8_t> over_occluder;  // per point, with grid.occlusion_upper_bounds
+    std::vector<uint8_t> under_overhang;  // per point, with the overhang test on
   };
   // One classification worker's share of the points: its candidates and its count outside the area.
   struct Share {
     std::vector<ObstaclePoint> candidates;
     int64_t outside_area = 0;
+    int64_t under_overhang = 0;
   };
   // A pixel that becomes a point (the build skips the others; the bands balance these).
   const auto has_disparity = [&](int16_t d_q4) { return d_q4 != invalid_disparity_q4 && d_q4 > 0; };
@@ -113,6 +116,10 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   const bool occlusion = parameters.grid.occlusion_upper_bounds;
   const std::vector<uint8_t> over_occluder =
       occlusion ? pixels_over_occluder(disparity_q4, invalid_disparity_q4, parameters.occluder) : std::vector<uint8_t>{};
+  // The pixels under an overhang become ground samples only, never candidates (the header says why).
+  const bool overhang = parameters.overhang.rows_above_px > 0;
+  const std::vector<uint8_t> under_overhang =
+      overhang ? pixels_under_overhang(disparity_q4, invalid_disparity_q4, parameters.overhang) : std::vector<uint8_t>{};
   const int red_channel = colour.blue_first ? 2 : 0, blue_channel = colour.blue_first ? 0 : 2;
   run_bands([&](int band) {
     Band& out = bands[static_cast<size_t>(band)];
@@ -149,6 +156,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
         out.points.push_back(point);
         out.vehicle_points.push_back(vehicle);
         if (occlusion) out.over_occluder.push_back(over_occluder[static_cast<size_t>(v) * disparity_q4.width() + u]);
+        if (overhang) out.under_overhang.push_back(under_overhang[static_cast<size_t>(v) * disparity_q4.width() + u]);
       }
     }
   });
@@ -192,6 +200,8 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
       const CandidateTest::Class point_class = test.classify(band.vehicle_points[i], &height_above_m);
       if (point_class == CandidateTest::Class::outside) {
         ++share.outside_area;
+      } else if (point_class == CandidateTest::Class::candidate && overhang && band.under_overhang[i] != 0) {
+        ++share.under_overhang;
       } else if (point_class == CandidateTest::Class::candidate) {
         share.candidates.push_back(band.points[i]);
         share.candidates.back().height_above_ground_m = static_cast<float>(height_above_m);
@@ -204,10 +214,12 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   for (const Share& share : shares) {
     result.points.insert(result.points.end(), share.candidates.begin(), share.candidates.end());
     result.outside_area += share.outside_area;
+    result.under_overhang += share.under_overhang;
   }
-  char note[160];
-  std::snprintf(note, sizeof note, "terrain: %lld points, %zu obstacle candidates, %lld outside the terrain area",
-                static_cast<long long>(result.cloud_points), result.points.size(), static_cast<long long>(result.outside_area));
+  char note[200];
+  std::snprintf(note, sizeof note, "terrain: %lld points, %zu obstacle candidates, %lld outside the terrain area, %lld under an overhang",
+                static_cast<long long>(result.cloud_points), result.points.size(), static_cast<long long>(result.outside_area),
+                static_cast<long long>(result.under_overhang));
   result.note = note;
   return result;
 }

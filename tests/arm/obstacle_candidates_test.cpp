@@ -4,7 +4,8 @@
 // terrain::classify_points calls obstacle against the returned fit (the CandidateTest shortcut
 // changes no class), each with z - S as its height; 1, 2, 3 and 7 threads give the same result field
 // for field; a thread count out of range is refused by name; with the occlusion-aware sampling the
-// cells of a far sign seen over the box are marked as upper bounds and no road cell is.
+// cells of a far sign seen over the box are marked as upper bounds and no road cell is; the road read
+// too near under a hanging board samples the terrain but gives no candidates.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -175,6 +176,64 @@ TEST(ObstacleCandidates, OcclusionUpperBoundsMarkTheCellsOverANearerObject) {
     ADD_FAILURE() << "accepted rows_below_px = 0";
   } catch (const std::invalid_argument& error) {
     EXPECT_EQ(std::string(error.what()), "rows_below_px: expected in [1, 64], got 0");
+  }
+}
+
+// The far side under an overhang (CandidateParameters::overhang, on by default): a board hanging
+// 0.9-1.6 m up at 6 m (d = 10 px, rows 57-79, columns 20-49, beside the box) over the road, whose
+// first six rows under it the matcher reads too near (the road's d plus 3.3, 2.5, 2.0, 1.6, 1.2 and
+// 1.0 px, as measured under a board at 15 m in bench/obstacles3d_eval, floating seed 2 frame 12):
+// points 0.25-0.7 m above the road. With the test off they are candidates; on, none is, the
+// board's and the box's candidates stay the same, and the flagged points still sample the terrain
+// (the same cloud, the same 2.5D grid, the same fit).
+TEST(ObstacleCandidates, PointsUnderAnOverhangSampleTheTerrainButAreNoCandidates) {
+  Frame frame = make_frame();
+  const double ramp_px[6] = {3.3, 2.5, 2.0, 1.6, 1.2, 1.0};
+  for (int u = 20; u < 50; ++u) {
+    for (int v = 57; v < 80; ++v) frame.disparity.at<int16_t>(u, v) = 10 * 16;
+    for (int k = 0; k < 6; ++k) {
+      const int v = 80 + k;
+      const double road_px = kBaselineM * (v - kV0) / kCameraHeightM;
+      frame.disparity.at<int16_t>(u, v) = static_cast<int16_t>(std::lround(16 * (road_px + ramp_px[k])));
+    }
+  }
+  frame.camera = arm::triangulate(frame.disparity, arm::TriangulationParameters{kBaselineM, kFocalPx, kU0, kV0, 0, 64, 0});
+  o3::CandidateParameters parameters;
+  const auto run = [&](int rows_above_px) {
+    parameters.overhang.rows_above_px = rows_above_px;
+    return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+  };
+  const o3::CandidatePoints off = run(0), on = run(6);
+  ASSERT_TRUE(off.terrain.known && on.terrain.known) << off.note << " / " << on.note;
+  const auto is_ramp = [](const o3::ObstaclePoint& point) { return point.u_px >= 20 && point.u_px < 50 && point.v_px >= 80; };
+  std::vector<o3::ObstaclePoint> off_without_ramp;
+  int ramp_candidates = 0;
+  for (const o3::ObstaclePoint& point : off.points) {
+    if (is_ramp(point)) {
+      ++ramp_candidates;
+    } else {
+      off_without_ramp.push_back(point);
+    }
+  }
+  EXPECT_EQ(ramp_candidates, 6 * 30);  // every ramp pixel stands above 0.2 m
+  EXPECT_EQ(on.under_overhang, ramp_candidates);
+  EXPECT_EQ(off.under_overhang, 0);
+  for (const o3::ObstaclePoint& point : on.points) EXPECT_FALSE(is_ramp(point)) << point.u_px << "," << point.v_px;
+  ASSERT_EQ(on.points.size(), off_without_ramp.size());
+  for (size_t k = 0; k < on.points.size(); ++k) {
+    EXPECT_EQ(on.points[k].vehicle_m, off_without_ramp[k].vehicle_m) << k;
+    EXPECT_EQ(on.points[k].height_above_ground_m, off_without_ramp[k].height_above_ground_m) << k;
+  }
+  EXPECT_EQ(on.cloud_points, off.cloud_points);
+  EXPECT_EQ(on.measured_grid.point_count, off.measured_grid.point_count);
+  EXPECT_EQ(on.terrain.surface.control_z_m, off.terrain.surface.control_z_m);
+  // A bad test is refused by name.
+  parameters.overhang.jump_px = -1;
+  try {
+    run(6);
+    ADD_FAILURE() << "accepted jump_px = -1";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()), "jump_px: expected a finite value > 0, got -1");
   }
 }
 

@@ -1,0 +1,122 @@
+// arm::pixels_under_overhang (arm/terrain_points.h): the far side under a nearer surface's lower edge
+// is flagged rows_above_px deep, across invalid rows; ground, objects standing on it, surfaces seen
+// above a nearer one and the near surface's own fattened bottom row never are; a random map agrees
+// with the rule read pixel by pixel; off (0 rows) flags nothing; bad tests throw naming the field.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "arm/terrain_points.h"
+
+namespace lpstereo::arm {
+namespace {
+
+constexpr int16_t kInvalidQ4 = -16;  // (min_disparity - 1) * 16 with min_disparity 0
+
+Plane disparity_plane(int width, int height) { return Plane(width, height, BufferFormat{ElementType::s16}); }
+
+int16_t q4(double px) { return px < 0 ? kInvalidQ4 : static_cast<int16_t>(std::lround(16 * px)); }
+
+// Six columns of 30 rows, read from the top (row 0) down; disparities in px, -1 invalid. Jump 2 px,
+// 6 rows.
+TEST(PixelsUnderOverhang, HandBuiltColumns) {
+  const int height = 30;
+  Plane disparity = disparity_plane(6, height);
+  const auto ground = [](int v) { return 2.0 + 0.2 * v; };  // 0.2 px a row: baseline / camera height
+  for (int v = 0; v < height; ++v) {
+    // 0: ground only
+    disparity.at<int16_t>(0, v) = q4(ground(v));
+    // 1: a board on poles (20 px, rows 10-14) over the farther road; its bottom row fattened (19.5 px, row 15)
+    disparity.at<int16_t>(1, v) = q4(v < 10 ? 0.5 : v < 15 ? 20.0 : v == 15 ? 19.5 : ground(v));
+    // 2: the same with two invalid rows (16-17) between the board and the road
+    disparity.at<int16_t>(2, v) = q4(v < 10 ? 0.5 : v < 15 ? 20.0 : v == 15 ? 19.5 : v < 18 ? -1.0 : ground(v));
+    // 3: the road under the board read too near, decaying over the rows (SGM's smoothness): the ramp
+    disparity.at<int16_t>(3, v) = q4(v < 10 ? 0.5 : v < 16 ? 20.0 : v < 22 ? ground(v) + 0.5 * (22 - v) : ground(v));
+    // 4: a sign (3 px, rows 0-9) seen above a nearer board (20 px, rows 10-19) standing on the road
+    disparity.at<int16_t>(4, v) = q4(v < 10 ? 3.0 : v < 20 ? 20.0 : std::max(20.0, ground(v)));
+    // 5: a box (9 px, rows 20-25) standing on the ground, whose foot meets the ground at row 25
+    disparity.at<int16_t>(5, v) = q4(v >= 20 && v < 26 ? 9.0 : ground(v));
+  }
+  const std::vector<uint8_t> flags = pixels_under_overhang(disparity, kInvalidQ4, OverhangTest{.rows_above_px = 6, .jump_px = 2.0});
+  const auto expected = [](int u, int v) {
+    switch (u) {
+      case 1: return v >= 16 && v <= 21;  // 6 rows under the board's last row (the fattened row 15 is within 2 px)
+      case 2: return v >= 18 && v <= 21;  // across the invalid rows, within 6 rows of row 15
+      case 3: return v >= 16 && v <= 21;  // the whole ramp, however it decays
+      default: return false;              // ground, a surface seen above a nearer one, a box on the ground
+    }
+  };
+  for (int u = 0; u < 6; ++u) {
+    for (int v = 0; v < height; ++v) EXPECT_EQ(flags[static_cast<size_t>(v) * 6 + u] != 0, expected(u, v)) << "column " << u << " row " << v;
+  }
+}
+
+TEST(PixelsUnderOverhang, AgreesWithTheRuleReadPixelByPixel) {
+  std::mt19937 random(11);
+  std::uniform_int_distribution<int> value(-1, 60);  // -1: invalid; else 0 .. 59 px in steps of 1 px
+  const int width = 21, height = 19;
+  for (const OverhangTest test : {OverhangTest{.rows_above_px = 1, .jump_px = 2.0}, OverhangTest{.rows_above_px = 4, .jump_px = 3.5},
+                                  OverhangTest{.rows_above_px = 25, .jump_px = 10.0}}) {
+    Plane disparity = disparity_plane(width, height);
+    for (int v = 0; v < height; ++v)
+      for (int u = 0; u < width; ++u) disparity.at<int16_t>(u, v) = q4(value(random));
+    const std::vector<uint8_t> flags = pixels_under_overhang(disparity, kInvalidQ4, test);
+    int flagged = 0;
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u < width; ++u) {
+        const int16_t d = disparity.at<int16_t>(u, v);
+        bool under = false;
+        for (int k = 1; k <= test.rows_above_px && v - k >= 0 && d > kInvalidQ4; ++k) {
+          const int16_t above = disparity.at<int16_t>(u, v - k);
+          under = under || (above > kInvalidQ4 && (above - d) / 16.0 > test.jump_px);
+        }
+        EXPECT_EQ(flags[static_cast<size_t>(v) * width + u] != 0, under) << u << "," << v << " rows " << test.rows_above_px;
+        flagged += under ? 1 : 0;
+      }
+    }
+    EXPECT_GT(flagged, 0);
+    EXPECT_LT(flagged, width * height);
+  }
+}
+
+TEST(PixelsUnderOverhang, OffFlagsNothing) {
+  Plane disparity = disparity_plane(3, 4);
+  for (int v = 0; v < 4; ++v)
+    for (int u = 0; u < 3; ++u) disparity.at<int16_t>(u, v) = q4(v == 0 ? 40.0 : 1.0);
+  const std::vector<uint8_t> by_default = pixels_under_overhang(disparity, kInvalidQ4, OverhangTest{});  // 6 rows
+  EXPECT_EQ(std::count(by_default.begin(), by_default.end(), 1), 9);  // rows 1-3 under the 40 px row 0
+  const std::vector<uint8_t> flags = pixels_under_overhang(disparity, kInvalidQ4, OverhangTest{.rows_above_px = 0});
+  ASSERT_EQ(flags.size(), 12u);
+  for (uint8_t flag : flags) EXPECT_EQ(flag, 0);
+}
+
+TEST(PixelsUnderOverhang, BadTestsThrowNamingTheField) {
+  const auto message = [](const std::function<void()>& call) {
+    try {
+      call();
+    } catch (const std::invalid_argument& error) {
+      return std::string(error.what());
+    }
+    return std::string("no throw");
+  };
+  Plane disparity = disparity_plane(4, 4);
+  EXPECT_EQ(message([&] { pixels_under_overhang(disparity, kInvalidQ4, OverhangTest{.rows_above_px = -1}); }),
+            "rows_above_px: expected in [0, 64], got -1");
+  EXPECT_EQ(message([&] { pixels_under_overhang(disparity, kInvalidQ4, OverhangTest{.rows_above_px = 65}); }),
+            "rows_above_px: expected in [0, 64], got 65");
+  EXPECT_EQ(message([&] { pixels_under_overhang(disparity, kInvalidQ4, OverhangTest{.rows_above_px = 6, .jump_px = 0.0}); }),
+            "jump_px: expected a finite value > 0, got 0");
+  Plane bytes(4, 4, BufferFormat{ElementType::u8});
+  EXPECT_EQ(message([&] { pixels_under_overhang(bytes, kInvalidQ4, OverhangTest{.rows_above_px = 6}); }),
+            "disparity_q4: expected an s16 plane");
+}
+
+}  // namespace
+}  // namespace lpstereo::arm
