@@ -227,23 +227,29 @@ void OverhangTest::validate() const {
   }
 }
 
-std::vector<uint8_t> pixels_under_overhang(const Plane& disparity_q4, int16_t invalid_q4, const OverhangTest& test) {
+std::vector<uint8_t> pixels_under_overhang(const Plane& disparity_q4, int16_t invalid_q4, const OverhangTest& test, int first_row,
+                                           int end_row) {
   test.validate();
   if (disparity_q4.format().type != ElementType::s16) throw std::invalid_argument("disparity_q4: expected an s16 plane");
   const int width = disparity_q4.width(), height = disparity_q4.height();
+  if (end_row < 0) end_row = height;
+  if (first_row < 0 || first_row > end_row || end_row > height) {
+    throw std::invalid_argument("rows: expected 0 <= first_row <= end_row <= " + std::to_string(height) + ", got " +
+                                std::to_string(first_row) + " and " + std::to_string(end_row));
+  }
   const int jump_q4 = static_cast<int>(std::ceil(16 * test.jump_px));
-  std::vector<uint8_t> flags(static_cast<size_t>(width) * height, 0);
+  std::vector<uint8_t> flags(static_cast<size_t>(width) * static_cast<size_t>(end_row - first_row), 0);
   if (test.rows_above_px == 0) return flags;
   // An invalid pixel (<= invalid_q4, below every valid value) never raises the maximum.
   std::vector<int16_t> above_maximum(static_cast<size_t>(width));
-  for (int v = 1; v < height; ++v) {
+  for (int v = std::max(first_row, 1); v < end_row; ++v) {
     std::fill(above_maximum.begin(), above_maximum.end(), invalid_q4);
     for (int k = std::max(0, v - test.rows_above_px); k < v; ++k) {
       const int16_t* above = disparity_q4.row<const int16_t>(k);
       for (int u = 0; u < width; ++u) above_maximum[static_cast<size_t>(u)] = std::max(above_maximum[static_cast<size_t>(u)], above[u]);
     }
     const int16_t* row = disparity_q4.row<const int16_t>(v);
-    uint8_t* flag_row = flags.data() + static_cast<size_t>(v) * width;
+    uint8_t* flag_row = flags.data() + static_cast<size_t>(v - first_row) * width;
     for (int u = 0; u < width; ++u) {
       flag_row[u] = static_cast<uint8_t>(row[u] > invalid_q4 && above_maximum[static_cast<size_t>(u)] - row[u] > jump_q4);
     }

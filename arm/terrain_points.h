@@ -127,14 +127,17 @@ struct OverhangTest {
   // Throws std::invalid_argument "<name>: expected ..., got ..." when out of range.
   void validate() const;
 };
-// The flags, row-major (index v * width + u), 1 under an overhang, 0 otherwise (and at invalid
-// pixels: disparity_q4 <= invalid_q4; invalid pixels above are stepped over, being below every valid
-// value). Per row, the column-wise maximum of the rows_above_px rows above, then one comparison.
+// The flags of rows [first_row, end_row) (end_row -1: the last row), row-major (index (v - first_row)
+// width + u), 1 under an overhang, 0 otherwise (and at invalid pixels: disparity_q4 <= invalid_q4;
+// invalid pixels above are stepped over, being below every valid value); the rows above first_row
+// are read, so bands of rows give the whole image's flags. Per row, the column-wise maximum of the
+// rows_above_px rows above, then one comparison.
 // Counted ARM work (for a caller that counts it): rows_above_px + 2 scalar ops per pixel (the
 // maximum, the validity and the comparison; the vector engine would take them 16 lanes at a time),
 // 3 bytes (the s16 read, the flag written).
-// Throws std::invalid_argument for a bad test or a non-s16 plane.
-std::vector<uint8_t> pixels_under_overhang(const Plane& disparity_q4, int16_t invalid_q4, const OverhangTest& test);
+// Throws std::invalid_argument for a bad test, a non-s16 plane or rows outside the plane.
+std::vector<uint8_t> pixels_under_overhang(const Plane& disparity_q4, int16_t invalid_q4, const OverhangTest& test, int first_row = 0,
+                                           int end_row = -1);
 
 // The camera-frame y (down, metres) of the fitted surface on the camera's vertical line through
 // (x_c, ., z_c): the y with p_vehicle = R C (x_c, y, z_c) + T on z = S(x, y), by Newton steps along

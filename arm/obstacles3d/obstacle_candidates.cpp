@@ -116,10 +116,9 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   const bool occlusion = parameters.grid.occlusion_upper_bounds;
   const std::vector<uint8_t> over_occluder =
       occlusion ? pixels_over_occluder(disparity_q4, invalid_disparity_q4, parameters.occluder) : std::vector<uint8_t>{};
-  // The pixels under an overhang become ground samples only, never candidates (the header says why).
+  // The pixels under an overhang become ground samples only, never candidates (the header says why);
+  // each band flags its own rows.
   const bool overhang = parameters.overhang.rows_above_px > 0;
-  const std::vector<uint8_t> under_overhang =
-      overhang ? pixels_under_overhang(disparity_q4, invalid_disparity_q4, parameters.overhang) : std::vector<uint8_t>{};
   const int red_channel = colour.blue_first ? 2 : 0, blue_channel = colour.blue_first ? 0 : 2;
   run_bands([&](int band) {
     Band& out = bands[static_cast<size_t>(band)];
@@ -128,6 +127,8 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     const size_t capacity = static_cast<size_t>(end_row - first_row) * static_cast<size_t>(disparity_q4.width());
     out.points.reserve(capacity);
     out.vehicle_points.reserve(capacity);
+    const std::vector<uint8_t> under_overhang =
+        overhang ? pixels_under_overhang(disparity_q4, invalid_disparity_q4, parameters.overhang, first_row, end_row) : std::vector<uint8_t>{};
     for (int v = first_row; v < end_row; ++v) {
       const uint8_t* colour_row = colour.pixels == nullptr ? nullptr : colour.pixels + static_cast<size_t>(v) * colour.row_stride_bytes;
       const int32_t* x_row = camera.x_mm.row<const int32_t>(v);
@@ -156,7 +157,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
         out.points.push_back(point);
         out.vehicle_points.push_back(vehicle);
         if (occlusion) out.over_occluder.push_back(over_occluder[static_cast<size_t>(v) * disparity_q4.width() + u]);
-        if (overhang) out.under_overhang.push_back(under_overhang[static_cast<size_t>(v) * disparity_q4.width() + u]);
+        if (overhang) out.under_overhang.push_back(under_overhang[static_cast<size_t>(v - first_row) * disparity_q4.width() + u]);
       }
     }
   });

@@ -1,7 +1,8 @@
 // arm::pixels_under_overhang (arm/terrain_points.h): the far side under a nearer surface's lower edge
 // is flagged rows_above_px deep, across invalid rows; ground, objects standing on it, surfaces seen
 // above a nearer one and the near surface's own fattened bottom row never are; a random map agrees
-// with the rule read pixel by pixel; off (0 rows) flags nothing; bad tests throw naming the field.
+// with the rule read pixel by pixel, and bands of rows with the whole image; off (0 rows) flags
+// nothing; bad tests and row ranges throw naming the field.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "arm/terrain_points.h"
@@ -83,6 +85,14 @@ TEST(PixelsUnderOverhang, AgreesWithTheRuleReadPixelByPixel) {
     }
     EXPECT_GT(flagged, 0);
     EXPECT_LT(flagged, width * height);
+    // Bands of rows (as the candidates' threads take them) give the whole image's flags.
+    std::vector<uint8_t> banded;
+    for (const auto& [first_row, end_row] : {std::pair{0, 0}, std::pair{0, 7}, std::pair{7, 13}, std::pair{13, height}}) {
+      const std::vector<uint8_t> band = pixels_under_overhang(disparity, kInvalidQ4, test, first_row, end_row);
+      ASSERT_EQ(band.size(), static_cast<size_t>(width) * (end_row - first_row));
+      banded.insert(banded.end(), band.begin(), band.end());
+    }
+    EXPECT_EQ(banded, flags);
   }
 }
 
@@ -113,6 +123,10 @@ TEST(PixelsUnderOverhang, BadTestsThrowNamingTheField) {
             "rows_above_px: expected in [0, 64], got 65");
   EXPECT_EQ(message([&] { pixels_under_overhang(disparity, kInvalidQ4, OverhangTest{.rows_above_px = 6, .jump_px = 0.0}); }),
             "jump_px: expected a finite value > 0, got 0");
+  EXPECT_EQ(message([&] { pixels_under_overhang(disparity, kInvalidQ4, OverhangTest{}, 3, 2); }),
+            "rows: expected 0 <= first_row <= end_row <= 4, got 3 and 2");
+  EXPECT_EQ(message([&] { pixels_under_overhang(disparity, kInvalidQ4, OverhangTest{}, 0, 5); }),
+            "rows: expected 0 <= first_row <= end_row <= 4, got 0 and 5");
   Plane bytes(4, 4, BufferFormat{ElementType::u8});
   EXPECT_EQ(message([&] { pixels_under_overhang(bytes, kInvalidQ4, OverhangTest{.rows_above_px = 6}); }),
             "disparity_q4: expected an s16 plane");
