@@ -218,16 +218,19 @@ std::vector<uint8_t> pixels_over_occluder(const Plane& disparity_q4, int16_t inv
   return flags;
 }
 
-void OverhangTest::validate() const {
+void FarSideTest::validate() const {
   if (rows_above_px < 0 || rows_above_px > 64) {
     throw std::invalid_argument("rows_above_px: expected in [0, 64], got " + std::to_string(rows_above_px));
+  }
+  if (columns_beside_px < 0 || columns_beside_px > 64) {
+    throw std::invalid_argument("columns_beside_px: expected in [0, 64], got " + std::to_string(columns_beside_px));
   }
   if (!(jump_px > 0) || !std::isfinite(jump_px)) {
     throw std::invalid_argument("jump_px: expected a finite value > 0, got " + localization::format_number(jump_px));
   }
 }
 
-std::vector<uint8_t> pixels_under_overhang(const Plane& disparity_q4, int16_t invalid_q4, const OverhangTest& test, int first_row,
+std::vector<uint8_t> pixels_on_far_side(const Plane& disparity_q4, int16_t invalid_q4, const FarSideTest& test, int first_row,
                                            int end_row) {
   test.validate();
   if (disparity_q4.format().type != ElementType::s16) throw std::invalid_argument("disparity_q4: expected an s16 plane");
@@ -239,19 +242,25 @@ std::vector<uint8_t> pixels_under_overhang(const Plane& disparity_q4, int16_t in
   }
   const int jump_q4 = static_cast<int>(std::ceil(16 * test.jump_px));
   std::vector<uint8_t> flags(static_cast<size_t>(width) * static_cast<size_t>(end_row - first_row), 0);
-  if (test.rows_above_px == 0) return flags;
+  if (!test.enabled()) return flags;
   // An invalid pixel (<= invalid_q4, below every valid value) never raises the maximum.
-  std::vector<int16_t> above_maximum(static_cast<size_t>(width));
-  for (int v = std::max(first_row, 1); v < end_row; ++v) {
-    std::fill(above_maximum.begin(), above_maximum.end(), invalid_q4);
+  std::vector<int16_t> neighbour_maximum(static_cast<size_t>(width));
+  for (int v = first_row; v < end_row; ++v) {
+    std::fill(neighbour_maximum.begin(), neighbour_maximum.end(), invalid_q4);
     for (int k = std::max(0, v - test.rows_above_px); k < v; ++k) {
       const int16_t* above = disparity_q4.row<const int16_t>(k);
-      for (int u = 0; u < width; ++u) above_maximum[static_cast<size_t>(u)] = std::max(above_maximum[static_cast<size_t>(u)], above[u]);
+      for (int u = 0; u < width; ++u) neighbour_maximum[static_cast<size_t>(u)] = std::max(neighbour_maximum[static_cast<size_t>(u)], above[u]);
     }
     const int16_t* row = disparity_q4.row<const int16_t>(v);
     uint8_t* flag_row = flags.data() + static_cast<size_t>(v - first_row) * width;
+    // The row itself, shifted (the shift 0 cannot flag: no pixel lies a jump above itself).
+    for (int shift = -test.columns_beside_px; shift <= test.columns_beside_px; ++shift) {
+      for (int u = std::max(0, -shift); u < std::min(width, width - shift); ++u) {
+        neighbour_maximum[static_cast<size_t>(u)] = std::max(neighbour_maximum[static_cast<size_t>(u)], row[u + shift]);
+      }
+    }
     for (int u = 0; u < width; ++u) {
-      flag_row[u] = static_cast<uint8_t>(row[u] > invalid_q4 && above_maximum[static_cast<size_t>(u)] - row[u] > jump_q4);
+      flag_row[u] = static_cast<uint8_t>(row[u] > invalid_q4 && neighbour_maximum[static_cast<size_t>(u)] - row[u] > jump_q4);
     }
   }
   return flags;

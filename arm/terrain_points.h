@@ -110,33 +110,41 @@ struct OccluderTest {
 // Throws std::invalid_argument for a bad test or a non-s16 plane.
 std::vector<uint8_t> pixels_over_occluder(const Plane& disparity_q4, int16_t invalid_q4, const OccluderTest& test = {});
 
-// The far side under an overhang: a valid pixel p lies "under an overhang" when a valid pixel
-// within rows_above_px rows above it in its image column has a disparity more than jump_px larger
-// than p's, i.e. the bottom edge of a nearer surface (a board on poles, a hanging sign, a car's
-// body) seen over a farther one. The census window and SGM's smoothness carry the near surface's
-// disparity down into the farther surface for a few rows, decaying: on the floating sequence (seed
-// 2, frame 12: a board at 15 m whose lower edge is seen over road at 32 m) the road reads 2.5 px too
-// large one row under the edge and still 1.1 px six rows under it, 0.2-0.5 m above the road at
-// 24 m, where a sign stands: false obstacle points under it. Ground never triggers the test: going
-// down an image column, ground (and whatever stands on it, whose foot meets the ground at its
-// disparity) only gets nearer; only a surface hanging over a farther one makes the disparity fall.
-// The near surface's own fattened bottom row is kept (it is within jump_px of the rows above it).
-struct OverhangTest {
-  int rows_above_px = 6;  // [0, 64]: the rows looked up; 0: off (no pixel flagged)
-  double jump_px = 2.0;   // > 0: the discontinuity filter's jump (a flat ground changes 0.2 px a row)
+// The far side of a nearer surface's edge: a valid pixel p is flagged when a valid pixel within
+// rows_above_px rows above it in its column, or within columns_beside_px columns beside it in its
+// row, has a disparity more than jump_px larger than p's. The census window and SGM's smoothness
+// carry a nearer surface's disparity into the farther one seen next to it for a few pixels,
+// decaying (foreground fattening), and those points stand between the two surfaces, often above
+// the ground. Under a lower edge (a board on poles, a hanging sign, a car's body): floating seed 2
+// frame 12, a board at 15 m over road at 32 m, the road reads 2.6-3.9 px too large one row under
+// the edge and 0.5-1.3 px six rows under it: points 0.26-0.49 m up at 24 m, under a sign standing
+// there. Ground never triggers the column test: going down an image column, ground (and whatever
+// stands on it, whose foot meets the ground at its disparity) only gets nearer; only a surface
+// hanging over a farther one makes the disparity fall. Beside a side edge: floating seed 1 frame 44,
+// board 4 at 19.2 m (8.7 px) beside a pedestrian at 13.2 m (12.7 px) reads 9.0-11.0 px over the
+// seven columns next to the pedestrian, a smooth ramp with no 2 px step within 3 columns. The row
+// test flags the ground beside every standing object too, above its foot (those are ground points;
+// a caller keeps them as ground). The near surface's own fattened border is kept (within jump_px of
+// its neighbours).
+struct FarSideTest {
+  int rows_above_px = 6;      // [0, 64]: the rows looked up; 0: no column test
+  int columns_beside_px = 0;  // [0, 64]: the columns looked at on either side; 0: no row test
+  double jump_px = 2.0;       // > 0: the discontinuity filter's jump (a flat ground changes 0.2 px a row)
   // Throws std::invalid_argument "<name>: expected ..., got ..." when out of range.
   void validate() const;
+  bool enabled() const { return rows_above_px > 0 || columns_beside_px > 0; }
 };
 // The flags of rows [first_row, end_row) (end_row -1: the last row), row-major (index (v - first_row)
-// width + u), 1 under an overhang, 0 otherwise (and at invalid pixels: disparity_q4 <= invalid_q4;
-// invalid pixels above are stepped over, being below every valid value); the rows above first_row
-// are read, so bands of rows give the whole image's flags. Per row, the column-wise maximum of the
-// rows_above_px rows above, then one comparison.
-// Counted ARM work (for a caller that counts it): rows_above_px + 2 scalar ops per pixel (the
-// maximum, the validity and the comparison; the vector engine would take them 16 lanes at a time),
-// 3 bytes (the s16 read, the flag written).
+// width + u), 1 on the far side, 0 otherwise (and at invalid pixels: disparity_q4 <= invalid_q4;
+// invalid pixels are stepped over, being below every valid value); the rows above first_row are
+// read, so bands of rows give the whole image's flags. Per row, the element-wise maximum of the
+// rows_above_px rows above and of the row shifted by -columns_beside_px .. columns_beside_px, then
+// one comparison.
+// Counted ARM work (for a caller that counts it): rows_above_px + 2 columns_beside_px + 3 scalar ops
+// per pixel (the maxima, the validity and the comparison; the vector engine would take them 16
+// lanes at a time), 3 bytes (the s16 read, the flag written).
 // Throws std::invalid_argument for a bad test, a non-s16 plane or rows outside the plane.
-std::vector<uint8_t> pixels_under_overhang(const Plane& disparity_q4, int16_t invalid_q4, const OverhangTest& test, int first_row = 0,
+std::vector<uint8_t> pixels_on_far_side(const Plane& disparity_q4, int16_t invalid_q4, const FarSideTest& test, int first_row = 0,
                                            int end_row = -1);
 
 // The camera-frame y (down, metres) of the fitted surface on the camera's vertical line through

@@ -38,8 +38,8 @@
 // engine leaves a core idle in its single-threaded speckle filter, and stage 2 fills it).
 // Exits 1 when neither the sequential median total nor the pipelined throughput reaches 30 fps.
 // Usage: obstacles3d_chain_bench [--scene urban|country|mining|floating] [--seed K] [--frames N] [--passes P]
-//        [--overhang-rows R] (the candidates' under-overhang test, CandidateParameters::overhang; 0: off,
-//        to time what it costs)
+//        [--far-side R,C] (the candidates' far-side test, CandidateParameters::far_side: R rows above, C
+//        columns beside; 0,0: off, to time what it costs)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -81,7 +81,7 @@ struct Settings {
   uint32_t seed = 1;
   int frames = 30;
   int passes = 3;
-  int overhang_rows_px = arm::OverhangTest{}.rows_above_px;
+  arm::FarSideTest far_side = o3::CandidateParameters{}.far_side;
 };
 
 struct RenderedFrame {
@@ -118,20 +118,21 @@ bool parse(int argc, char** argv, Settings& settings) {
       settings.frames = std::atoi(value);
     } else if (flag == "--passes") {
       settings.passes = std::atoi(value);
-    } else if (flag == "--overhang-rows") {
-      settings.overhang_rows_px = std::atoi(value);
+    } else if (flag == "--far-side") {
+      if (std::sscanf(value, "%d,%d", &settings.far_side.rows_above_px, &settings.far_side.columns_beside_px) != 2) return false;
     } else {
       return false;
     }
   }
-  return settings.frames >= 1 && settings.passes >= 1 && settings.overhang_rows_px >= 0 && settings.overhang_rows_px <= 64;
+  return settings.frames >= 1 && settings.passes >= 1 && settings.far_side.rows_above_px >= 0 && settings.far_side.rows_above_px <= 64 &&
+         settings.far_side.columns_beside_px >= 0 && settings.far_side.columns_beside_px <= 64;
 }
 
 int run(int argc, char** argv) {
   Settings settings;
   if (!parse(argc, argv, settings)) {
     std::fprintf(stderr, "usage: obstacles3d_chain_bench [--scene urban|country|mining|floating] [--seed K] [--frames N >= 1] [--passes P >= 1] "
-                 "[--overhang-rows R in [0, 64]]\n");
+                 "[--far-side R,C (rows, columns in [0, 64])]\n");
     return 2;
   }
   io::StereoSequenceOptions options = io::preset_stereo_sequence(settings.scene, settings.seed);
@@ -166,7 +167,7 @@ int run(int argc, char** argv) {
   const arm::CameraToVehicle to_vehicle(mount);
   o3::CandidateParameters candidate_parameters;
   candidate_parameters.threads = kThreads;
-  candidate_parameters.overhang.rows_above_px = settings.overhang_rows_px;
+  candidate_parameters.far_side = settings.far_side;
   arm::terrain::TraversabilityParameters traversability_parameters;
   traversability_parameters.obstacle_height_m = candidate_parameters.obstacle_height_m;
   const Eigen::Isometry3d vehicle_from_camera = to_vehicle.vehicle_from_camera();
@@ -184,11 +185,11 @@ int run(int argc, char** argv) {
               base.camera_height_m, kThreads, std::min(kWarmUpFrames, settings.frames), settings.passes);
   std::printf("  disparity: %s\n", arm::settings_text(disparity_parameters).c_str());
   std::printf("  terrain: %g..%g m x %g..%g m, %g m cells, %d x %d control points of degree %d, candidates > %g m above the surface, "
-              "none under an overhang of %d rows (0: off); %d threads (bands of rows)\n",
+              "none on the far side of an edge (%d rows above, %d columns beside; 0 and 0: off); %d threads (bands of rows)\n",
               candidate_parameters.grid.forward_min_m, candidate_parameters.grid.forward_max_m, candidate_parameters.grid.lateral_min_m,
               candidate_parameters.grid.lateral_max_m, candidate_parameters.grid.cell_m, candidate_parameters.fit.control_forward,
               candidate_parameters.fit.control_lateral, candidate_parameters.fit.degree_forward, candidate_parameters.obstacle_height_m,
-              candidate_parameters.overhang.rows_above_px, candidate_parameters.threads);
+              candidate_parameters.far_side.rows_above_px, candidate_parameters.far_side.columns_beside_px, candidate_parameters.threads);
   std::printf("  stixels: polar grid %d x %d cells, min_points %d, true ego-motion from the sequence's poses\n",
               stixel_parameters.grid.columns(), stixel_parameters.grid.rows(), stixel_parameters.min_points);
 

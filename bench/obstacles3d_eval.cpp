@@ -6,8 +6,8 @@
 // render_sequence_frame renders --frames 640x480 frames with exact ground truth; per frame the
 // `lpstereo obstacles3d` pipeline runs once (arm::DisparityEngine, 64 disparities; arm::triangulate;
 // arm::CameraToVehicle with the synthetic mount; the 2.5D grid, fit_terrain and classify_points: the
-// points more than 0.2 m above the fitted terrain are the candidates, but for those under an overhang,
-// arm/obstacles3d/obstacle_candidates.h) and feeds the same candidates to
+// points more than 0.2 m above the fitted terrain are the candidates, but for those on the far side
+// of a nearer surface's edge, arm/obstacles3d/obstacle_candidates.h) and feeds the same candidates to
 // all five methods side by side: occupancy grids polar, cartesian, coldisp, the augmented stixels and
 // the voxel map + colour clustering + Kalman tracking (0.25 m voxels, 3 acceptance frames). As the
 // command by default: the ego-motion from arm::StereoOdometry (its camera increment t -> t-1 in the
@@ -65,7 +65,7 @@
 //        [--hole-membrane H]
 //        [--innovation-gate-chi2 X] [--moving-consistency N]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
-//        [--overhang-rows N] [--overhang-jump J]
+//        [--far-side-rows N] [--far-side-columns N] [--far-side-jump J]
 // (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2;
 // --first-seed: seeds S .. S + N - 1, default 1; --misses: one CSV row per missed object and per false
 // positive of every method, with the nearest obstacle, and per hanging object whose reported lower
@@ -79,9 +79,9 @@
 // fit's membrane over holes (TerrainFitParameters::hole_membrane); --occlusion-upper-bounds: the
 // occlusion-aware sampling of the candidates' terrain (grid.occlusion_upper_bounds, default the
 // CandidateParameters'), --occluder-rows / --occluder-jump its image test (arm::OccluderTest),
-// --upper-bound-tolerance-m the fit's one-sided tolerance; --overhang-rows / --overhang-jump: the
-// candidates' test of the far side under an overhang (arm::OverhangTest, CandidateParameters::overhang;
-// --overhang-rows 0 turns it off).)
+// --upper-bound-tolerance-m the fit's one-sided tolerance; --far-side-rows / --far-side-columns /
+// --far-side-jump: the candidates' test of the far side of a nearer surface's edge (arm::FarSideTest,
+// CandidateParameters::far_side; rows and columns 0 turn it off).)
 // Exit 0 when every line is met, 1 otherwise (the issue wants >= 300 frames and several seeds).
 #include <algorithm>
 #include <cerrno>
@@ -724,10 +724,12 @@ int main(int argc, char** argv) {
       settings.candidates.grid.occlusion_upper_bounds = std::string(argv[++i]) == "on";
     } else if (arg == "--occluder-rows" && has_value) {
       settings.candidates.occluder.rows_below_px = std::atoi(argv[++i]);
-    } else if (arg == "--overhang-rows" && has_value) {
-      settings.candidates.overhang.rows_above_px = std::atoi(argv[++i]);
-    } else if (arg == "--overhang-jump" && has_value) {
-      settings.candidates.overhang.jump_px = std::atof(argv[++i]);
+    } else if (arg == "--far-side-rows" && has_value) {
+      settings.candidates.far_side.rows_above_px = std::atoi(argv[++i]);
+    } else if (arg == "--far-side-columns" && has_value) {
+      settings.candidates.far_side.columns_beside_px = std::atoi(argv[++i]);
+    } else if (arg == "--far-side-jump" && has_value) {
+      settings.candidates.far_side.jump_px = std::atof(argv[++i]);
     } else if (arg == "--occluder-jump" && has_value) {
       settings.candidates.occluder.jump_px = std::atof(argv[++i]);
     } else if (arg == "--upper-bound-tolerance-m" && has_value) {
@@ -738,7 +740,7 @@ int main(int argc, char** argv) {
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
                    "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--vertical-gap-m G] [--hole-membrane H] [--innovation-gate-chi2 X] "
                    "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
-                   "[--occluder-jump J] [--upper-bound-tolerance-m T] [--overhang-rows N] [--overhang-jump J]\n",
+                   "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J]\n",
                    arg.c_str());
       return 2;
     }
@@ -752,10 +754,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    // a bad --vertical-gap-m, --occluder-rows, --occluder-jump, --overhang-rows or --overhang-jump: one line naming it, before any file is written
+    // a bad --vertical-gap-m, --occluder-rows, --occluder-jump, --far-side-rows, --far-side-columns or --far-side-jump: one line naming it, before any file is written
     settings.candidates.grid.validate();
     settings.candidates.occluder.validate();
-    settings.candidates.overhang.validate();
+    settings.candidates.far_side.validate();
     if (!(settings.candidates.fit.upper_bound_tolerance_m >= 0) || !std::isfinite(settings.candidates.fit.upper_bound_tolerance_m)) {
       throw std::invalid_argument("upper_bound_tolerance_m: expected a finite value >= 0, got " +
                                   std::to_string(settings.candidates.fit.upper_bound_tolerance_m));
@@ -778,14 +780,14 @@ int main(int argc, char** argv) {
   }
   std::printf("obstacles3d_eval: %d frames per sequence (the issue wants >= 300), seeds %d..%d, 640x480, ego-motion %s, candidates "
               "coloured from the %s image, %d thread(s); terrain: hole membrane %.2f, occlusion upper bounds %s (%d rows, jump %.2f px, tolerance %.2f m), "
-              "points under an overhang: no candidates (%d rows, jump %.2f px; 0 rows: off)\n"
+              "points on the far side of an edge: no candidates (%d rows above, %d columns beside, jump %.2f px; 0 and 0: off)\n"
               "objects counted when >= %lld %s pixels and <= %.0f m; gate |dx| <= 1 m + w/2, |dz| <= max(1 m, 3 sigma_Z) + l/2\n",
               settings.frames, settings.first_seed, settings.first_seed + settings.seeds - 1,
               settings.true_ego_motion ? "TRUE (the sequence's camera motion)" : "from visual odometry (as the command)",
               settings.colour ? "left colour" : "grey", settings.threads, settings.candidates.fit.hole_membrane,
               settings.candidates.grid.occlusion_upper_bounds ? "on" : "off",
               settings.candidates.occluder.rows_below_px, settings.candidates.occluder.jump_px, settings.candidates.fit.upper_bound_tolerance_m,
-              settings.candidates.overhang.rows_above_px, settings.candidates.overhang.jump_px, static_cast<long long>(settings.min_pixels),
+              settings.candidates.far_side.rows_above_px, settings.candidates.far_side.columns_beside_px, settings.candidates.far_side.jump_px, static_cast<long long>(settings.min_pixels),
               settings.all_visible ? "visible" : "measurable (true disparity in the engine's range, match inside the right image)",
               settings.range_m);
 

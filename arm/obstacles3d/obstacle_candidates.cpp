@@ -58,7 +58,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     throw std::invalid_argument("threads: expected a count in [1, 16], got " + std::to_string(parameters.threads));
   }
   parameters.occluder.validate();
-  parameters.overhang.validate();
+  parameters.far_side.validate();
   CandidatePoints result;
   // The image split into contiguous bands of rows, one per thread: each band's points are built on
   // its own thread, then the points are classified in equal shares, one per thread; every sequential
@@ -68,13 +68,13 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     std::vector<ObstaclePoint> points;
     std::vector<Eigen::Vector3d> vehicle_points;
     std::vector<uint8_t> over_occluder;  // per point, with grid.occlusion_upper_bounds
-    std::vector<uint8_t> under_overhang;  // per point, with the overhang test on
+    std::vector<uint8_t> far_side;  // per point, with the far-side test on
   };
   // One classification worker's share of the points: its candidates and its count outside the area.
   struct Share {
     std::vector<ObstaclePoint> candidates;
     int64_t outside_area = 0;
-    int64_t under_overhang = 0;
+    int64_t far_side = 0;
   };
   // A pixel that becomes a point (the build skips the others; the bands balance these).
   const auto has_disparity = [&](int16_t d_q4) { return d_q4 != invalid_disparity_q4 && d_q4 > 0; };
@@ -116,9 +116,9 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   const bool occlusion = parameters.grid.occlusion_upper_bounds;
   const std::vector<uint8_t> over_occluder =
       occlusion ? pixels_over_occluder(disparity_q4, invalid_disparity_q4, parameters.occluder) : std::vector<uint8_t>{};
-  // The pixels under an overhang become ground samples only, never candidates (the header says why);
-  // each band flags its own rows.
-  const bool overhang = parameters.overhang.rows_above_px > 0;
+  // The pixels on the far side of an edge become ground samples only, never candidates (the header
+  // says why); each band flags its own rows.
+  const bool far_side_test = parameters.far_side.enabled();
   const int red_channel = colour.blue_first ? 2 : 0, blue_channel = colour.blue_first ? 0 : 2;
   run_bands([&](int band) {
     Band& out = bands[static_cast<size_t>(band)];
@@ -127,8 +127,8 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     const size_t capacity = static_cast<size_t>(end_row - first_row) * static_cast<size_t>(disparity_q4.width());
     out.points.reserve(capacity);
     out.vehicle_points.reserve(capacity);
-    const std::vector<uint8_t> under_overhang =
-        overhang ? pixels_under_overhang(disparity_q4, invalid_disparity_q4, parameters.overhang, first_row, end_row) : std::vector<uint8_t>{};
+    const std::vector<uint8_t> far_side_flags =
+        far_side_test ? pixels_on_far_side(disparity_q4, invalid_disparity_q4, parameters.far_side, first_row, end_row) : std::vector<uint8_t>{};
     for (int v = first_row; v < end_row; ++v) {
       const uint8_t* colour_row = colour.pixels == nullptr ? nullptr : colour.pixels + static_cast<size_t>(v) * colour.row_stride_bytes;
       const int32_t* x_row = camera.x_mm.row<const int32_t>(v);
@@ -157,7 +157,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
         out.points.push_back(point);
         out.vehicle_points.push_back(vehicle);
         if (occlusion) out.over_occluder.push_back(over_occluder[static_cast<size_t>(v) * disparity_q4.width() + u]);
-        if (overhang) out.under_overhang.push_back(under_overhang[static_cast<size_t>(v - first_row) * disparity_q4.width() + u]);
+        if (far_side_test) out.far_side.push_back(far_side_flags[static_cast<size_t>(v - first_row) * disparity_q4.width() + u]);
       }
     }
   });
@@ -201,8 +201,8 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
       const CandidateTest::Class point_class = test.classify(band.vehicle_points[i], &height_above_m);
       if (point_class == CandidateTest::Class::outside) {
         ++share.outside_area;
-      } else if (point_class == CandidateTest::Class::candidate && overhang && band.under_overhang[i] != 0) {
-        ++share.under_overhang;
+      } else if (point_class == CandidateTest::Class::candidate && far_side_test && band.far_side[i] != 0) {
+        ++share.far_side;
       } else if (point_class == CandidateTest::Class::candidate) {
         share.candidates.push_back(band.points[i]);
         share.candidates.back().height_above_ground_m = static_cast<float>(height_above_m);
@@ -215,12 +215,12 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   for (const Share& share : shares) {
     result.points.insert(result.points.end(), share.candidates.begin(), share.candidates.end());
     result.outside_area += share.outside_area;
-    result.under_overhang += share.under_overhang;
+    result.far_side += share.far_side;
   }
   char note[200];
-  std::snprintf(note, sizeof note, "terrain: %lld points, %zu obstacle candidates, %lld outside the terrain area, %lld under an overhang",
+  std::snprintf(note, sizeof note, "terrain: %lld points, %zu obstacle candidates, %lld outside the terrain area, %lld on the far side of an edge",
                 static_cast<long long>(result.cloud_points), result.points.size(), static_cast<long long>(result.outside_area),
-                static_cast<long long>(result.under_overhang));
+                static_cast<long long>(result.far_side));
   result.note = note;
   return result;
 }

@@ -7,8 +7,9 @@
 // (arm/terrain: height_grid, fit_terrain; with grid.occlusion_upper_bounds each point carries
 // arm::pixels_over_occluder's flag of its pixel into the grid); (3) classify_points's rule keeps the points more than
 // obstacle_height_m above the fitted surface, with their height above it (CandidateTest: S evaluated
-// only where the control heights' bound cannot decide; the same classes), except the points under an
-// overhang (arm::pixels_under_overhang: they sample the terrain, they are never candidates). Step 1 runs on `threads`
+// only where the control heights' bound cannot decide; the same classes), except the points on the
+// far side of a nearer surface's edge (arm::pixels_on_far_side: they sample the terrain, they are
+// never candidates). Step 1 runs on `threads`
 // bands of rows (balanced by valid disparities), step 3 on `threads` equal shares of the points,
 // both joined in row order. When the terrain is
 // unknown (too few cells, a wall filling the view ...) there are no candidates and `note` says why.
@@ -46,18 +47,20 @@ struct CandidateParameters {
   // the floating scene, docs/obstacles3d.md): the image test that flags each point over a nearer
   // occluder (arm::pixels_over_occluder on the disparity map), for the 2.5D grid's upper-bound cells.
   OccluderTest occluder;
-  // The far side under an overhang (arm::pixels_under_overhang: a nearer surface's lower edge within
-  // rows_above_px rows above, more than jump_px nearer): those points sample the terrain but are never
-  // candidates. The matcher carries a hanging board's disparity down into the road seen under it for
-  // a few rows, decaying; those points stand 0.2-0.5 m above the road, at depths between the two,
-  // where a farther sign or board stands: obstacles under it that are not there. As ground samples
-  // they stay, because in the board's shadow they are the only ones near the road (without them a
-  // sign farther back pulls the surface up under itself: +0.1 m under a sign at 28 m, floating seed 2,
-  // and the sign then reads as low). Measured (bench/obstacles3d_eval, floating, 300 frames, seeds
-  // 1-3, stixels, free space kept under the hanging objects): 105 / 110 / 109 -> 105 / 113 / 110 of
-  // 111 / 118 / 115, the lower edges unchanged; dropping the points altogether instead: 105 / 109 on
-  // seeds 1-2 (the surface rose). rows_above_px 0: off.
-  OverhangTest overhang;
+  // The far side of a nearer surface's edge (arm::pixels_on_far_side: under its lower edge within
+  // rows_above_px rows, beside its side edges within columns_beside_px columns, more than jump_px
+  // nearer): those points sample the terrain but are never candidates. The matcher carries a hanging
+  // board's disparity down into the road seen under it, and a pedestrian's into the board seen
+  // beside it, for a few pixels, decaying; those points stand between the two surfaces, 0.2-1.4 m
+  // up, where a farther sign or board stands: obstacles under it that are not there. As ground
+  // samples they stay, because in a board's shadow they are the only ones near the road (without
+  // them a sign farther back pulls the surface up under itself: +0.1 m under a sign at 28 m,
+  // floating seed 2, and the sign then reads as low). Measured (bench/obstacles3d_eval, floating, 300
+  // frames, seeds 1-3, stixels, free space kept under the hanging objects, of 111 / 118 / 115): none
+  // 105 / 110 / 109, 6 rows 105 / 113 / 110, 6 rows and 6 columns 109 / 115 / 112 (docs/obstacles3d.md);
+  // dropping the points altogether instead: 105 / 109 on seeds 1-2 (the surface rose).
+  // rows_above_px and columns_beside_px 0: off.
+  FarSideTest far_side{.rows_above_px = 6, .columns_beside_px = 6};
   // [1, 16]: steps 1 and 3 run on this many threads (step 1 on bands of rows, at most one band per 16
   // rows; step 3 on shares of the points); the result is the same for any count (joined in row order).
   int threads = 1;
@@ -67,7 +70,7 @@ struct CandidatePoints {
   std::vector<ObstaclePoint> points;  // the candidates, height_above_ground_m set
   int64_t cloud_points = 0;           // valid disparities triangulated
   int64_t outside_area = 0;           // not covered by the terrain area (no height above ground)
-  int64_t under_overhang = 0;         // above obstacle_height_m but under an overhang: not candidates
+  int64_t far_side = 0;               // above obstacle_height_m but on the far side of an edge: not candidates
   terrain::TerrainEstimate terrain;   // the fit (terrain.known false: no candidates)
   // The 2.5D grid before the fit's equalisation (empty when the cloud was empty): what
   // terrain::compute_traversability takes beside the fit (terrain.grid is the equalised one).

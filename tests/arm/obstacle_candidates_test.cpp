@@ -179,7 +179,7 @@ TEST(ObstacleCandidates, OcclusionUpperBoundsMarkTheCellsOverANearerObject) {
   }
 }
 
-// The far side under an overhang (CandidateParameters::overhang, on by default): a board hanging
+// The far side under a nearer surface's lower edge (CandidateParameters::far_side, on by default): a board hanging
 // 0.9-1.6 m up at 6 m (d = 10 px, rows 57-79, columns 20-49, beside the box) over the road, whose
 // first six rows under it the matcher reads too near (the road's d plus 3.3, 2.5, 2.0, 1.6, 1.2 and
 // 1.0 px, as measured under a board at 15 m in bench/obstacles3d_eval, floating seed 2 frame 12):
@@ -199,11 +199,13 @@ TEST(ObstacleCandidates, PointsUnderAnOverhangSampleTheTerrainButAreNoCandidates
   }
   frame.camera = arm::triangulate(frame.disparity, arm::TriangulationParameters{kBaselineM, kFocalPx, kU0, kV0, 0, 64, 0});
   o3::CandidateParameters parameters;
-  const auto run = [&](int rows_above_px) {
-    parameters.overhang.rows_above_px = rows_above_px;
+  const auto run = [&](const arm::FarSideTest& test) {
+    parameters.far_side = test;
     return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
   };
-  const o3::CandidatePoints off = run(0), on = run(6);
+  const arm::FarSideTest by_default = parameters.far_side;
+  ASSERT_GT(by_default.rows_above_px, 0);
+  const o3::CandidatePoints off = run(arm::FarSideTest{.rows_above_px = 0, .columns_beside_px = 0}), on = run(by_default);
   ASSERT_TRUE(off.terrain.known && on.terrain.known) << off.note << " / " << on.note;
   const auto is_ramp = [](const o3::ObstaclePoint& point) { return point.u_px >= 20 && point.u_px < 50 && point.v_px >= 80; };
   std::vector<o3::ObstaclePoint> off_without_ramp;
@@ -216,8 +218,8 @@ TEST(ObstacleCandidates, PointsUnderAnOverhangSampleTheTerrainButAreNoCandidates
     }
   }
   EXPECT_EQ(ramp_candidates, 6 * 30);  // every ramp pixel stands above 0.2 m
-  EXPECT_EQ(on.under_overhang, ramp_candidates);
-  EXPECT_EQ(off.under_overhang, 0);
+  EXPECT_EQ(on.far_side, ramp_candidates);
+  EXPECT_EQ(off.far_side, 0);
   for (const o3::ObstaclePoint& point : on.points) EXPECT_FALSE(is_ramp(point)) << point.u_px << "," << point.v_px;
   ASSERT_EQ(on.points.size(), off_without_ramp.size());
   for (size_t k = 0; k < on.points.size(); ++k) {
@@ -228,9 +230,8 @@ TEST(ObstacleCandidates, PointsUnderAnOverhangSampleTheTerrainButAreNoCandidates
   EXPECT_EQ(on.measured_grid.point_count, off.measured_grid.point_count);
   EXPECT_EQ(on.terrain.surface.control_z_m, off.terrain.surface.control_z_m);
   // A bad test is refused by name.
-  parameters.overhang.jump_px = -1;
   try {
-    run(6);
+    run(arm::FarSideTest{.jump_px = -1});
     ADD_FAILURE() << "accepted jump_px = -1";
   } catch (const std::invalid_argument& error) {
     EXPECT_EQ(std::string(error.what()), "jump_px: expected a finite value > 0, got -1");
