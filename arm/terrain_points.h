@@ -127,8 +127,9 @@ std::vector<uint8_t> pixels_over_occluder(const Plane& disparity_q4, int16_t inv
 // a caller keeps them as ground). The near surface's own fattened border is kept (within jump_px of
 // its neighbours).
 struct FarSideTest {
+  // The defaults are the measured setting (arm/obstacles3d/obstacle_candidates.h, CandidateParameters).
   int rows_above_px = 6;      // [0, 64]: the rows looked up; 0: no column test
-  int columns_beside_px = 0;  // [0, 64]: the columns looked at on either side; 0: no row test
+  int columns_beside_px = 6;  // [0, 64]: the columns looked at on either side; 0: no row test
   double jump_px = 2.0;       // > 0: the discontinuity filter's jump (a flat ground changes 0.2 px a row)
   // Throws std::invalid_argument "<name>: expected ..., got ..." when out of range.
   void validate() const;

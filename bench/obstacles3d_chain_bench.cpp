@@ -47,6 +47,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <future>
+#include <stdexcept>
 #include <string>
 #include <vector>
 #include <time.h>
@@ -81,7 +82,7 @@ struct Settings {
   uint32_t seed = 1;
   int frames = 30;
   int passes = 3;
-  arm::FarSideTest far_side = o3::CandidateParameters{}.far_side;
+  arm::FarSideTest far_side;  // the candidates' default
 };
 
 struct RenderedFrame {
@@ -124,8 +125,13 @@ bool parse(int argc, char** argv, Settings& settings) {
       return false;
     }
   }
-  return settings.frames >= 1 && settings.passes >= 1 && settings.far_side.rows_above_px >= 0 && settings.far_side.rows_above_px <= 64 &&
-         settings.far_side.columns_beside_px >= 0 && settings.far_side.columns_beside_px <= 64;
+  try {
+    settings.far_side.validate();
+  } catch (const std::invalid_argument& error) {
+    std::fprintf(stderr, "obstacles3d_chain_bench: --far-side: %s\n", error.what());
+    return false;
+  }
+  return settings.frames >= 1 && settings.passes >= 1;
 }
 
 int run(int argc, char** argv) {

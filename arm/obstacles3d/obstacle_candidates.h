@@ -59,8 +59,8 @@ struct CandidateParameters {
   // frames, seeds 1-3, stixels, free space kept under the hanging objects, of 111 / 118 / 115): none
   // 105 / 110 / 109, 6 rows 105 / 113 / 110, 6 rows and 6 columns 109 / 115 / 112 (docs/obstacles3d.md);
   // dropping the points altogether instead: 105 / 109 on seeds 1-2 (the surface rose).
-  // rows_above_px and columns_beside_px 0: off.
-  FarSideTest far_side{.rows_above_px = 6, .columns_beside_px = 6};
+  // The default: 6 rows, 6 columns, 2 px; rows_above_px and columns_beside_px 0: off.
+  FarSideTest far_side;
   // [1, 16]: steps 1 and 3 run on this many threads (step 1 on bands of rows, at most one band per 16
   // rows; step 3 on shares of the points); the result is the same for any count (joined in row order).
   int threads = 1;

@@ -47,7 +47,7 @@ TEST(PixelsOnFarSide, HandBuiltColumns) {
     // 5: a box (9 px, rows 20-25) standing on the ground, whose foot meets the ground at row 25
     disparity.at<int16_t>(5, v) = q4(v >= 20 && v < 26 ? 9.0 : ground(v));
   }
-  const std::vector<uint8_t> flags = pixels_on_far_side(disparity, kInvalidQ4, FarSideTest{.rows_above_px = 6, .jump_px = 2.0});
+  const std::vector<uint8_t> flags = pixels_on_far_side(disparity, kInvalidQ4, FarSideTest{.rows_above_px = 6, .columns_beside_px = 0, .jump_px = 2.0});
   const auto expected = [](int u, int v) {
     switch (u) {
       case 1: return v >= 16 && v <= 21;  // 6 rows under the board's last row (the fattened row 15 is within 2 px)
@@ -85,8 +85,8 @@ TEST(PixelsOnFarSide, AgreesWithTheRuleReadPixelByPixel) {
   std::uniform_int_distribution<int> value(-1, 60);  // -1: invalid; else 0 .. 59 px in steps of 1 px
   const int width = 21, height = 19;
   for (const FarSideTest test :
-       {FarSideTest{.rows_above_px = 1, .jump_px = 2.0}, FarSideTest{.rows_above_px = 4, .jump_px = 3.5},
-        FarSideTest{.rows_above_px = 25, .jump_px = 10.0}, FarSideTest{.rows_above_px = 0, .columns_beside_px = 2, .jump_px = 3.5},
+       {FarSideTest{.rows_above_px = 1, .columns_beside_px = 0, .jump_px = 2.0}, FarSideTest{.rows_above_px = 4, .columns_beside_px = 0, .jump_px = 3.5},
+        FarSideTest{.rows_above_px = 25, .columns_beside_px = 0, .jump_px = 10.0}, FarSideTest{.rows_above_px = 0, .columns_beside_px = 2, .jump_px = 3.5},
         FarSideTest{.rows_above_px = 3, .columns_beside_px = 30, .jump_px = 20.0}}) {
     Plane disparity = disparity_plane(width, height);
     for (int v = 0; v < height; ++v)
@@ -125,9 +125,9 @@ TEST(PixelsOnFarSide, OffFlagsNothing) {
   Plane disparity = disparity_plane(3, 4);
   for (int v = 0; v < 4; ++v)
     for (int u = 0; u < 3; ++u) disparity.at<int16_t>(u, v) = q4(v == 0 ? 40.0 : 1.0);
-  const std::vector<uint8_t> by_default = pixels_on_far_side(disparity, kInvalidQ4, FarSideTest{});  // 6 rows
+  const std::vector<uint8_t> by_default = pixels_on_far_side(disparity, kInvalidQ4, FarSideTest{});  // 6 rows, 6 columns
   EXPECT_EQ(std::count(by_default.begin(), by_default.end(), 1), 9);  // rows 1-3 under the 40 px row 0
-  const std::vector<uint8_t> flags = pixels_on_far_side(disparity, kInvalidQ4, FarSideTest{.rows_above_px = 0});
+  const std::vector<uint8_t> flags = pixels_on_far_side(disparity, kInvalidQ4, FarSideTest{.rows_above_px = 0, .columns_beside_px = 0});
   ASSERT_EQ(flags.size(), 12u);
   for (uint8_t flag : flags) EXPECT_EQ(flag, 0);
 }
