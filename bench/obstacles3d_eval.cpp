@@ -16,11 +16,14 @@
 // both counted and printed, with the odometry's per-frame error against the true increment) and the candidates coloured from the left colour view (the voxel clustering is colour-
 // based). Options measure the methods apart from the odometry (--ego-motion truth: the sequence's
 // true camera motion) or on grey (--grey: the grey image as the colour).
+// The scoring rules below (the gate, the measurable pixels, the lower edge seen, the hanging part's
+// report, the free space) are eval/obstacles3d_scoring.h, tested on hand-built cases in
+// tests/eval/obstacles3d_scoring_test.cpp; this program keeps the tallies, the logs and the tables.
 //
 // Measured (objects: >= --min-pixels measurable pixels and base-centre depth <= --range-m; a pixel of
 // the object is measurable when its true disparity lies in the engine's range [min, min + count - 1]
 // and its match u - d is inside the right image and not covered there by a nearer surface (see
-// measurable_pixels): objects nearer than f B / 63 px (2.6 m here), seen only in the left border
+// eval::measurable_pixels): objects nearer than f B / 63 px (2.6 m here), seen only in the left border
 // that the right camera does not see, or hidden from the right camera behind a nearer object (a board
 // at 28 m showing its end beside a near board's edge to the left camera only) cannot be measured by
 // any stereo method, and are counted apart as "unmeasurable" (the last printed apart as "half-occluded");
@@ -109,6 +112,7 @@
 #include "arm/obstacles3d/voxel_map.h"
 #include "arm/point_cloud.h"
 #include "arm/terrain/terrain_model.h"
+#include "eval/obstacles3d_scoring.h"
 #include "io/image_io.h"
 #include "io/stereo_sequence.h"
 #include "kernels/disparity_to_points.h"
@@ -120,9 +124,6 @@ namespace o3 = arm::obstacles3d;
 
 constexpr int kMethods = 5;
 const char* const kMethodNames[kMethods] = {"polar", "cartesian", "coldisp", "stixels", "voxels"};
-// The report of a hanging object's hanging part spans this height above its true lower edge: inside
-// every hanging part of io/stereo_synth.h (a board's 0.7 m, a sign's 0.7 m, a ball's 0.4 m).
-constexpr double kHangingPartProbeM = 0.2;
 
 struct Settings {
   int frames = 30;
@@ -209,95 +210,6 @@ double mean(const std::vector<double>& values) {
   return values.empty() ? 0 : sum / static_cast<double>(values.size());
 }
 
-bool is_floating(io::SynthClass c) {
-  return c == io::SynthClass::board_on_poles || c == io::SynthClass::hanging_sign || c == io::SynthClass::ball_on_post;
-}
-
-// Per object id (the object_ids value), the pixels of the left view whose true disparity the engine
-// can find: d in [min_disparity, min_disparity + num_disparities - 1] and u - d >= 0 (`in_range`),
-// and of those the ones the right camera sees (`measurable`): no nearer surface covers the match
-// x_r = u - d in the right view. A left pixel u' > u whose match u' - d' lies left of x_r crossed
-// it and is nearer (d' > d), so the pixel is half-occluded when the smallest u' - d' over u' > u in
-// its row is below x_r - 0.5 px (the same surface seen obliquely keeps u' - d' increasing); the
-// occluder of a right-view pixel always shows in the left view or is itself covered there by a
-// nearer one that passes the same test. No stereo method measures a half-occluded pixel; KITTI
-// scores disparity on the non-occluded ones ("noc"). Sky (+inf) occludes nothing.
-// lower_edge (with a LowerEdgeProbe): per hanging object, its measurable pixels whose true point lies
-// in the hanging part's lowest kLowerEdgeBandM (height above the true ground within [edge, edge +
-// band], road x within the part's width): whether its lower edge is seen at all.
-struct MeasurablePixels {
-  std::vector<int64_t> in_range, measurable, lower_edge;
-};
-// What the lower-edge count needs: the frame's geometry and, per object id, the hanging part's lateral
-// span and lower edge (none for the other objects).
-struct LowerEdgeProbe {
-  double focal_px = 0, cx_px = 0, cy_px = 0, baseline_m = 0, camera_height_m = 0;
-  Eigen::Isometry3d road_from_camera = Eigen::Isometry3d::Identity();
-  const io::SynthGroundTruth* ground = nullptr;
-  struct Part {
-    bool hanging = false;
-    double x_min_m = 0, x_max_m = 0, edge_m = 0;
-  };
-  std::vector<Part> parts;  // by object id
-};
-constexpr double kLowerEdgeBandM = 0.10;
-// The lower edge counts as seen when at least this share of the band's pixels (width x band at the
-// object's range) is measurable, and at least kLowerEdgeMinPixels of them.
-constexpr double kLowerEdgeMinShare = 0.25, kLowerEdgeMinPixels = 10;
-MeasurablePixels measurable_pixels(const io::StereoSynthScene& scene, int min_disparity, int num_disparities,
-                                   const LowerEdgeProbe* probe = nullptr) {
-  MeasurablePixels counts;
-  const double max_disparity = min_disparity + num_disparities - 1;
-  const int width = scene.object_ids.cols;
-  std::vector<double> smallest_match_right(static_cast<size_t>(width) + 1);
-  for (int v = 0; v < scene.object_ids.rows; ++v) {
-    // smallest_match_right[u]: min over u' >= u of u' - d(u') (+inf: none finite).
-    smallest_match_right[static_cast<size_t>(width)] = std::numeric_limits<double>::infinity();
-    for (int u = width - 1; u >= 0; --u) {
-      const double d = scene.disparity_px.at<float>(v, u);
-      smallest_match_right[static_cast<size_t>(u)] =
-          std::min(smallest_match_right[static_cast<size_t>(u) + 1], std::isfinite(d) ? u - d : std::numeric_limits<double>::infinity());
-    }
-    for (int u = 0; u < width; ++u) {
-      const uint16_t id = scene.object_ids.at<uint16_t>(v, u);
-      if (id == 0) continue;
-      const double d = scene.disparity_px.at<float>(v, u);
-      if (!std::isfinite(d) || d < min_disparity || d > max_disparity || u - d < 0) continue;
-      if (counts.in_range.size() <= id) {
-        counts.in_range.resize(id + 1u, 0), counts.measurable.resize(id + 1u, 0), counts.lower_edge.resize(id + 1u, 0);
-      }
-      ++counts.in_range[id];
-      if (smallest_match_right[static_cast<size_t>(u) + 1] < u - d - 0.5) continue;
-      ++counts.measurable[id];
-      if (probe == nullptr || id >= probe->parts.size() || !probe->parts[id].hanging) continue;
-      const LowerEdgeProbe::Part& part = probe->parts[id];
-      const double depth_m = probe->focal_px * probe->baseline_m / d;
-      const Eigen::Vector3d road = probe->road_from_camera *
-                                   Eigen::Vector3d((u - probe->cx_px) * depth_m / probe->focal_px, (v - probe->cy_px) * depth_m / probe->focal_px, depth_m);
-      // Road frame: Y down, the ground at Y = camera_height_m - its height (io/stereo_synth.h).
-      const double height_m = probe->camera_height_m - road.y() - probe->ground->height_m(road.x(), road.z());
-      if (road.x() >= part.x_min_m && road.x() <= part.x_max_m && height_m >= part.edge_m && height_m <= part.edge_m + kLowerEdgeBandM) {
-        ++counts.lower_edge[id];
-      }
-    }
-  }
-  return counts;
-}
-
-struct Gate {
-  double lateral_m, depth_m;
-};
-
-Gate gate_of(const io::SequenceObjectTruth& object, const o3::StereoErrorModel& error_model) {
-  const double z = object.truth.position_m[2];
-  return {1.0 + object.truth.object.width_m / 2, std::max(1.0, 3 * error_model.depth_sigma_m(std::max(z, 0.1))) + object.truth.object.length_m / 2};
-}
-
-bool in_gate(const o3::Obstacle3d& obstacle, const io::SequenceObjectTruth& object, const Gate& gate) {
-  return std::abs(obstacle.position_m.x() - object.truth.position_m[0]) <= gate.lateral_m &&
-         std::abs(obstacle.position_m.z() - object.truth.position_m[2]) <= gate.depth_m;
-}
-
 // One --misses row: scene, seed, frame, method, kind (miss | false_positive), then the object's truth
 // (class, id, camera-frame x z, visible pixels; empty for a false positive) and an obstacle (for a
 // miss: the nearest one by ground distance, in or out of the gate; for a false positive: itself), its
@@ -340,13 +252,15 @@ void log_moving_row(const MissLog& log, const io::SequenceObjectTruth& object, c
 }
 
 void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoSequenceFrame& frame, const o3::StereoErrorModel& error_model,
-                 const MeasurablePixels& measurable, const Settings& settings, bool is_voxels, const char* method, const MissLog& log,
+                 const eval::MeasurablePixels& measurable, const Settings& settings, bool is_voxels, const char* method, const MissLog& log,
                  Tally& tally) {
   ++tally.frames;
   for (const o3::Obstacle3d& obstacle : obstacles) {
     if (obstacle.position_m.z() > settings.range_m) continue;
     bool matched = false;
-    for (const io::SequenceObjectTruth& object : frame.objects) matched = matched || in_gate(obstacle, object, gate_of(object, error_model));
+    for (const io::SequenceObjectTruth& object : frame.objects) {
+      matched = matched || eval::in_gate(obstacle, object.truth, eval::gate_of(object.truth, error_model));
+    }
     if (!matched) {
       ++tally.false_positives;
       log_row(log, method, "false_positive", nullptr, 0, &obstacle);
@@ -354,11 +268,10 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
   }
   for (const io::SequenceObjectTruth& object : frame.objects) {
     if (object.truth.visible_pixels < settings.min_pixels || object.truth.position_m[2] > settings.range_m) continue;
-    const size_t id = static_cast<size_t>(object.truth.id);
-    const int64_t measurable_count = id < measurable.measurable.size() ? measurable.measurable[id] : 0;
+    const int64_t measurable_count = measurable.measurable_of(object.truth.id);
     if (!settings.all_visible && measurable_count < settings.min_pixels) {
       ++tally.unmeasurable;
-      if (id < measurable.in_range.size() && measurable.in_range[id] >= settings.min_pixels) ++tally.half_occluded;
+      if (measurable.in_range_of(object.truth.id) >= settings.min_pixels) ++tally.half_occluded;
       continue;
     }
     // The same obstacle height as the candidates run_sequence made.
@@ -367,70 +280,46 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
       continue;
     }
     ++tally.visible;
-    const Gate gate = gate_of(object, error_model);
-    // In the gate: the nearest obstacle, the one with the highest lower edge, and the report of the
-    // hanging part (the highest lower edge of those spanning kHangingPartProbeM above the truth's
-    // lower edge); anywhere: the nearest (what --misses reports for a miss).
+    const eval::ObstacleGate gate = eval::gate_of(object.truth, error_model);
+    // In the gate: the nearest obstacle; anywhere: the nearest (what --misses reports for a miss).
     const o3::Obstacle3d* nearest = nullptr;
-    const o3::Obstacle3d* highest_lower_edge = nullptr;
-    const o3::Obstacle3d* hanging_part_report = nullptr;
-    const double probe_height_m = object.truth.min_height_m + kHangingPartProbeM;
     const o3::Obstacle3d* nearest_anywhere = nullptr;
     double nearest_distance = 1e9, nearest_anywhere_m = 1e9;
     for (const o3::Obstacle3d& obstacle : obstacles) {
       const double distance = std::hypot(obstacle.position_m.x() - object.truth.position_m[0], obstacle.position_m.z() - object.truth.position_m[2]);
       if (distance < nearest_anywhere_m) nearest_anywhere_m = distance, nearest_anywhere = &obstacle;
-      if (!in_gate(obstacle, object, gate)) continue;
+      if (!eval::in_gate(obstacle, object.truth, gate)) continue;
       if (distance < nearest_distance) nearest_distance = distance, nearest = &obstacle;
-      if (!highest_lower_edge || obstacle.min_height_m > highest_lower_edge->min_height_m) highest_lower_edge = &obstacle;
-      if (obstacle.min_height_m <= probe_height_m && obstacle.max_height_m >= probe_height_m &&
-          (!hanging_part_report || obstacle.min_height_m > hanging_part_report->min_height_m)) {
-        hanging_part_report = &obstacle;
-      }
     }
     if (!nearest) {
       log_row(log, method, "miss", &object, measurable_count, nearest_anywhere);
       continue;
     }
     ++tally.detected;
-    const io::SynthClass object_class = object.truth.object.object_class;
-    bool edge_hidden = false;
-    if (is_floating(object_class) && !settings.score_hidden_edges) {
-      // The hanging part's lowest band not measurable (behind a nearer object): no method sees its
-      // lower edge, nor the space under it; counted apart.
-      const double band_pixels = object.truth.object.width_m * kLowerEdgeBandM * error_model.focal_px * error_model.focal_px /
-                                 (object.truth.distance_m * object.truth.distance_m);
-      const int64_t edge_count = id < measurable.lower_edge.size() ? measurable.lower_edge[id] : 0;
-      edge_hidden = static_cast<double>(edge_count) < std::max(kLowerEdgeMinPixels, kLowerEdgeMinShare * band_pixels);
-      if (edge_hidden) ++tally.edge_hidden;
-    }
-    if (is_floating(object_class) && !edge_hidden) {
+    const bool floating = eval::is_floating(object.truth.object.object_class);
+    // The hanging part's lowest band not measurable (behind a nearer object): no method sees its
+    // lower edge, nor the space under it; counted apart.
+    const bool edge_hidden = floating && !settings.score_hidden_edges &&
+                             !eval::lower_edge_seen(measurable.lower_edge_of(object.truth.id), object.truth, error_model.focal_px);
+    if (edge_hidden) ++tally.edge_hidden;
+    if (floating && !edge_hidden) {
       ++tally.floating_seen;
-      // No in-gate obstacle spans the probe height: the hanging part was not reported as such; the
-      // highest lower edge is scored (and is then off by more than 10 cm or spans the probe).
-      const o3::Obstacle3d* scored = hanging_part_report ? hanging_part_report : highest_lower_edge;
-      const double error_m = scored->min_height_m - object.truth.min_height_m;
-      tally.floating_error_m.push_back(error_m);
-      if (std::abs(error_m) <= 0.10) {
+      const eval::HangingObjectScore score = eval::score_hanging_object(obstacles, object.truth, gate);
+      tally.floating_error_m.push_back(score.error_m);
+      if (score.within_tolerance()) {
         ++tally.floating_within;
       } else {
-        log_row(log, method, error_m > 0 ? "lower_edge_high" : "lower_edge_low", &object, measurable_count, scored);
+        log_row(log, method, score.error_m > 0 ? "lower_edge_high" : "lower_edge_low", &object, measurable_count, score.scored);
       }
-      const double any_error_m = highest_lower_edge->min_height_m - object.truth.min_height_m;
-      tally.floating_error_any_m.push_back(any_error_m);
-      if (std::abs(any_error_m) <= 0.10) ++tally.floating_within_any;
-      if (object_class != io::SynthClass::ball_on_post) {
+      tally.floating_error_any_m.push_back(score.highest_lower_edge_error_m);
+      if (std::abs(score.highest_lower_edge_error_m) <= eval::kLowerEdgeToleranceM) ++tally.floating_within_any;
+      if (score.free_space_checked) {
         ++tally.free_checked;
-        bool kept = true;
-        const double inner_m = object.truth.object.width_m / 2 - 0.3;
-        for (const o3::Obstacle3d& obstacle : obstacles) {
-          if (in_gate(obstacle, object, gate) && std::abs(obstacle.position_m.x() - object.truth.position_m[0]) <= inner_m &&
-              obstacle.min_height_m < object.truth.min_height_m - 0.10) {
-            if (kept) log_row(log, method, "free_space_lost", &object, measurable_count, &obstacle);
-            kept = false;
-          }
+        if (score.free_space_kept()) {
+          ++tally.free_kept;
+        } else {
+          log_row(log, method, "free_space_lost", &object, measurable_count, score.under);
         }
-        if (kept) ++tally.free_kept;
       }
     }
     if (is_voxels) {
@@ -586,20 +475,14 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
           vehicle_from_camera * io::camera_previous_from_current(previous_pose, frame.pose) * vehicle_from_camera.inverse();
     }
     previous_pose = frame.pose;
-    LowerEdgeProbe probe;
+    eval::LowerEdgeProbe probe;
     probe.focal_px = focal_px, probe.cx_px = cx, probe.cy_px = cy, probe.baseline_m = base.baseline_m;
     probe.camera_height_m = base.camera_height_m;
     probe.road_from_camera = io::road_from_camera(frame.pose);
     probe.ground = &ground_truth;
-    for (const io::SequenceObjectTruth& object : frame.objects) {
-      if (!is_floating(object.truth.object.object_class)) continue;
-      const size_t id = static_cast<size_t>(object.truth.id);
-      if (probe.parts.size() <= id) probe.parts.resize(id + 1u);
-      const double half_width_m = object.truth.object.width_m / 2;
-      probe.parts[id] = {true, object.truth.object.x_m - half_width_m, object.truth.object.x_m + half_width_m, object.truth.min_height_m};
-    }
-    const MeasurablePixels measurable =
-        measurable_pixels(frame.scene, disparity_parameters.min_disparity, disparity_parameters.num_disparities, &probe);
+    for (const io::SequenceObjectTruth& object : frame.objects) probe.add_part(object.truth);
+    const eval::MeasurablePixels measurable =
+        eval::measurable_pixels(frame.scene, disparity_parameters.min_disparity, disparity_parameters.num_disparities, &probe);
     for (int g = 0; g < 3; ++g) {
       grids[static_cast<size_t>(g)]->update(candidates, ego_motion);
       score_frame(grids[static_cast<size_t>(g)]->obstacles(), frame, error_model, measurable, settings, false, kMethodNames[g], log,
@@ -871,8 +754,8 @@ int main(int argc, char** argv) {
     std::printf("  lower edge hidden: %lld object-frames detected by stixels (%lld by polar) whose hanging part's lowest %.0f cm is not measurable "
                 "(fewer than max(%.0f, %.0f %% of its pixels)): behind a nearer object; not scored for the edge nor the free space "
                 "(--score-hidden-edges scores them)\n",
-                static_cast<long long>(per_scene[s][3].edge_hidden), static_cast<long long>(per_scene[s][0].edge_hidden), 100 * kLowerEdgeBandM,
-                kLowerEdgeMinPixels, 100 * kLowerEdgeMinShare);
+                static_cast<long long>(per_scene[s][3].edge_hidden), static_cast<long long>(per_scene[s][0].edge_hidden), 100 * eval::kLowerEdgeBandM,
+                eval::kLowerEdgeMinPixels, 100 * eval::kLowerEdgeMinShare);
     std::printf("  line: stixels within 10 cm in >= 90 %% of the frames seen, free space kept in >= 99 %%\n");
   }
 
