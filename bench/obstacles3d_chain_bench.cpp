@@ -39,7 +39,8 @@
 // Exits 1 when neither the sequential median total nor the pipelined throughput reaches 30 fps.
 // Usage: obstacles3d_chain_bench [--scene urban|country|mining|floating] [--seed K] [--frames N] [--passes P]
 //        [--far-side R,C] (the candidates' far-side test, CandidateParameters::far_side: R rows above, C
-//        columns beside; 0,0: off, to time what it costs)
+//        columns beside; 0,0: off, to time what it costs) [--ground-below-view upper-bounds|samples] (the
+//        cells whose ground lies below the image as upper bounds, the default, or as plain samples)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -83,6 +84,7 @@ struct Settings {
   int frames = 30;
   int passes = 3;
   arm::FarSideTest far_side;  // the candidates' default
+  bool ground_below_view_upper_bounds = true;  // the candidates' default
 };
 
 struct RenderedFrame {
@@ -121,6 +123,9 @@ bool parse(int argc, char** argv, Settings& settings) {
       settings.passes = std::atoi(value);
     } else if (flag == "--far-side") {
       if (std::sscanf(value, "%d,%d", &settings.far_side.rows_above_px, &settings.far_side.columns_beside_px) != 2) return false;
+    } else if (flag == "--ground-below-view") {
+      if (std::strcmp(value, "upper-bounds") != 0 && std::strcmp(value, "samples") != 0) return false;
+      settings.ground_below_view_upper_bounds = std::strcmp(value, "upper-bounds") == 0;
     } else {
       return false;
     }
@@ -138,7 +143,7 @@ int run(int argc, char** argv) {
   Settings settings;
   if (!parse(argc, argv, settings)) {
     std::fprintf(stderr, "usage: obstacles3d_chain_bench [--scene urban|country|mining|floating] [--seed K] [--frames N >= 1] [--passes P >= 1] "
-                 "[--far-side R,C (rows, columns in [0, 64])]\n");
+                 "[--far-side R,C (rows, columns in [0, 64])] [--ground-below-view upper-bounds|samples]\n");
     return 2;
   }
   io::StereoSequenceOptions options = io::preset_stereo_sequence(settings.scene, settings.seed);
@@ -174,6 +179,7 @@ int run(int argc, char** argv) {
   o3::CandidateParameters candidate_parameters;
   candidate_parameters.threads = kThreads;
   candidate_parameters.far_side = settings.far_side;
+  candidate_parameters.ground_below_view_upper_bounds = settings.ground_below_view_upper_bounds;
   arm::terrain::TraversabilityParameters traversability_parameters;
   traversability_parameters.obstacle_height_m = candidate_parameters.obstacle_height_m;
   const Eigen::Isometry3d vehicle_from_camera = to_vehicle.vehicle_from_camera();
@@ -191,11 +197,13 @@ int run(int argc, char** argv) {
               base.camera_height_m, kThreads, std::min(kWarmUpFrames, settings.frames), settings.passes);
   std::printf("  disparity: %s\n", arm::settings_text(disparity_parameters).c_str());
   std::printf("  terrain: %g..%g m x %g..%g m, %g m cells, %d x %d control points of degree %d, candidates > %g m above the surface, "
-              "none on the far side of an edge (%d rows above, %d columns beside; 0 and 0: off); %d threads (bands of rows)\n",
+              "none on the far side of an edge (%d rows above, %d columns beside; 0 and 0: off), cells with their ground below the view: %s; "
+              "%d threads (bands of rows)\n",
               candidate_parameters.grid.forward_min_m, candidate_parameters.grid.forward_max_m, candidate_parameters.grid.lateral_min_m,
               candidate_parameters.grid.lateral_max_m, candidate_parameters.grid.cell_m, candidate_parameters.fit.control_forward,
               candidate_parameters.fit.control_lateral, candidate_parameters.fit.degree_forward, candidate_parameters.obstacle_height_m,
-              candidate_parameters.far_side.rows_above_px, candidate_parameters.far_side.columns_beside_px, candidate_parameters.threads);
+              candidate_parameters.far_side.rows_above_px, candidate_parameters.far_side.columns_beside_px,
+              candidate_parameters.ground_below_view_upper_bounds ? "upper bounds" : "samples", candidate_parameters.threads);
   std::printf("  stixels: polar grid %d x %d cells, min_points %d, true ego-motion from the sequence's poses\n",
               stixel_parameters.grid.columns(), stixel_parameters.grid.rows(), stixel_parameters.min_points);
 
@@ -227,7 +235,7 @@ int run(int argc, char** argv) {
       const arm::CameraPoints camera = arm::triangulate(disparity, triangulation);
       lap(kTriangulate);
       const o3::CandidatePoints candidates =
-          o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, frame.left,
+          o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, triangulation, frame.left,
                                           o3::ColourView{frame.left_colour.data, frame.left_colour.step, true}, to_vehicle, candidate_parameters);
       lap(kTerrain);
       stixels.update(candidates.points, ego_motion);
@@ -299,7 +307,7 @@ int run(int argc, char** argv) {
                                              vehicle_from_camera.inverse();
         }
         const o3::CandidatePoints candidates = o3::extract_obstacle_candidates(
-            points.disparity, engine.invalid_disparity_q4(), points.camera, frame.left,
+            points.disparity, engine.invalid_disparity_q4(), points.camera, triangulation, frame.left,
             o3::ColourView{frame.left_colour.data, frame.left_colour.step, true}, to_vehicle, stage2_candidates);
         stixels.update(candidates.points, ego_motion);
         arm::terrain::TraversabilityMap map;

@@ -68,7 +68,7 @@
 //        [--hole-membrane H]
 //        [--innovation-gate-chi2 X] [--moving-consistency N]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
-//        [--far-side-rows N] [--far-side-columns N] [--far-side-jump J]
+//        [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] [--ground-below-view upper-bounds|samples]
 // (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2;
 // --first-seed: seeds S .. S + N - 1, default 1; --misses: one CSV row per missed object and per false
 // positive of every method, with the nearest obstacle, and per hanging object whose reported lower
@@ -84,7 +84,9 @@
 // CandidateParameters'), --occluder-rows / --occluder-jump its image test (arm::OccluderTest),
 // --upper-bound-tolerance-m the fit's one-sided tolerance; --far-side-rows / --far-side-columns /
 // --far-side-jump: the candidates' test of the far side of a nearer surface's edge (arm::FarSideTest,
-// CandidateParameters::far_side; rows and columns 0 turn it off).)
+// CandidateParameters::far_side; rows and columns 0 turn it off); --ground-below-view: the cells whose
+// ground lies below the image are upper bounds (the default, CandidateParameters::
+// ground_below_view_upper_bounds) or plain samples.)
 // Exit 0 when every line is met, 1 otherwise (the issue wants >= 300 frames and several seeds).
 #include <algorithm>
 #include <cerrno>
@@ -438,7 +440,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     const Plane& disparity = engine.compute(left, right);
     const arm::CameraPoints camera = arm::triangulate(disparity, triangulation);
     const std::vector<o3::ObstaclePoint> candidates =
-        o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, left,
+        o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, triangulation, left,
                                         settings.colour ? o3::ColourView{frame.scene.left_colour.data, frame.scene.left_colour.step, true}
                                                         : o3::ColourView{},
                                         to_vehicle, candidate_parameters)
@@ -605,6 +607,8 @@ int main(int argc, char** argv) {
       settings.candidates.fit.hole_membrane = std::atof(argv[++i]);
     } else if (arg == "--occlusion-upper-bounds" && has_value && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off")) {
       settings.candidates.grid.occlusion_upper_bounds = std::string(argv[++i]) == "on";
+    } else if (arg == "--ground-below-view" && has_value && (std::string(argv[i + 1]) == "upper-bounds" || std::string(argv[i + 1]) == "samples")) {
+      settings.candidates.ground_below_view_upper_bounds = std::string(argv[++i]) == "upper-bounds";
     } else if (arg == "--occluder-rows" && has_value) {
       settings.candidates.occluder.rows_below_px = std::atoi(argv[++i]);
     } else if (arg == "--far-side-rows" && has_value) {
@@ -623,7 +627,8 @@ int main(int argc, char** argv) {
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
                    "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--vertical-gap-m G] [--hole-membrane H] [--innovation-gate-chi2 X] "
                    "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
-                   "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J]\n",
+                   "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] "
+                   "[--ground-below-view upper-bounds|samples]\n",
                    arg.c_str());
       return 2;
     }
@@ -663,14 +668,16 @@ int main(int argc, char** argv) {
   }
   std::printf("obstacles3d_eval: %d frames per sequence (the issue wants >= 300), seeds %d..%d, 640x480, ego-motion %s, candidates "
               "coloured from the %s image, %d thread(s); terrain: hole membrane %.2f, occlusion upper bounds %s (%d rows, jump %.2f px, tolerance %.2f m), "
-              "points on the far side of an edge: no candidates (%d rows above, %d columns beside, jump %.2f px; 0 and 0: off)\n"
+              "points on the far side of an edge: no candidates (%d rows above, %d columns beside, jump %.2f px; 0 and 0: off), "
+              "cells with their ground below the view: %s\n"
               "objects counted when >= %lld %s pixels and <= %.0f m; gate |dx| <= 1 m + w/2, |dz| <= max(1 m, 3 sigma_Z) + l/2\n",
               settings.frames, settings.first_seed, settings.first_seed + settings.seeds - 1,
               settings.true_ego_motion ? "TRUE (the sequence's camera motion)" : "from visual odometry (as the command)",
               settings.colour ? "left colour" : "grey", settings.threads, settings.candidates.fit.hole_membrane,
               settings.candidates.grid.occlusion_upper_bounds ? "on" : "off",
               settings.candidates.occluder.rows_below_px, settings.candidates.occluder.jump_px, settings.candidates.fit.upper_bound_tolerance_m,
-              settings.candidates.far_side.rows_above_px, settings.candidates.far_side.columns_beside_px, settings.candidates.far_side.jump_px, static_cast<long long>(settings.min_pixels),
+              settings.candidates.far_side.rows_above_px, settings.candidates.far_side.columns_beside_px, settings.candidates.far_side.jump_px,
+              settings.candidates.ground_below_view_upper_bounds ? "upper bounds" : "samples", static_cast<long long>(settings.min_pixels),
               settings.all_visible ? "visible" : "measurable (true disparity in the engine's range, match inside the right image)",
               settings.range_m);
 

@@ -311,7 +311,7 @@ int Obstacles3dCommand::run() const {
     }
     o3::CandidatePoints candidates;
     if (mount_known) {
-      candidates = o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, pair.frame.left,
+      candidates = o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, triangulation, pair.frame.left,
                                                    o3::ColourView{bgr.data, bgr.step, true}, *method.to_vehicle, candidate_parameters);
     } else {
       candidates.note = mount_reason;

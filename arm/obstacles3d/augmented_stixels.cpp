@@ -367,7 +367,8 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
     // range-step split (split_at_range_step): such an end left at the part's edge. Then the
     // concavity split (split_at_concavity): a dip of the disparity profile under its concave
     // envelope is where two objects meet (one convex object's profile is concave). Each part
-    // keeps the cluster's height interval; a stixel belongs to the part holding most of its points.
+    // keeps the cluster's height interval clamped to its own points' heights; a stixel belongs to
+    // the part holding most of its points.
     const std::vector<std::vector<int>> parts = split_object(points, obstacle_points, parameters_.grid, &work_);
     std::vector<int> obstacle_of_part(parts.size(), -1);
     for (size_t part = 0; part < parts.size(); ++part) {
@@ -376,6 +377,20 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
       Obstacle3d obstacle = obstacle_from_points(points, parts[part], static_cast<int>(obstacles_.size()), &work_);
       obstacle.min_height_m = cluster_lower[index];  // trimmed, as the stixels'
       obstacle.max_height_m = cluster_upper[index];
+      if (parts.size() > 1) {
+        // A part keeps the cluster's interval only as far as its own points reach: a fragment of a
+        // board's top rows that joined the board's pole and was then cut off at a column gap holds
+        // points at 1.6 m only, and with the pole's 0.2 m lower edge it took the free space under
+        // the board (floating seed 1 frame 24; the clamp measured in docs/obstacles3d.md).
+        float lowest_m = std::numeric_limits<float>::infinity(), highest_m = -lowest_m;
+        for (int point : parts[part]) {
+          lowest_m = std::min(lowest_m, points[static_cast<size_t>(point)].height_above_ground_m);
+          highest_m = std::max(highest_m, points[static_cast<size_t>(point)].height_above_ground_m);
+        }
+        obstacle.min_height_m = std::max<double>(obstacle.min_height_m, lowest_m);
+        obstacle.max_height_m = std::max(obstacle.min_height_m, std::min<double>(obstacle.max_height_m, highest_m));
+        work_.scalar_ops += 2 * parts[part].size();
+      }
       obstacles_.push_back(obstacle);
     }
     if (parts.size() == 1) {

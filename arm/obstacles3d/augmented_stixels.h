@@ -87,8 +87,11 @@
 //      object beside it), and then where its disparity profile over the image columns dips
 //      under its concave envelope (split_at_concavity, grid.min_concavity_px: a pedestrian touching
 //      the far end of a car's side at the side's range); each part of at least min_obstacle_points points is
-//      an obstacle with the cluster's height interval, and a stixel takes the obstacle of the part
-//      holding most of its points. Each part's points give
+//      an obstacle with the cluster's height interval, clamped when the cluster was split to the
+//      part's own lowest and highest point (a fragment of a board's top rows that joined the
+//      board's pole, cut off at a column gap, held points at 1.6 m only and took the pole's 0.2 m
+//      lower edge: an obstacle under the board that is not there, floating seed 1 frame 24), and a
+//      stixel takes the obstacle of the part holding most of its points. Each part's points give
 //      its Obstacle3d (occupancy_grid.h, obstacle_from_points) with the interval above as its
 //      min_height_m and max_height_m.
 //
@@ -103,8 +106,9 @@
 // 4 ops + 2 bytes per point, 2 ops + 5 bytes per image column spanned), the occlusion split's
 // (6 ops + 8 bytes per point, 12 ops + 24 bytes per column spanned), the range-step split's (6 ops +
 // 8 bytes per point, 8 ops + 12 bytes per column spanned), the concavity split's (6 ops + 8 bytes
-// per point, 20 ops + 20 bytes per column spanned) and the trimmed box's (16 ops + 8 bytes per
-// point of an obstacle of 100 points or more).
+// per point, 20 ops + 20 bytes per column spanned), the trimmed box's (16 ops + 8 bytes per
+// point of an obstacle of 100 points or more) and the split parts' clamp (2 ops per point of a
+// cluster split in two or more parts).
 #pragma once
 
 #include <array>

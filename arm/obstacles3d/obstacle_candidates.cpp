@@ -1,6 +1,7 @@
 #include "arm/obstacles3d/obstacle_candidates.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 #include <thread>
@@ -12,6 +13,29 @@ namespace lpstereo::arm::obstacles3d {
 namespace {
 
 std::string size_text(const Plane& plane) { return std::to_string(plane.width()) + "x" + std::to_string(plane.height()); }
+
+// CandidateParameters::ground_below_view_upper_bounds: marks the valid cells whose centre, on the
+// vehicle frame's ground plane, projects below the bottom edge of the image's last row (or behind
+// the camera); returns their count.
+int mark_ground_below_view(terrain::HeightGrid& grid, const CameraToVehicle& to_vehicle, const TriangulationParameters& view,
+                           int image_height) {
+  const Eigen::Matrix3d camera_from_vehicle = to_vehicle.rotation().transpose();
+  const double bottom_edge_px = image_height - 0.5;  // the last row's centre is image_height - 1
+  int marked = 0;
+  for (Eigen::Index i = 0; i < grid.height_m.rows(); ++i) {
+    for (Eigen::Index j = 0; j < grid.height_m.cols(); ++j) {
+      if (grid.state(i, j) == terrain::kCellInvalid) continue;
+      const Eigen::Vector3d ground_vehicle_m(grid.spec.cell_centre_x_m(static_cast<int>(i)), grid.spec.cell_centre_y_m(static_cast<int>(j)), 0);
+      const Eigen::Vector3d ground_camera_m = camera_from_vehicle * (ground_vehicle_m - to_vehicle.translation_m());
+      const bool below_view = ground_camera_m.z() <= 0 || view.v0_px + view.focal_px * ground_camera_m.y() / ground_camera_m.z() > bottom_edge_px;
+      if (!below_view) continue;
+      if (grid.upper_bound.size() == 0) grid.upper_bound = Eigen::MatrixXi::Zero(grid.height_m.rows(), grid.height_m.cols());
+      grid.upper_bound(i, j) = 1;
+      ++marked;
+    }
+  }
+  return marked;
+}
 
 }  // namespace
 
@@ -43,8 +67,8 @@ CandidateTest::Class CandidateTest::classify(const Eigen::Vector3d& vehicle_m, d
 }
 
 CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t invalid_disparity_q4, const CameraPoints& camera,
-                                            const Plane& grey, const ColourView& colour, const CameraToVehicle& to_vehicle,
-                                            const CandidateParameters& parameters) {
+                                            const TriangulationParameters& view, const Plane& grey, const ColourView& colour,
+                                            const CameraToVehicle& to_vehicle, const CandidateParameters& parameters) {
   if (!(parameters.obstacle_height_m > 0 && parameters.obstacle_height_m < 10)) {
     throw std::invalid_argument("obstacle_height_m: expected a height in (0, 10) m, got " + std::to_string(parameters.obstacle_height_m));
   }
@@ -53,6 +77,10 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
       throw std::invalid_argument("obstacle candidates: expected every plane " + size_text(disparity_q4) + " like the disparity map, got " +
                                   size_text(*plane));
     }
+  }
+  if (!(view.focal_px > 0) || !std::isfinite(view.focal_px) || !std::isfinite(view.v0_px)) {
+    throw std::invalid_argument("view.focal_px: expected a finite focal length > 0 px (and a finite v0_px), got " + std::to_string(view.focal_px) +
+                                " (v0_px " + std::to_string(view.v0_px) + ")");
   }
   if (parameters.threads < 1 || parameters.threads > 16) {
     throw std::invalid_argument("threads: expected a count in [1, 16], got " + std::to_string(parameters.threads));
@@ -173,6 +201,9 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     }
   }
   result.measured_grid = accumulator.finish();
+  if (parameters.ground_below_view_upper_bounds) {
+    result.below_view_cells = mark_ground_below_view(result.measured_grid, to_vehicle, view, disparity_q4.height());
+  }
   result.terrain = terrain::fit_terrain(result.measured_grid, parameters.fit);
   if (!result.terrain.known) {
     result.note = "terrain unknown (" + result.terrain.reason + "): no obstacle candidates";
@@ -217,10 +248,12 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     result.outside_area += share.outside_area;
     result.far_side += share.far_side;
   }
-  char note[200];
-  std::snprintf(note, sizeof note, "terrain: %lld points, %zu obstacle candidates, %lld outside the terrain area, %lld on the far side of an edge",
+  char note[240];
+  std::snprintf(note, sizeof note,
+                "terrain: %lld points, %zu obstacle candidates, %lld outside the terrain area, %lld on the far side of an edge, %d cells "
+                "with their ground below the view",
                 static_cast<long long>(result.cloud_points), result.points.size(), static_cast<long long>(result.outside_area),
-                static_cast<long long>(result.far_side));
+                static_cast<long long>(result.far_side), result.below_view_cells);
   result.note = note;
   return result;
 }

@@ -61,6 +61,18 @@ struct CandidateParameters {
   // dropping the points altogether instead: 105 / 109 on seeds 1-2 (the surface rose).
   // The default: 6 rows, 6 columns, 2 px; rows_above_px and columns_beside_px 0: off.
   FarSideTest far_side;
+  // The cells whose ground lies below the image are upper bounds (terrain::HeightGrid::upper_bound,
+  // the fit's one-sided rule, arm/terrain/terrain_fit.cpp): the vehicle frame's ground plane (z = 0)
+  // at the cell's centre projects below the image's last row, so whatever the cell holds stands
+  // above ground the camera cannot see (a level camera 1.5 m up, f = 554 px, 480 rows sees the road
+  // from 3.47 m on). Unmarked, such a cell is a ground sample at the height of what stands there: a
+  // board on two poles at 2.8 m (floating seed 3 frame 33) fills the cells at 2.5-3.5 m with the
+  // board's 0.9-1.6 m and its poles' 0.29-0.9 m, the fitted surface rose to about 0.45 m there, the
+  // board read 0.43-1.26 m joined with its poles as one obstacle (free space lost); marked, the
+  // first surface fitted to the seen ground sets them aside and the board reads 0.92-1.61 m, its
+  // poles apart. Ground that rises into view nearer (a hill, a ramp) is marked too and counts as
+  // any sample while it lies under or within the fit's tolerance of that surface.
+  bool ground_below_view_upper_bounds = true;
   // [1, 16]: steps 1 and 3 run on this many threads (step 1 on bands of rows, at most one band per 16
   // rows; step 3 on shares of the points); the result is the same for any count (joined in row order).
   int threads = 1;
@@ -71,6 +83,7 @@ struct CandidatePoints {
   int64_t cloud_points = 0;           // valid disparities triangulated
   int64_t outside_area = 0;           // not covered by the terrain area (no height above ground)
   int64_t far_side = 0;               // above obstacle_height_m but on the far side of an edge: not candidates
+  int below_view_cells = 0;           // 2.5D cells whose ground lies below the image, marked upper bounds
   terrain::TerrainEstimate terrain;   // the fit (terrain.known false: no candidates)
   // The 2.5D grid before the fit's equalisation (empty when the cloud was empty): what
   // terrain::compute_traversability takes beside the fit (terrain.grid is the equalised one).
@@ -101,10 +114,13 @@ class CandidateTest {
   Eigen::MatrixXd span_minimum_m_;  // (n0 - d0) x (n1 - d1): the smallest control height per span pair
 };
 
-// `grey` (u8) and the colour view, when given, are the left image the disparity map belongs to.
-// Throws std::invalid_argument when the planes' sizes disagree or obstacle_height_m, threads or occluder is out of range.
+// `camera` holds the points arm::triangulate made from the disparity map with `view` (its focal
+// length and principal point also say where the image ends); `grey` (u8) and the colour view, when
+// given, are the left image the disparity map belongs to. Throws std::invalid_argument when the
+// planes' sizes disagree, view.focal_px is not positive or obstacle_height_m, threads, occluder or
+// far_side is out of range.
 CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t invalid_disparity_q4, const CameraPoints& camera,
-                                            const Plane& grey, const ColourView& colour, const CameraToVehicle& to_vehicle,
-                                            const CandidateParameters& parameters);
+                                            const TriangulationParameters& view, const Plane& grey, const ColourView& colour,
+                                            const CameraToVehicle& to_vehicle, const CandidateParameters& parameters);
 
 }  // namespace lpstereo::arm::obstacles3d

@@ -5,7 +5,8 @@
 // changes no class), each with z - S as its height; 1, 2, 3 and 7 threads give the same result field
 // for field; a thread count out of range is refused by name; with the occlusion-aware sampling the
 // cells of a far sign seen over the box are marked as upper bounds and no road cell is; the road read
-// too near under a hanging board samples the terrain but gives no candidates.
+// too near under a hanging board samples the terrain but gives no candidates; the cells nearer than
+// the road seen in the image's last row are upper bounds, so a board there keeps its height.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -28,6 +29,7 @@ constexpr int kWidth = 160, kHeight = 120;
 constexpr double kFocalPx = 200, kBaselineM = 0.3, kCameraHeightM = 1.5;
 constexpr double kU0 = (kWidth - 1) / 2.0, kV0 = (kHeight - 1) / 2.0;
 constexpr int16_t kInvalidQ4 = -16;  // min_disparity 0
+const arm::TriangulationParameters kView{kBaselineM, kFocalPx, kU0, kV0, 0, 64, 0};
 
 struct Frame {
   Plane disparity{kWidth, kHeight, {ElementType::s16, 4}};
@@ -50,14 +52,22 @@ Frame make_frame() {
       frame.grey.at<uint8_t>(u, v) = static_cast<uint8_t>((u * 7 + v * 3) % 251);
     }
   }
-  frame.camera = arm::triangulate(frame.disparity, arm::TriangulationParameters{kBaselineM, kFocalPx, kU0, kV0, 0, 64, 0});
+  frame.camera = arm::triangulate(frame.disparity, kView);
   return frame;
+}
+
+// A fronto-parallel surface over columns [u_first, u_end) and rows [v_first, v_end) at d px, the
+// frame's points triangulated again.
+void paint_rectangle(Frame& frame, int u_first, int u_end, int v_first, int v_end, int disparity_px) {
+  for (int v = v_first; v < v_end; ++v)
+    for (int u = u_first; u < u_end; ++u) frame.disparity.at<int16_t>(u, v) = static_cast<int16_t>(16 * disparity_px);
+  frame.camera = arm::triangulate(frame.disparity, kView);
 }
 
 o3::CandidatePoints extract(const Frame& frame, int threads) {
   o3::CandidateParameters parameters;
   parameters.threads = threads;
-  return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+  return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, kView, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
 }
 
 TEST(ObstacleCandidates, AreClassifyPointsObstaclesWithTheirHeight) {
@@ -141,14 +151,12 @@ TEST(ObstacleCandidates, RefusesAThreadCountOutOfRange) {
 // cell is; 1 and 3 threads give the same marks.
 TEST(ObstacleCandidates, OcclusionUpperBoundsMarkTheCellsOverANearerObject) {
   Frame frame = make_frame();
-  for (int v = 20; v < 40; ++v)
-    for (int u = 60; u < 100; ++u) frame.disparity.at<int16_t>(u, v) = 2 * 16;
-  frame.camera = arm::triangulate(frame.disparity, arm::TriangulationParameters{kBaselineM, kFocalPx, kU0, kV0, 0, 64, 0});
+  paint_rectangle(frame, 60, 100, 20, 40, 2);
   o3::CandidateParameters parameters;
   parameters.grid.occlusion_upper_bounds = true;
   const auto run = [&](int threads) {
     parameters.threads = threads;
-    return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+    return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, kView, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
   };
   const o3::CandidatePoints one = run(1), three = run(3);
   ASSERT_TRUE(one.terrain.known) << one.note;
@@ -197,11 +205,11 @@ TEST(ObstacleCandidates, PointsUnderAnOverhangSampleTheTerrainButAreNoCandidates
       frame.disparity.at<int16_t>(u, v) = static_cast<int16_t>(std::lround(16 * (road_px + ramp_px[k])));
     }
   }
-  frame.camera = arm::triangulate(frame.disparity, arm::TriangulationParameters{kBaselineM, kFocalPx, kU0, kV0, 0, 64, 0});
+  frame.camera = arm::triangulate(frame.disparity, kView);
   o3::CandidateParameters parameters;
   const auto run = [&](const arm::FarSideTest& test) {
     parameters.far_side = test;
-    return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+    return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, kView, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
   };
   const arm::FarSideTest by_default = parameters.far_side;
   ASSERT_GT(by_default.rows_above_px, 0);
@@ -235,6 +243,54 @@ TEST(ObstacleCandidates, PointsUnderAnOverhangSampleTheTerrainButAreNoCandidates
     ADD_FAILURE() << "accepted jump_px = -1";
   } catch (const std::invalid_argument& error) {
     EXPECT_EQ(std::string(error.what()), "jump_px: expected a finite value > 0, got -1");
+  }
+}
+
+// The cells whose ground lies below the image (CandidateParameters::ground_below_view_upper_bounds,
+// on by default): the camera sees the road from 1.5 x 200 / 60 = 5.0 m on (the last row's bottom
+// edge, 119.5, is 60 px under v0). A board hanging 0.9-1.6 m up at 4 m (d = 15 px, rows 55-89,
+// columns 60-99; row 89 is 1.5 - 29.5 x 4 / 200 = 0.91 m up) fills the cells at 4.0-4.5 m with
+// nothing but itself. Marked, they are upper bounds the fit sets aside, and the board's lowest
+// candidates stand 0.91 m above the surface; unmarked, they are ground samples 0.9-1.6 m high and
+// the surface follows them up. A focal length that is not positive is refused by name.
+TEST(ObstacleCandidates, CellsWhoseGroundIsBelowTheViewAreUpperBounds) {
+  Frame frame = make_frame();
+  paint_rectangle(frame, 60, 100, 55, 90, 15);
+  o3::CandidateParameters parameters;
+  ASSERT_TRUE(parameters.ground_below_view_upper_bounds);
+  const auto board_lower_edge_m = [](const o3::CandidatePoints& result) {
+    double lowest_m = 1e9;
+    for (const o3::ObstaclePoint& point : result.points) {
+      if (point.u_px >= 60 && point.u_px < 100 && point.v_px >= 55 && point.v_px < 90) lowest_m = std::min<double>(lowest_m, point.height_above_ground_m);
+    }
+    return lowest_m;
+  };
+  const o3::CandidatePoints marked =
+      o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, kView, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+  ASSERT_TRUE(marked.terrain.known) << marked.note;
+  EXPECT_GE(marked.below_view_cells, 2);  // the board's 0.8 m spans two or three 0.5 m cells
+  const arm::terrain::HeightGrid& grid = marked.measured_grid;
+  for (int i = 0; i < grid.spec.forward_cells(); ++i) {
+    for (int j = 0; j < grid.spec.lateral_cells(); ++j) {
+      if (grid.state(i, j) == arm::terrain::kCellInvalid) continue;
+      // Marked exactly when the cell's centre lies nearer than 5.0 m (no cell centre is within 0.25 m of it).
+      EXPECT_EQ(grid.upper_bound(i, j), grid.spec.cell_centre_x_m(i) < 5.0 ? 1 : 0) << i << " " << j;
+    }
+  }
+  EXPECT_NEAR(board_lower_edge_m(marked), 0.91, 0.05);
+  parameters.ground_below_view_upper_bounds = false;
+  const o3::CandidatePoints unmarked =
+      o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, kView, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+  ASSERT_TRUE(unmarked.terrain.known) << unmarked.note;
+  EXPECT_EQ(unmarked.below_view_cells, 0);
+  EXPECT_LT(board_lower_edge_m(unmarked), 0.91 - 0.1);
+  arm::TriangulationParameters no_focal = kView;
+  no_focal.focal_px = 0;
+  try {
+    o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, no_focal, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+    ADD_FAILURE() << "accepted focal_px = 0";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("view.focal_px: expected a finite focal length > 0 px"), std::string::npos) << error.what();
   }
 }
 

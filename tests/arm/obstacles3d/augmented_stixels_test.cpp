@@ -14,7 +14,8 @@
 // scan counts 8 ops per point of a stixel cell; bad parameters throw; the counted
 // work adds the header's binning terms to the grid's; a car's rear and a pedestrian at one depth in
 // neighbouring cells with 4 empty image columns between them are two obstacles (one with the column
-// gap split off), and a wide object with 2 empty columns stays one; a pedestrian touching the far end
+// gap split off), and a wide object with 2 empty columns stays one; a part split off a cluster keeps
+// only the heights its points reach (a board's top rows beside its pole); a pedestrian touching the far end
 // of a car's side (no empty column, no range peak) is its own obstacle with the concavity split and
 // not without it, and the car alone stays one.
 #include <gtest/gtest.h>
@@ -486,6 +487,31 @@ TEST(AugmentedStixels, TwoObjectsAtOneDepthWithAColumnGapAreTwoObstacles) {
       EXPECT_EQ(stixel.cluster, stixel.angle_cell <= 59 ? car : 1 - car) << "stixel at column " << stixel.angle_cell;
     }
   }
+}
+
+TEST(AugmentedStixels, APartSplitOffAClusterKeepsOnlyTheHeightsItsPointsReach) {
+  // A board's pole at 7 m (image columns 300-306, 0.2-1.6 m, 707 points) and, 4 empty columns to its
+  // right, the board's top rows alone (columns 311-330, 1.57-1.60 m: 60 points, under a quarter of
+  // the pole's), as in floating seed 1 frame 24. The top rows' lower edge lies more than the step
+  // above the pole's and within its interval: a fragment, it joins the pole's cluster; the column
+  // gap then cuts it off again. Its obstacle keeps the cluster's interval only as far as its own
+  // points reach, 1.57-1.60 m, not the pole's 0.2 m: no obstacle under the board.
+  AugmentedStixels stixels(stixel_parameters());
+  std::vector<ObstaclePoint> points;
+  testing::add_pixel_columns(points, 300, 306, 0.2, 1.6, 7.0);
+  const size_t pole_points = points.size();
+  testing::add_pixel_columns(points, 311, 330, 1.57, 1.60, 7.0);
+  ASSERT_LE(points.size() - pole_points, pole_points / 4);
+  for (int frame = 0; frame < 3; ++frame) stixels.update(points, EgoMotion{});
+  ASSERT_EQ(stixels.obstacles().size(), 2u) << stixels.status();
+  const int pole = stixels.obstacles()[0].position_m.x() < stixels.obstacles()[1].position_m.x() ? 0 : 1;
+  const Obstacle3d& pole_obstacle = stixels.obstacles()[static_cast<size_t>(pole)];
+  const Obstacle3d& top_rows = stixels.obstacles()[static_cast<size_t>(1 - pole)];
+  EXPECT_NEAR(pole_obstacle.min_height_m, 0.2, 0.1);
+  EXPECT_NEAR(pole_obstacle.max_height_m, 1.6, 0.05);
+  EXPECT_GE(top_rows.min_height_m, 1.57 - 1e-6);
+  EXPECT_LE(top_rows.max_height_m, 1.60 + 1e-6);
+  EXPECT_LE(top_rows.min_height_m, top_rows.max_height_m);
 }
 
 TEST(AugmentedStixels, AWideObjectWithTwoEmptyColumnsStaysOneObstacle) {
