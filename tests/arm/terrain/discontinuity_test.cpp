@@ -8,13 +8,13 @@
 #include <stdexcept>
 
 #include "arm/terrain_points.h"
+#include "tests/arm/terrain/disparity_planes.h"
 
 namespace lpstereo::arm {
 namespace {
 
-constexpr int16_t kInvalidQ4 = -16;  // (min_disparity - 1) * 16 with min_disparity 0
-
-Plane disparity_plane(int width, int height) { return Plane(width, height, BufferFormat{ElementType::s16}); }
+using testing::disparity_plane;
+using testing::kInvalidQ4;
 
 TEST(InvalidateNearSideOfDiscontinuities, ObjectEdgeLosesItsNearSideOnly) {
   // Background 10 px left of column 10, an object at 20 px from column 10 on: with radius 2 the

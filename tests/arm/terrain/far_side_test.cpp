@@ -17,15 +17,14 @@
 #include <vector>
 
 #include "arm/terrain_points.h"
+#include "tests/arm/terrain/disparity_planes.h"
 
 namespace lpstereo::arm {
 namespace {
 
-constexpr int16_t kInvalidQ4 = -16;  // (min_disparity - 1) * 16 with min_disparity 0
-
-Plane disparity_plane(int width, int height) { return Plane(width, height, BufferFormat{ElementType::s16}); }
-
-int16_t q4(double px) { return px < 0 ? kInvalidQ4 : static_cast<int16_t>(std::lround(16 * px)); }
+using testing::disparity_plane;
+using testing::kInvalidQ4;
+using testing::q4;
 
 // Six columns of 30 rows, read from the top (row 0) down; disparities in px, -1 invalid. Jump 2 px,
 // 6 rows.

@@ -22,6 +22,7 @@
 
 #include "arm/terrain_points.h"
 #include "arm/terrain/terrain_model.h"
+#include "tests/arm/terrain/disparity_planes.h"
 
 namespace lpstereo::arm {
 namespace {
@@ -30,11 +31,9 @@ using terrain::HeightGrid;
 using terrain::HeightGridAccumulator;
 using terrain::TerrainGridSpec;
 
-constexpr int16_t kInvalidQ4 = -16;  // (min_disparity - 1) * 16 with min_disparity 0
-
-Plane disparity_plane(int width, int height) { return Plane(width, height, BufferFormat{ElementType::s16}); }
-
-int16_t q4(double px) { return px < 0 ? kInvalidQ4 : static_cast<int16_t>(std::lround(16 * px)); }
+using testing::disparity_plane;
+using testing::kInvalidQ4;
+using testing::q4;
 
 void expect_error(const std::function<void()>& call, const std::string& expected_text) {
   try {
