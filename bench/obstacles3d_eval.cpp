@@ -64,7 +64,7 @@
 //
 // Usage: obstacles3d_eval [--frames N] [--seeds N] [--scenes urban,country,mining,floating]
 //        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
-//        [--misses FILE.csv] [--moving-log FILE.csv] [--all-visible] [--count-low] [--score-hidden-edges] [--vertical-gap-m G]
+//        [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--all-visible] [--count-low] [--score-hidden-edges] [--vertical-gap-m G]
 //        [--hole-membrane H]
 //        [--innovation-gate-chi2 X] [--moving-consistency N]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
@@ -76,7 +76,10 @@
 // highest lower edge) or whose free space is lost (free_space_lost, with the first obstacle under
 // it), for finding out why; --moving-log: one CSV row
 // per object-frame the voxels detected, with the truth's motion and the reported track's flag,
-// velocity and update count, for finding out why a flag is wrong; --vertical-gap-m: the
+// velocity and update count, for finding out why a flag is wrong; --surface-errors: one CSV row per
+// valid cell of the candidates' 2.5D grid per frame (about 2000 a frame at 640x480: --frames limits
+// it), its measured, equalised and fitted height against the true ground under the cell centre, for
+// telling a terrain lift under a hanging object from the stixels' own error; --vertical-gap-m: the
 // terrain's 2.5D sampling leaves out of a cell the points above a vertical gap wider than G, default
 // the TerrainGridSpec's (off), arm/terrain/height_grid.cpp; --hole-membrane: the candidates' terrain
 // fit's membrane over holes (TerrainFitParameters::hole_membrane); --occlusion-upper-bounds: the
@@ -142,6 +145,7 @@ struct Settings {
   int first_seed = 1;
   std::string misses_path;  // --misses: the CSV of misses and false positives, empty: none
   std::string moving_path;  // --moving-log: the CSV of the voxels' moving flag per counted object-frame, empty: none
+  std::string surface_path;  // --surface-errors: the CSV of the candidates' terrain against the true ground per cell, empty: none
   // The candidates' parameters: the command's defaults (--obstacle-height-m 0.2) but the grid's
   // vertical_gap_m (--vertical-gap-m). One source for the candidates and for the "too low" rule of
   // the scoring.
@@ -155,6 +159,7 @@ struct Settings {
 struct MissLog {
   std::FILE* file = nullptr;
   std::FILE* moving_file = nullptr;                 // --moving-log
+  std::FILE* surface_file = nullptr;                // --surface-errors
   const o3::ObstacleTracker3d* tracker = nullptr;  // for the moving log's track columns
   std::string scene;
   uint32_t seed = 0;
@@ -253,6 +258,41 @@ void log_moving_row(const MissLog& log, const io::SequenceObjectTruth& object, c
                obstacle.position_m.x(), obstacle.position_m.z(), obstacle.velocity_mps.x(), obstacle.velocity_mps.z(), updates, own_moving);
 }
 
+// The --surface-errors rows of one frame: every valid cell (measured or filled) of the candidates'
+// 2.5D grid, with the true ground under its centre (io::SynthGroundTruth, through the frame's camera
+// pose) subtracted from the measured cell height, the equalised one (the sample the fit's last
+// iteration used) and the fitted surface, all at the cell centre. Signed, metres: + = above the true
+// ground. What tells a terrain lift under a hanging object (a lower edge read low) from the stixels'
+// own estimate.
+void log_surface_errors(const MissLog& log, const o3::CandidatePoints& candidates, const io::SynthGroundTruth& ground_truth,
+                        const Eigen::Isometry3d& road_from_camera, const Eigen::Isometry3d& camera_from_vehicle, double camera_height_m) {
+  if (log.surface_file == nullptr || !candidates.terrain.known) return;
+  const arm::terrain::HeightGrid& measured = candidates.measured_grid;
+  const arm::terrain::TerrainEstimate& terrain = candidates.terrain;
+  // Height of a vehicle-frame point above the true ground (road frame: Y down, the ground at
+  // Y = camera_height_m - its height, io/stereo_synth.h).
+  const auto above_true_ground = [&](double x_m, double y_m, double z_m) {
+    const Eigen::Vector3d road = road_from_camera * (camera_from_vehicle * Eigen::Vector3d(x_m, y_m, z_m));
+    return camera_height_m - road.y() - ground_truth.height_m(road.x(), road.z());
+  };
+  const bool marked = measured.upper_bound.size() != 0;
+  for (int i = 0; i < measured.spec.forward_cells(); ++i) {
+    const double x_m = measured.spec.cell_centre_x_m(i);
+    for (int j = 0; j < measured.spec.lateral_cells(); ++j) {
+      const int state = measured.state(i, j);
+      if (state == arm::terrain::kCellInvalid) continue;
+      const double y_m = measured.spec.cell_centre_y_m(j);
+      const double surface_m = terrain.surface.height_m(x_m, y_m);
+      if (!std::isfinite(surface_m)) continue;
+      std::fprintf(log.surface_file, "%s,%u,%d,%.2f,%.2f,%s,%d,%d,%.1f,%.3f,%.3f,%.3f\n", log.scene.c_str(), log.seed, log.frame, x_m, y_m,
+                   state == arm::terrain::kCellMeasured ? "measured" : "filled", measured.point_count(i, j),
+                   marked && measured.upper_bound(i, j) != 0 ? 1 : 0, terrain.weights(i, j),
+                   above_true_ground(x_m, y_m, measured.height_m(i, j)), above_true_ground(x_m, y_m, terrain.grid.height_m(i, j)),
+                   above_true_ground(x_m, y_m, surface_m));
+    }
+  }
+}
+
 void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoSequenceFrame& frame, const o3::StereoErrorModel& error_model,
                  const eval::MeasurablePixels& measurable, const Settings& settings, bool is_voxels, const char* method, const MissLog& log,
                  Tally& tally) {
@@ -341,7 +381,8 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
   }
 }
 
-std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Settings& settings, std::FILE* log_file, std::FILE* moving_file) {
+std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Settings& settings, std::FILE* log_file, std::FILE* moving_file,
+                            std::FILE* surface_file) {
   io::StereoSequenceOptions options = io::preset_stereo_sequence(scene, seed);
   options.frames = settings.frames;
   options.base.colour = settings.colour;
@@ -427,7 +468,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   o3::ObstacleTracker3d tracker(tracking);
 
   std::vector<Tally> tallies(kMethods);
-  MissLog log{log_file, moving_file, &tracker, scene, seed, 0};
+  MissLog log{log_file, moving_file, surface_file, &tracker, scene, seed, 0};
   io::SynthCameraPose previous_pose = first.pose;
   for (int n = 0; n < settings.frames; ++n) {
     log.frame = n;
@@ -439,12 +480,14 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     const Plane right = io::mat_to_plane(frame.scene.right, BufferFormat{ElementType::u8});
     const Plane& disparity = engine.compute(left, right);
     const arm::CameraPoints camera = arm::triangulate(disparity, triangulation);
-    const std::vector<o3::ObstaclePoint> candidates =
+    const o3::CandidatePoints candidate_points =
         o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, triangulation, left,
                                         settings.colour ? o3::ColourView{frame.scene.left_colour.data, frame.scene.left_colour.step, true}
                                                         : o3::ColourView{},
-                                        to_vehicle, candidate_parameters)
-            .points;
+                                        to_vehicle, candidate_parameters);
+    const std::vector<o3::ObstaclePoint>& candidates = candidate_points.points;
+    log_surface_errors(log, candidate_points, ground_truth, io::road_from_camera(frame.pose), vehicle_from_camera.inverse(),
+                       base.camera_height_m);
     // Ego-motion (t -> t-1) in the vehicle frame, V E V^-1: the odometry's increment (the command's)
     // or the sequence's true camera motion.
     o3::EgoMotion ego_motion;
@@ -597,6 +640,8 @@ int main(int argc, char** argv) {
       settings.misses_path = argv[++i];
     } else if (arg == "--moving-log" && has_value) {
       settings.moving_path = argv[++i];
+    } else if (arg == "--surface-errors" && has_value) {
+      settings.surface_path = argv[++i];
     } else if (arg == "--innovation-gate-chi2" && has_value) {
       settings.tracking.innovation_gate_chi2 = std::atof(argv[++i]);
     } else if (arg == "--moving-consistency" && has_value) {
@@ -625,7 +670,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
-                   "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--vertical-gap-m G] [--hole-membrane H] [--innovation-gate-chi2 X] "
+                   "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--hole-membrane H] [--innovation-gate-chi2 X] "
                    "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
                    "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] "
                    "[--ground-below-view upper-bounds|samples]\n",
@@ -658,12 +703,16 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "obstacles3d_eval: %s\n", error.what());
     return 2;
   }
-  CsvOutput misses("--misses", settings.misses_path), moving_log("--moving-log", settings.moving_path);
+  CsvOutput misses("--misses", settings.misses_path), moving_log("--moving-log", settings.moving_path),
+      surface_errors("--surface-errors", settings.surface_path);
   if (!misses.open("scene,seed,frame,method,kind,class,id,truth_x_m,truth_z_m,visible_pixels,measurable_pixels,obstacle_x_m,obstacle_z_m,"
                    "width_m,height_m,length_m,min_height_m,max_height_m\n") ||
       !moving_log.open("scene,seed,frame,id,class,moving,truth_x_m,truth_z_m,truth_vx_mps,truth_vz_mps,track_id,flagged_moving,obstacle_x_m,"
-                       "obstacle_z_m,vx_mps,vz_mps,track_updates,track_own_moving\n")) {
+                       "obstacle_z_m,vx_mps,vz_mps,track_updates,track_own_moving\n") ||
+      !surface_errors.open("scene,seed,frame,forward_m,lateral_m,cell,points,upper_bound,weight,cell_error_m,equalised_error_m,"
+                           "surface_error_m\n")) {
     misses.discard();
+    moving_log.discard();
     return 2;
   }
   std::printf("obstacles3d_eval: %d frames per sequence (the issue wants >= 300), seeds %d..%d, 640x480, ego-motion %s, candidates "
@@ -685,7 +734,8 @@ int main(int argc, char** argv) {
   try {
     for (size_t s = 0; s < settings.scenes.size(); ++s) {
       for (int seed = settings.first_seed; seed < settings.first_seed + settings.seeds; ++seed) {
-        const std::vector<Tally> tallies = evaluate(settings.scenes[s], static_cast<uint32_t>(seed), settings, misses.file, moving_log.file);
+        const std::vector<Tally> tallies = evaluate(settings.scenes[s], static_cast<uint32_t>(seed), settings, misses.file, moving_log.file,
+                                                     surface_errors.file);
         std::printf("%-9s seed %d:", settings.scenes[s].c_str(), seed);
         for (int m = 0; m < kMethods; ++m) {
           const Tally& t = tallies[static_cast<size_t>(m)];
@@ -701,11 +751,13 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "obstacles3d_eval: %s\n", error.what());
     misses.discard();  // no half-written file
     moving_log.discard();
+    surface_errors.discard();
     return 2;
   }
-  if (!misses.close() || !moving_log.close()) {
+  if (!misses.close() || !moving_log.close() || !surface_errors.close()) {
     misses.discard();
     moving_log.discard();
+    surface_errors.discard();
     return 2;
   }
 
