@@ -121,4 +121,38 @@ HangingObjectScore score_hanging_object(const std::vector<o3::Obstacle3d>& obsta
   return score;
 }
 
+int object_shown(const o3::Obstacle3d& obstacle, const cv::Mat& object_ids) {
+  const int u0 = std::max(obstacle.bbox_px[0], 0), v0 = std::max(obstacle.bbox_px[1], 0);
+  const int u1 = std::min(obstacle.bbox_px[2], object_ids.cols - 1), v1 = std::min(obstacle.bbox_px[3], object_ids.rows - 1);
+  if (u0 > u1 || v0 > v1) return 0;
+  std::vector<int64_t> pixels;
+  for (int v = v0; v <= v1; ++v) {
+    const uint16_t* row = object_ids.ptr<uint16_t>(v);
+    for (int u = u0; u <= u1; ++u) {
+      if (row[u] == 0) continue;
+      if (pixels.size() <= row[u]) pixels.resize(row[u] + 1u, 0);
+      ++pixels[row[u]];
+    }
+  }
+  int shown = 0;
+  for (size_t id = 1; id < pixels.size(); ++id) {
+    if (pixels[id] > (shown == 0 ? 0 : pixels[static_cast<size_t>(shown)])) shown = static_cast<int>(id);
+  }
+  return shown;
+}
+
+const o3::Obstacle3d* moving_scored_obstacle(const std::vector<o3::Obstacle3d>& obstacles, const io::SynthObjectTruth& object,
+                                             const ObstacleGate& gate, const cv::Mat& object_ids) {
+  const o3::Obstacle3d* nearest = nullptr;
+  const o3::Obstacle3d* nearest_shown = nullptr;
+  double nearest_m = std::numeric_limits<double>::infinity(), nearest_shown_m = nearest_m;
+  for (const o3::Obstacle3d& obstacle : obstacles) {
+    if (!in_gate(obstacle, object, gate)) continue;
+    const double distance_m = std::hypot(obstacle.position_m.x() - object.position_m[0], obstacle.position_m.z() - object.position_m[2]);
+    if (distance_m < nearest_m) nearest_m = distance_m, nearest = &obstacle;
+    if (distance_m < nearest_shown_m && object_shown(obstacle, object_ids) == object.id) nearest_shown_m = distance_m, nearest_shown = &obstacle;
+  }
+  return nearest_shown != nullptr ? nearest_shown : nearest;
+}
+
 }  // namespace lpstereo::eval

@@ -262,5 +262,63 @@ TEST(Obstacles3dScoring, LowerEdgePixelsAreTheMeasurableOnesInTheHangingPartsLow
   EXPECT_EQ(counts.lower_edge_of(1), 4);
 }
 
+// ---- moving (voxels) ----
+
+o3::Obstacle3d obstacle_in_box(double x_m, double z_m, int u0, int v0, int u1, int v1) {
+  o3::Obstacle3d obstacle = obstacle_at(x_m, z_m, 0, 1.5);
+  obstacle.bbox_px = {u0, v0, u1, v1};
+  return obstacle;
+}
+
+TEST(Obstacles3dScoring, AnObstacleShowsTheObjectWithMostPixelsInItsBox) {
+  // 10 x 6 ids: object 1 fills columns 0-5, object 2 a 2 x 2 patch at columns 6-7, rows 0-1, the
+  // rest 0 (road, sky).
+  cv::Mat ids(6, 10, CV_16UC1, cv::Scalar(0));
+  ids(cv::Rect(0, 0, 6, 6)).setTo(1);
+  ids(cv::Rect(6, 0, 2, 2)).setTo(2);
+  // Columns 4-9, rows 0-5: object 1 has 2 x 6 = 12 pixels, object 2 has 4: object 1.
+  EXPECT_EQ(eval::object_shown(obstacle_in_box(0, 10, 4, 0, 9, 5), ids), 1);
+  // Columns 5-7, rows 0-1: object 1 has 2, object 2 has 4: object 2.
+  EXPECT_EQ(eval::object_shown(obstacle_in_box(0, 10, 5, 0, 7, 1), ids), 2);
+  // Columns 4-7, rows 0-1: 4 each, a tie: the smaller id.
+  EXPECT_EQ(eval::object_shown(obstacle_in_box(0, 10, 4, 0, 7, 1), ids), 1);
+  // Columns 8-9, rows 2-5: road only.
+  EXPECT_EQ(eval::object_shown(obstacle_in_box(0, 10, 8, 2, 9, 5), ids), 0);
+  // A box reaching past the image is clipped (columns 8-9, rows 0-5 remain: road); one wholly
+  // outside, or the "no box" value -1, shows nothing.
+  EXPECT_EQ(eval::object_shown(obstacle_in_box(0, 10, 8, -3, 14, 20), ids), 0);
+  EXPECT_EQ(eval::object_shown(obstacle_in_box(0, 10, 12, 0, 14, 5), ids), 0);
+  EXPECT_EQ(eval::object_shown(obstacle_in_box(0, 10, -1, -1, -1, -1), ids), 0);
+}
+
+TEST(Obstacles3dScoring, MovingIsReadFromTheNearestInGateObstacleThatShowsTheObject) {
+  // A parked car (id 1, 1.8 m wide, 4.5 m long) at x -4.4, z 27.4: its gate is |dx| <= 1.9 m, |dz|
+  // <= max(1, 3 x 27.4^2 x 0.25 / 166.29 = 3.39) + 2.25 = 5.64 m. Its own obstacle, the rear face,
+  // at (-4.2, 25.2) is 2.21 m from its centre; a pedestrian's (id 2) head above the roof at (-5.3,
+  // 27.7) is 0.95 m from it, inside its gate, and moving.
+  io::SynthObjectTruth car = truth_of(io::SynthClass::car, -4.4, 27.4);
+  car.id = 1;
+  const eval::ObstacleGate gate = eval::gate_of(car, error_model());
+  cv::Mat ids(40, 60, CV_16UC1, cv::Scalar(0));
+  ids(cv::Rect(0, 10, 50, 30)).setTo(1);  // the car: columns 0-49, rows 10-39
+  ids(cv::Rect(10, 6, 8, 4)).setTo(2);    // the head: columns 10-17, rows 6-9
+  std::vector<o3::Obstacle3d> obstacles{obstacle_in_box(-4.2, 25.2, 0, 10, 49, 39), obstacle_in_box(-5.3, 27.7, 10, 6, 17, 10)};
+  obstacles[1].moving = true;
+  ASSERT_TRUE(eval::in_gate(obstacles[1], car, gate));
+  // The head's box holds 32 head pixels and 8 car pixels (row 10): it shows the pedestrian. The car
+  // is scored from its own obstacle, which is farther from its centre.
+  EXPECT_EQ(eval::moving_scored_obstacle(obstacles, car, gate, ids), &obstacles[0]);
+  // No obstacle shows the car (its own is gone): the former rule, the nearest in-gate one.
+  const std::vector<o3::Obstacle3d> head_only{obstacles[1]};
+  EXPECT_EQ(eval::moving_scored_obstacle(head_only, car, gate, ids), &head_only[0]);
+  // Of two obstacles that show the car, the nearer; one outside the gate (x -4.4 + 2.0) is never taken.
+  std::vector<o3::Obstacle3d> two{obstacle_in_box(-4.4, 23.0, 0, 10, 49, 39), obstacle_in_box(-4.4, 24.0, 0, 10, 49, 39),
+                                  obstacle_in_box(-2.4, 27.4, 0, 10, 49, 39)};
+  EXPECT_EQ(eval::moving_scored_obstacle(two, car, gate, ids), &two[1]);
+  // An empty gate: nothing to score.
+  const std::vector<o3::Obstacle3d> outside{two[2]};
+  EXPECT_EQ(eval::moving_scored_obstacle(outside, car, gate, ids), nullptr);
+}
+
 }  // namespace
 }  // namespace lpstereo
