@@ -37,7 +37,10 @@
 //                   (camera frame, truth = base centre; sigma_Z = z^2 0.25 px / (f B)). Line: polar and
 //                   stixels >= 99 % on every scene.
 //   false positives obstacles within --range-m whose centre lies in no object's gate (any object of
-//                   the frame's truth, visible or not), per frame.
+//                   the frame's truth, visible or not), per frame; printed apart also for the frames
+//                   whose view is at least 1 % nearer than the engine's search range reaches
+//                   (eval::view_partly_nearer_than_range: the floating camera driving into a board)
+//                   and for the others.
 //   floating        for board_on_poles, hanging_sign, ball_on_post whose lower edge is seen (at least
 //                   max(10, 25 %) of the pixels of the hanging part's lowest 10 cm across its width,
 //                   by the true disparity and the true ground, are measurable; others, the sign's or
@@ -172,6 +175,9 @@ struct MissLog {
 
 struct Tally {  // per method
   int64_t visible = 0, detected = 0, false_positives = 0, frames = 0;
+  // Frames whose view is partly nearer than the search range (eval::view_partly_nearer_than_range)
+  // and their false positives, printed apart.
+  int64_t nearer_view_frames = 0, nearer_view_false_positives = 0;
   int64_t unmeasurable = 0;  // visible and in range, but too few measurable pixels: not counted
   int64_t half_occluded = 0;  // of those, the ones with enough pixels before the right-view occlusion test
   int64_t below_obstacle_height = 0;  // measurable, but lower than the candidates' obstacle height: not counted
@@ -189,6 +195,7 @@ struct Tally {  // per method
   std::vector<double> velocity_error_mps;
   void add(const Tally& o) {
     visible += o.visible, detected += o.detected, false_positives += o.false_positives, frames += o.frames;
+    nearer_view_frames += o.nearer_view_frames, nearer_view_false_positives += o.nearer_view_false_positives;
     unmeasurable += o.unmeasurable, half_occluded += o.half_occluded, below_obstacle_height += o.below_obstacle_height;
     floating_seen += o.floating_seen, floating_within += o.floating_within, free_checked += o.free_checked, free_kept += o.free_kept;
     edge_hidden += o.edge_hidden;
@@ -305,6 +312,8 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
                  const eval::MeasurablePixels& measurable, const Settings& settings, bool is_voxels, const char* method, const MissLog& log,
                  Tally& tally) {
   ++tally.frames;
+  const bool nearer_view = eval::view_partly_nearer_than_range(measurable, static_cast<int64_t>(frame.scene.object_ids.total()));
+  if (nearer_view) ++tally.nearer_view_frames;
   for (const o3::Obstacle3d& obstacle : obstacles) {
     if (obstacle.position_m.z() > settings.range_m) continue;
     bool matched = false;
@@ -313,6 +322,7 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
     }
     if (!matched) {
       ++tally.false_positives;
+      if (nearer_view) ++tally.nearer_view_false_positives;
       log_row(log, method, "false_positive", nullptr, 0, &obstacle);
     }
   }
@@ -803,6 +813,30 @@ int main(int argc, char** argv) {
               " too low: measurable but lower than the candidates' obstacle height %.2f m, no obstacle, not counted; --count-low counts them)\n",
               settings.candidates.obstacle_height_m);
   std::printf("line: polar and stixels >= 99 %% on every scene\n");
+  // False positives apart for the frames whose view is partly nearer than the engine's range: what
+  // the matcher returns there is not a measurement of anything (docs/obstacles3d.md).
+  std::printf("\nfalse positives per frame, frames with >= %.0f %% of the view nearer than the search range / the other frames\n%-10s",
+              100 * eval::kNearerThanRangeShare, "method");
+  for (const std::string& scene : settings.scenes) std::printf(" %18s", scene.c_str());
+  std::printf("\n");
+  for (int m = 0; m < kMethods; ++m) {
+    std::printf("%-10s", kMethodNames[m]);
+    for (size_t s = 0; s < settings.scenes.size(); ++s) {
+      const Tally& t = per_scene[s][static_cast<size_t>(m)];
+      const int64_t other_frames = t.frames - t.nearer_view_frames;
+      const int64_t other_false_positives = t.false_positives - t.nearer_view_false_positives;
+      std::printf("   %6.2f / %6.2f  ",
+                  t.nearer_view_frames ? static_cast<double>(t.nearer_view_false_positives) / static_cast<double>(t.nearer_view_frames) : 0.0,
+                  other_frames ? static_cast<double>(other_false_positives) / static_cast<double>(other_frames) : 0.0);
+    }
+    std::printf("\n");
+  }
+  std::printf("%-10s", "frames");
+  for (size_t s = 0; s < settings.scenes.size(); ++s) {
+    const Tally& t = per_scene[s][0];
+    std::printf("   %6lld / %6lld  ", static_cast<long long>(t.nearer_view_frames), static_cast<long long>(t.frames - t.nearer_view_frames));
+  }
+  std::printf("\n");
 
   for (size_t s = 0; s < settings.scenes.size(); ++s) {
     if (per_scene[s][3].floating_seen == 0) continue;

@@ -61,6 +61,7 @@ MeasurablePixels measurable_pixels(const io::StereoSynthScene& scene, int min_di
       const uint16_t id = scene.object_ids.at<uint16_t>(v, u);
       if (id == 0) continue;
       const double d = scene.disparity_px.at<float>(v, u);
+      if (std::isfinite(d) && d > max_disparity) ++counts.nearer_than_range;
       if (!std::isfinite(d) || d < min_disparity || d > max_disparity || u - d < 0) continue;
       if (counts.in_range.size() <= id) {
         counts.in_range.resize(id + 1u, 0), counts.measurable.resize(id + 1u, 0), counts.lower_edge.resize(id + 1u, 0);
@@ -81,6 +82,10 @@ MeasurablePixels measurable_pixels(const io::StereoSynthScene& scene, int min_di
     }
   }
   return counts;
+}
+
+bool view_partly_nearer_than_range(const MeasurablePixels& pixels, int64_t image_pixels) {
+  return image_pixels > 0 && static_cast<double>(pixels.nearer_than_range) >= kNearerThanRangeShare * static_cast<double>(image_pixels);
 }
 
 bool lower_edge_seen(int64_t lower_edge_pixels, const io::SynthObjectTruth& object, double focal_px) {

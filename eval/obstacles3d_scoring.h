@@ -51,6 +51,10 @@ bool is_floating(io::SynthClass object_class);
 // band], road x within the part's width): whether its lower edge is seen at all.
 struct MeasurablePixels {
   std::vector<int64_t> in_range, measurable, lower_edge;  // by object id; ids past the end: 0
+  // Object pixels whose true disparity exceeds the search range (min_disparity + num_disparities -
+  // 1): a surface nearer than the engine reaches. No stereo method of that range measures them, and
+  // where they fill part of the view the matcher returns scattered wrong disparities instead.
+  int64_t nearer_than_range = 0;
   int64_t measurable_of(int id) const;
   int64_t in_range_of(int id) const;
   int64_t lower_edge_of(int id) const;
@@ -79,6 +83,12 @@ inline constexpr double kLowerEdgeMinShare = 0.25, kLowerEdgeMinPixels = 10;
 
 MeasurablePixels measurable_pixels(const io::StereoSynthScene& scene, int min_disparity, int num_disparities,
                                    const LowerEdgeProbe* probe = nullptr);
+
+// A frame whose view is partly nearer than the search range: at least kNearerThanRangeShare of the
+// image's pixels (MeasurablePixels::nearer_than_range). The eval prints the false positives of such
+// frames apart (floating: the camera driving into a board, 0-3 m ahead, half the image).
+inline constexpr double kNearerThanRangeShare = 0.01;
+bool view_partly_nearer_than_range(const MeasurablePixels& pixels, int64_t image_pixels);
 
 // Whether a hanging object's lower edge is seen: its measurable band pixels (MeasurablePixels::
 // lower_edge) against max(kLowerEdgeMinPixels, kLowerEdgeMinShare x the band's pixel area width x

@@ -238,6 +238,22 @@ TEST(Obstacles3dScoring, MeasurablePixelsLeaveOutHalfOccludedAndOutOfRangePixels
   EXPECT_EQ(eval::measurable_pixels(one_row_scene(), 2, 64).in_range_of(1), 0);
 }
 
+TEST(Obstacles3dScoring, PixelsNearerThanTheRangeAreCountedAndMarkAFrameFromOnePercentOfTheView) {
+  // One row of 80: object 4's two pixels at 70 px lie beyond [0, 63]; object 5's sky (+inf) does not
+  // count, nor does the road (id 0). With 128 disparities nothing is nearer than the range.
+  EXPECT_EQ(eval::measurable_pixels(one_row_scene(), 0, 64).nearer_than_range, 2);
+  EXPECT_EQ(eval::measurable_pixels(one_row_scene(), 0, 128).nearer_than_range, 0);
+  // A range ending at 69 (min 6, 64 disparities) leaves 70 just outside; one ending at 70 holds it.
+  EXPECT_EQ(eval::measurable_pixels(one_row_scene(), 6, 64).nearer_than_range, 2);
+  EXPECT_EQ(eval::measurable_pixels(one_row_scene(), 7, 64).nearer_than_range, 0);
+  // 1 % of the view: 2 of 200 pixels mark the frame, 2 of 201 do not.
+  eval::MeasurablePixels pixels;
+  pixels.nearer_than_range = 2;
+  EXPECT_TRUE(eval::view_partly_nearer_than_range(pixels, 200));
+  EXPECT_FALSE(eval::view_partly_nearer_than_range(pixels, 201));
+  EXPECT_FALSE(eval::view_partly_nearer_than_range(pixels, 0));
+}
+
 TEST(Obstacles3dScoring, LowerEdgePixelsAreTheMeasurableOnesInTheHangingPartsLowestBand) {
   // f = 100 px, B = 0.1 m, principal point (0, 0), camera frame = road frame: d = 1 px is 10 m away,
   // a pixel at row 0 is level with the camera, 1.0 m above the flat true ground; at u its road x is
