@@ -105,6 +105,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -782,20 +783,23 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  bool all_met = true;
-  std::printf("\ndetection rate %% (false positives per frame)\n%-10s", "method");
-  for (const std::string& scene : settings.scenes) std::printf(" %18s", scene.c_str());
-  std::printf("\n");
-  for (int m = 0; m < kMethods; ++m) {
-    std::printf("%-10s", kMethodNames[m]);
-    for (size_t s = 0; s < settings.scenes.size(); ++s) {
-      const Tally& t = per_scene[s][static_cast<size_t>(m)];
-      const double rate = percent(t.detected, t.visible);
-      std::printf("   %6.1f (%6.2f)   ", rate, t.frames ? static_cast<double>(t.false_positives) / static_cast<double>(t.frames) : 0.0);
-      if ((m == 0 || m == 3) && rate < 99.0) all_met = false;
-    }
+  // A table of a row per method and a column per scene; cell(tally, method) prints one cell.
+  const auto print_method_table = [&](const std::string& title, const std::function<void(const Tally&, int)>& cell) {
+    std::printf("\n%s\n%-10s", title.c_str(), "method");
+    for (const std::string& scene : settings.scenes) std::printf(" %18s", scene.c_str());
     std::printf("\n");
-  }
+    for (int m = 0; m < kMethods; ++m) {
+      std::printf("%-10s", kMethodNames[m]);
+      for (size_t s = 0; s < settings.scenes.size(); ++s) cell(per_scene[s][static_cast<size_t>(m)], m);
+      std::printf("\n");
+    }
+  };
+  bool all_met = true;
+  print_method_table("detection rate % (false positives per frame)", [&](const Tally& t, int m) {
+    const double rate = percent(t.detected, t.visible);
+    std::printf("   %6.1f (%6.2f)   ", rate, t.frames ? static_cast<double>(t.false_positives) / static_cast<double>(t.frames) : 0.0);
+    if ((m == 0 || m == 3) && rate < 99.0) all_met = false;
+  });
   std::printf("%-10s", "unmeasured");
   for (size_t s = 0; s < settings.scenes.size(); ++s) {
     std::printf("   %6lld object-frames ", static_cast<long long>(per_scene[s][0].unmeasurable));
@@ -815,22 +819,17 @@ int main(int argc, char** argv) {
   std::printf("line: polar and stixels >= 99 %% on every scene\n");
   // False positives apart for the frames whose view is partly nearer than the engine's range: what
   // the matcher returns there is not a measurement of anything (docs/obstacles3d.md).
-  std::printf("\nfalse positives per frame, frames with >= %.0f %% of the view nearer than the search range / the other frames\n%-10s",
-              100 * eval::kNearerThanRangeShare, "method");
-  for (const std::string& scene : settings.scenes) std::printf(" %18s", scene.c_str());
-  std::printf("\n");
-  for (int m = 0; m < kMethods; ++m) {
-    std::printf("%-10s", kMethodNames[m]);
-    for (size_t s = 0; s < settings.scenes.size(); ++s) {
-      const Tally& t = per_scene[s][static_cast<size_t>(m)];
-      const int64_t other_frames = t.frames - t.nearer_view_frames;
-      const int64_t other_false_positives = t.false_positives - t.nearer_view_false_positives;
-      std::printf("   %6.2f / %6.2f  ",
-                  t.nearer_view_frames ? static_cast<double>(t.nearer_view_false_positives) / static_cast<double>(t.nearer_view_frames) : 0.0,
-                  other_frames ? static_cast<double>(other_false_positives) / static_cast<double>(other_frames) : 0.0);
-    }
-    std::printf("\n");
-  }
+  print_method_table("false positives per frame, frames with >= " + std::to_string(static_cast<int>(100 * eval::kNearerThanRangeShare)) +
+                         " % of the view nearer than the search range / the other frames",
+                     [](const Tally& t, int) {
+                       const int64_t other_frames = t.frames - t.nearer_view_frames;
+                       const int64_t other_false_positives = t.false_positives - t.nearer_view_false_positives;
+                       std::printf("   %6.2f / %6.2f  ",
+                                   t.nearer_view_frames ? static_cast<double>(t.nearer_view_false_positives) /
+                                                              static_cast<double>(t.nearer_view_frames)
+                                                        : 0.0,
+                                   other_frames ? static_cast<double>(other_false_positives) / static_cast<double>(other_frames) : 0.0);
+                     });
   std::printf("%-10s", "frames");
   for (size_t s = 0; s < settings.scenes.size(); ++s) {
     const Tally& t = per_scene[s][0];
