@@ -275,21 +275,19 @@ void log_moving_row(const MissLog& log, const io::SequenceObjectTruth& object, c
 }
 
 // The --surface-errors rows of one frame: every valid cell (measured or filled) of the candidates'
-// 2.5D grid, with the true ground under its centre (io::SynthGroundTruth, through the frame's camera
-// pose) subtracted from the measured cell height, the equalised one (the sample the fit's last
-// iteration used) and the fitted surface, all at the cell centre. Signed, metres: + = above the true
-// ground. What tells a terrain lift under a hanging object (a lower edge read low) from the stixels'
-// own estimate.
-void log_surface_errors(const MissLog& log, const o3::CandidatePoints& candidates, const io::SynthGroundTruth& ground_truth,
-                        const Eigen::Isometry3d& road_from_camera, const Eigen::Isometry3d& camera_from_vehicle, double camera_height_m) {
+// 2.5D grid, with the true ground under its centre (the probe's io::SynthGroundTruth, through the
+// frame's camera pose) subtracted from the measured cell height, the equalised one (the sample the
+// fit's last iteration used) and the fitted surface, all at the cell centre. Signed, metres: + =
+// above the true ground. No rows for a frame whose terrain is unknown. What tells a terrain lift
+// under a hanging object (a lower edge read low) from the stixels' own estimate.
+void log_surface_errors(const MissLog& log, const o3::CandidatePoints& candidates, const eval::LowerEdgeProbe& probe,
+                        const Eigen::Isometry3d& camera_from_vehicle) {
   if (log.surface_file == nullptr || !candidates.terrain.known) return;
   const arm::terrain::HeightGrid& measured = candidates.measured_grid;
   const arm::terrain::TerrainEstimate& terrain = candidates.terrain;
-  // Height of a vehicle-frame point above the true ground (road frame: Y down, the ground at
-  // Y = camera_height_m - its height, io/stereo_synth.h).
+  const Eigen::Isometry3d road_from_vehicle = probe.road_from_camera * camera_from_vehicle;
   const auto above_true_ground = [&](double x_m, double y_m, double z_m) {
-    const Eigen::Vector3d road = road_from_camera * (camera_from_vehicle * Eigen::Vector3d(x_m, y_m, z_m));
-    return camera_height_m - road.y() - ground_truth.height_m(road.x(), road.z());
+    return probe.height_above_true_ground_m(road_from_vehicle * Eigen::Vector3d(x_m, y_m, z_m));
   };
   const bool marked = measured.upper_bound.size() != 0;
   for (int i = 0; i < measured.spec.forward_cells(); ++i) {
@@ -434,6 +432,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   const arm::CameraToVehicle to_vehicle(mount);
   const o3::CandidateParameters& candidate_parameters = settings.candidates;
   const Eigen::Isometry3d vehicle_from_camera = to_vehicle.vehicle_from_camera();
+  const Eigen::Isometry3d camera_from_vehicle = vehicle_from_camera.inverse();
 
   arm::StereoOdometryParameters odometry_parameters;  // the command's (tools/obstacles3d_command.cpp)
   odometry_parameters.focal_px = focal_px;
@@ -508,8 +507,6 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
                                                         : o3::ColourView{},
                                         to_vehicle, candidate_parameters);
     const std::vector<o3::ObstaclePoint>& candidates = candidate_points.points;
-    log_surface_errors(log, candidate_points, ground_truth, io::road_from_camera(frame.pose), vehicle_from_camera.inverse(),
-                       base.camera_height_m);
     // Ego-motion (t -> t-1) in the vehicle frame, V E V^-1: the odometry's increment (the command's)
     // or the sequence's true camera motion.
     o3::EgoMotion ego_motion;
@@ -548,6 +545,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     probe.road_from_camera = io::road_from_camera(frame.pose);
     probe.ground = &ground_truth;
     for (const io::SequenceObjectTruth& object : frame.objects) probe.add_part(object.truth);
+    log_surface_errors(log, candidate_points, probe, camera_from_vehicle);
     const eval::MeasurablePixels measurable =
         eval::measurable_pixels(frame.scene, disparity_parameters.min_disparity, disparity_parameters.num_disparities, &probe);
     for (int g = 0; g < 3; ++g) {

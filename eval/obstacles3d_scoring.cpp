@@ -44,6 +44,10 @@ void LowerEdgeProbe::add_part(const io::SynthObjectTruth& object) {
   parts[id] = {true, object.object.x_m - half_width_m, object.object.x_m + half_width_m, object.min_height_m};
 }
 
+double LowerEdgeProbe::height_above_true_ground_m(const Eigen::Vector3d& road_m) const {
+  return camera_height_m - road_m.y() - ground->height_m(road_m.x(), road_m.z());
+}
+
 MeasurablePixels measurable_pixels(const io::StereoSynthScene& scene, int min_disparity, int num_disparities, const LowerEdgeProbe* probe) {
   MeasurablePixels counts;
   const double max_disparity = min_disparity + num_disparities - 1;
@@ -74,8 +78,7 @@ MeasurablePixels measurable_pixels(const io::StereoSynthScene& scene, int min_di
       const double depth_m = probe->focal_px * probe->baseline_m / d;
       const Eigen::Vector3d road = probe->road_from_camera *
                                    Eigen::Vector3d((u - probe->cx_px) * depth_m / probe->focal_px, (v - probe->cy_px) * depth_m / probe->focal_px, depth_m);
-      // Road frame: Y down, the ground at Y = camera_height_m - its height (io/stereo_synth.h).
-      const double height_m = probe->camera_height_m - road.y() - probe->ground->height_m(road.x(), road.z());
+      const double height_m = probe->height_above_true_ground_m(road);
       if (road.x() >= part.x_min_m && road.x() <= part.x_max_m && height_m >= part.edge_m && height_m <= part.edge_m + kLowerEdgeBandM) {
         ++counts.lower_edge[id];
       }

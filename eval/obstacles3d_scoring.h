@@ -74,6 +74,10 @@ struct LowerEdgeProbe {
   // The object's part when it is a hanging one (its road-frame x span and true lower edge); other
   // objects are left out.
   void add_part(const io::SynthObjectTruth& object);
+  // Height of a road-frame point (road_from_camera x a camera-frame one) above the true ground under
+  // it: the road frame has Y down and the ground at Y = camera_height_m - its height
+  // (io/stereo_synth.h). Needs ground.
+  double height_above_true_ground_m(const Eigen::Vector3d& road_m) const;
 };
 
 inline constexpr double kLowerEdgeBandM = 0.10;
