@@ -181,14 +181,19 @@ std::string settings_text(const DisparityParameters& parameters) {
     text += ", speckles <= " + std::to_string(parameters.speckle_max_size_px) + " px within " +
             std::to_string(parameters.speckle_max_difference_px) + " px removed";
   }
-  if (parameters.multires) text += ", multi-resolution";
+  if (parameters.multires) {
+    const MultiresSplit split =
+        multires_split(parameters.min_disparity, parameters.num_disparities, parameters.multires_far_disparities);
+    text += ", multi-resolution (full resolution " + std::to_string(split.num_far) + " px, half resolution " +
+            std::to_string(split.num_near) + " half px)";
+  }
   return text;
 }
 
-MultiresSplit multires_split(int min_disparity, int num_disparities) {
+MultiresSplit multires_split(int min_disparity, int num_disparities, int far_cap) {
   MultiresSplit split;
   split.min_far = min_disparity;
-  split.num_far = std::min(num_disparities, kMultiresFarDisparities);
+  split.num_far = std::min(num_disparities, far_cap);
   split.margin_px = std::min(2, split.num_far - 1);
   const int top = split.min_far + split.num_far - 1 - split.margin_px;
   split.min_near = floor_half(min_disparity);
@@ -230,7 +235,9 @@ GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
     if (post_processing) add_post_processing(spec, parameters, "sgm_disparity");
     return spec;
   }
-  const MultiresSplit split = multires_split(parameters.min_disparity, parameters.num_disparities);
+  check_range("multires_far_disparities", parameters.multires_far_disparities, 1, 512);
+  const MultiresSplit split =
+      multires_split(parameters.min_disparity, parameters.num_disparities, parameters.multires_far_disparities);
   spec.name = "disparity-engine-multires";
   spec.description = "multi-resolution: census " + census_name + " and " + matcher + " at full resolution over [" +
                      std::to_string(split.min_far) + ", " + std::to_string(split.min_far + split.num_far) +

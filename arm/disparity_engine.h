@@ -20,7 +20,8 @@
 // multires = true: two matching passes with the same paths, census and penalties, fused by
 // disparity_fuse_multires (graphs/disparity-multires-wta.json is the same shape with WTA matchers):
 //   far  (full resolution)  [min_disparity, min_disparity + num_far) px,
-//                           num_far = min(num_disparities, kMultiresFarDisparities = 128);
+//                           num_far = min(num_disparities, multires_far_disparities), the cap 128 by
+//                           default (kMultiresFarDisparities, the budgeted 4K search);
 //   near (half resolution)  downsample2x of both views, census, matching over the WHOLE range in
 //                           half px: [floor(min / 2), ceil((min + num - 1) / 2)], which covers every
 //                           full-resolution disparity of [min, min + num);
@@ -83,6 +84,12 @@ struct DisparityParameters {
   // no lower than OpenCV's: docs/evaluation.md has the table.
   int max_cost_bits = 6;       // paths = 0 only: a best Hamming cost above this is invalid
   bool multires = false;       // full-resolution far pass + half-resolution pass, fused (see above)
+  // multires only: the full-resolution pass's cap, [1, 512]. Below num_disparities / 2 the half-resolution
+  // pass does most of the matching. 64 with num_disparities 128 at 640 px is a near guard: the far pass
+  // costs what the single 64-disparity engine does, the half-resolution pass a quarter of it, and
+  // surfaces 1.3-2.6 m ahead (f B / 128 .. f B / 64 at f 554 px, B 0.3 m) get their half-resolution
+  // disparity instead of the wrong value a 64-disparity matcher returns for them (docs/obstacles3d.md).
+  int multires_far_disparities = 128;
 };
 
 // One line naming every setting, for reports and benchmarks ("8-path SGM, census 5x5, P1 5, P2 45, ...").
@@ -94,8 +101,9 @@ struct MultiresSplit {
   int min_near = 0, num_near = 0;  // half-resolution px
   int margin_px = 0;               // top steps of the far range not trusted (full-resolution px)
 };
-inline constexpr int kMultiresFarDisparities = 128;  // the far pass's cap: the budgeted 4K search (issue 4)
-MultiresSplit multires_split(int min_disparity, int num_disparities);
+inline constexpr int kMultiresFarDisparities = 128;  // the far pass's default cap: the budgeted 4K search (issue 4)
+// far_cap: DisparityParameters::multires_far_disparities (>= 1).
+MultiresSplit multires_split(int min_disparity, int num_disparities, int far_cap = kMultiresFarDisparities);
 
 class DisparityEngine {
  public:

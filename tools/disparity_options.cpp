@@ -38,6 +38,11 @@ void add_disparity_engine_options(CLI::App& command, DisparityEngineOptions& opt
                      "docs/kernels.md); off: one full-resolution pass")
       ->capture_default_str()
       ->check(CLI::IsMember({"on", "off"}));
+  command.add_option("--multires-far", options.multires_far_disparities,
+                     "with --multires on: the full-resolution pass's cap in px (the half-resolution pass matches "
+                     "the rest of the range)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 512));
 }
 
 arm::DisparityParameters disparity_parameters(const DisparityEngineOptions& options, int width, int default_num_disparities) {
@@ -52,6 +57,7 @@ arm::DisparityParameters disparity_parameters(const DisparityEngineOptions& opti
   parameters.speckle_max_size_px = options.speckle_size_px;
   parameters.speckle_max_difference_px = options.speckle_range_px;
   parameters.multires = options.multires == "on";
+  parameters.multires_far_disparities = options.multires_far_disparities;
   if (options.lr_check == "off") {
     parameters.lr_max_diff = -1;
   } else {

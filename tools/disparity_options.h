@@ -1,7 +1,7 @@
 // The disparity engine's command-line options, shared by the commands that run the engine
 // (`lpstereo disparity`, `obstacles`, `terrain`, `obstacles3d`): one definition of --min-disp, --num-disp, --paths,
 // --p1, --p2, --census, --subpixel, --lr-check, --uniqueness, --median, --speckle-size,
-// --speckle-range and --multires, and one translation into arm::DisparityParameters with the checks.
+// --speckle-range, --multires and --multires-far, and one translation into arm::DisparityParameters with the checks.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -27,7 +27,8 @@ struct DisparityEngineOptions {
         median(defaults.median ? "on" : "off"),
         speckle_size_px(defaults.speckle_max_size_px),
         speckle_range_px(defaults.speckle_max_difference_px),
-        multires(defaults.multires ? "on" : "off") {}
+        multires(defaults.multires ? "on" : "off"),
+        multires_far_disparities(defaults.multires_far_disparities) {}
   std::optional<int> min_disparity_px, num_disparities;
   int paths;
   std::optional<int> p1, p2;
@@ -39,6 +40,7 @@ struct DisparityEngineOptions {
   int speckle_size_px;
   int speckle_range_px;
   std::string multires;
+  int multires_far_disparities;
 };
 
 // Adds the options to `command`; num_disparities_help is --num-disp's help (its default differs).

@@ -452,7 +452,8 @@ int run_disparity_files(const DisparityOptions& options) {
   std::string how;
   if (options.rectify) how += ", rectified with " + options.calibration_files.front();
   if (parameters.multires) {
-    const arm::MultiresSplit split = arm::multires_split(parameters.min_disparity, parameters.num_disparities);
+    const arm::MultiresSplit split =
+        arm::multires_split(parameters.min_disparity, parameters.num_disparities, parameters.multires_far_disparities);
     how += ", multi-resolution: full resolution [" + std::to_string(split.min_far) + ", " +
            std::to_string(split.min_far + split.num_far) + ") px, half resolution [" + std::to_string(split.min_near) + ", " +
            std::to_string(split.min_near + split.num_near) + ") half px";

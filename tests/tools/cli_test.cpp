@@ -308,7 +308,8 @@ TEST_F(Cli, DisparityMatcherOptionsReachTheEngine) {
            {"--paths 5", "lpstereo: --paths: 5 not in {0,4,8}"},
            {"--census 7x7", "lpstereo: --census: 7x7 not in {5x5,9x7}"},
            {"--median maybe", "lpstereo: --median: maybe not in {on,off}"},
-           {"--speckle-size -1", "lpstereo: --speckle-size: Value -1 not in range"}}) {
+           {"--speckle-size -1", "lpstereo: --speckle-size: Value -1 not in range"},
+           {"--multires on --multires-far 0", "lpstereo: --multires-far: Value 0 not in range"}}) {
     const Result bad = run("disparity " + pair + " -o " + path("bad.s16") + " " + options);
     EXPECT_EQ(bad.exit_code, 2) << options << ": " << bad.err;
     EXPECT_EQ(count_lines(bad.err), 1) << bad.err;
@@ -336,6 +337,11 @@ TEST_F(Cli, DisparityMultiresolutionAndRightViewReachTheEngine) {
       << multires.out;
   EXPECT_NE(multires.out.find(", right view -> " + path("multi_right.s16")), std::string::npos) << multires.out;
   map("counted.s16", "--multires on --backend counting");
+  // --multires-far caps the full-resolution pass: [-112, -96) here, the rest at half resolution.
+  const Result capped = map("capped.s16", "--multires on --multires-far 16");
+  EXPECT_NE(capped.out.find("multi-resolution: full resolution [-112, -96) px, half resolution [-56, 17) half px"),
+            std::string::npos)
+      << capped.out;
   map("right.s16", "--right-out " + path("right_only.s16") + " --fill");
   const Plane single = io::read_s16_raw(path("single.s16"), width, height);
   const Plane multi = io::read_s16_raw(path("multi.s16"), width, height);
