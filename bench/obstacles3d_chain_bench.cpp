@@ -6,8 +6,9 @@
 // camera, crossing pedestrians and cars), 640x480 grey and colour views, every frame rendered
 // BEFORE any timing. Per frame, the chain `lpstereo obstacles3d --method stixels` runs (the same
 // calls, the command's defaults):
-//   disparity      arm::DisparityEngine::compute (64 disparities, census 5x5, SGM 8 paths, LR check,
-//                  median, speckle filter; 2 worker threads);
+//   disparity      arm::DisparityEngine::compute (o3::obstacles3d_disparity_defaults: 64 disparities,
+//                  census 5x5, SGM 8 paths, LR check, median, speckle filter; 2 worker threads;
+//                  --near-guard: 128 disparities, 64 at full resolution, all at half resolution);
 //   triangulate    arm::triangulate (camera-frame points, mm);
 //   terrain        arm::obstacles3d::extract_obstacle_candidates: vehicle-frame points, the 2.5D grid
 //                  (34 m x 22 m, 0.5 m cells), fit_terrain (25 x 25 control points, degree 3) and
@@ -41,6 +42,8 @@
 //        [--far-side R,C] (the candidates' far-side test, CandidateParameters::far_side: R rows above, C
 //        columns beside; 0,0: off, to time what it costs) [--ground-below-view upper-bounds|samples] (the
 //        cells whose ground lies below the image as upper bounds, the default, or as plain samples)
+//        [--near-guard on|off] (on: 128 disparities, 64 at full resolution and all at half resolution,
+//        docs/obstacles3d.md "The near guard"; off: the command's 64, the default)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -85,6 +88,7 @@ struct Settings {
   int passes = 3;
   arm::FarSideTest far_side;  // the candidates' default
   bool ground_below_view_upper_bounds = true;  // the candidates' default
+  bool near_guard = false;                     // --near-guard on: o3::obstacles3d_near_guard_disparity_parameters
 };
 
 struct RenderedFrame {
@@ -123,6 +127,9 @@ bool parse(int argc, char** argv, Settings& settings) {
       settings.passes = std::atoi(value);
     } else if (flag == "--far-side") {
       if (std::sscanf(value, "%d,%d", &settings.far_side.rows_above_px, &settings.far_side.columns_beside_px) != 2) return false;
+    } else if (flag == "--near-guard") {
+      if (std::strcmp(value, "on") != 0 && std::strcmp(value, "off") != 0) return false;
+      settings.near_guard = std::strcmp(value, "on") == 0;
     } else if (flag == "--ground-below-view") {
       if (std::strcmp(value, "upper-bounds") != 0 && std::strcmp(value, "samples") != 0) return false;
       settings.ground_below_view_upper_bounds = std::strcmp(value, "upper-bounds") == 0;
@@ -143,7 +150,7 @@ int run(int argc, char** argv) {
   Settings settings;
   if (!parse(argc, argv, settings)) {
     std::fprintf(stderr, "usage: obstacles3d_chain_bench [--scene urban|country|mining|floating] [--seed K] [--frames N >= 1] [--passes P >= 1] "
-                 "[--far-side R,C (rows, columns in [0, 64])] [--ground-below-view upper-bounds|samples]\n");
+                 "[--far-side R,C (rows, columns in [0, 64])] [--ground-below-view upper-bounds|samples] [--near-guard on|off]\n");
     return 2;
   }
   io::StereoSequenceOptions options = io::preset_stereo_sequence(settings.scene, settings.seed);
@@ -166,7 +173,8 @@ int run(int argc, char** argv) {
   }
 
   // The chain's settings: `lpstereo obstacles3d --method stixels`'s defaults.
-  const arm::DisparityParameters disparity_parameters;
+  const arm::DisparityParameters disparity_parameters =
+      settings.near_guard ? o3::obstacles3d_near_guard_disparity_parameters() : o3::obstacles3d_disparity_defaults();
   arm::DisparityEngine engine(width, height, disparity_parameters, {}, kThreads);
   const double cx = (width - 1) / 2.0, cy = (height - 1) / 2.0;
   const arm::TriangulationParameters triangulation{base.baseline_m, focal_px, cx, cy, disparity_parameters.min_disparity,

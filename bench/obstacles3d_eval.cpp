@@ -76,6 +76,7 @@
 //        [--innovation-gate-chi2 X] [--moving-consistency N]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 //        [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] [--ground-below-view upper-bounds|samples]
+//        [--num-disparities N] [--multires-far F]
 // (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2;
 // --first-seed: seeds S .. S + N - 1, default 1; --misses: one CSV row per missed object and per false
 // positive of every method, with the nearest obstacle, and per hanging object whose reported lower
@@ -96,7 +97,11 @@
 // --far-side-jump: the candidates' test of the far side of a nearer surface's edge (arm::FarSideTest,
 // CandidateParameters::far_side; rows and columns 0 turn it off); --ground-below-view: the cells whose
 // ground lies below the image are upper bounds (the default, CandidateParameters::
-// ground_below_view_upper_bounds) or plain samples.)
+// ground_below_view_upper_bounds) or plain samples; --num-disparities: the engine's range, default
+// the command's 64; --multires-far F: F px at full resolution and the whole range again at half
+// resolution (arm::DisparityParameters::multires_far_disparities), 0: one full-resolution pass over
+// the range (the default); `--num-disparities 128 --multires-far 64` is the near guard of
+// docs/obstacles3d.md; the "measurable" rule follows the range.)
 // Exit 0 when every line is met, 1 otherwise (the issue wants >= 300 frames and several seeds).
 #include <algorithm>
 #include <cerrno>
@@ -161,6 +166,11 @@ struct Settings {
   // The voxel tracker's moving decision and robust update (--innovation-gate-chi2,
   // --moving-consistency): the defaults of ObstacleTrackingParameters unless given.
   o3::ObstacleTrackingParameters tracking;
+  // The disparity engine: the command's (o3::obstacles3d_disparity_defaults: 64 px, one
+  // full-resolution pass) unless --num-disparities or --multires-far is given (--num-disparities 128
+  // --multires-far 64: o3::obstacles3d_near_guard_disparity_parameters, measured and not the
+  // default; --multires-far 0: one full-resolution pass over the range).
+  arm::DisparityParameters disparity = o3::obstacles3d_disparity_defaults();
 };
 
 // Where the rows of --misses go, and which sequence frame is being scored.
@@ -411,7 +421,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   const io::StereoSynthOptions& base = options.base;
   const int width = base.width, height = base.height;
 
-  arm::DisparityParameters disparity_parameters;  // the command's defaults (64 disparities)
+  const arm::DisparityParameters& disparity_parameters = settings.disparity;
   arm::DisparityEngine engine(width, height, disparity_parameters, {}, settings.threads);
   const double cx = (width - 1) / 2.0, cy = (height - 1) / 2.0;
   // Wall-clock time of the rendering and of the rest (printed per sequence: what a run costs).
@@ -684,6 +694,12 @@ int main(int argc, char** argv) {
       settings.candidates.far_side.jump_px = std::atof(argv[++i]);
     } else if (arg == "--occluder-jump" && has_value) {
       settings.candidates.occluder.jump_px = std::atof(argv[++i]);
+    } else if (arg == "--num-disparities" && has_value) {
+      settings.disparity.num_disparities = std::atoi(argv[++i]);
+    } else if (arg == "--multires-far" && has_value) {
+      const int far_disparities = std::atoi(argv[++i]);
+      settings.disparity.multires = far_disparities != 0;
+      if (far_disparities != 0) settings.disparity.multires_far_disparities = far_disparities;
     } else if (arg == "--upper-bound-tolerance-m" && has_value) {
       settings.candidates.fit.upper_bound_tolerance_m = std::atof(argv[++i]);
     } else {
@@ -693,7 +709,7 @@ int main(int argc, char** argv) {
                    "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--hole-membrane H] [--innovation-gate-chi2 X] "
                    "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
                    "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] "
-                   "[--ground-below-view upper-bounds|samples]\n",
+                   "[--ground-below-view upper-bounds|samples] [--num-disparities N] [--multires-far F]\n",
                    arg.c_str());
       return 2;
     }
@@ -719,6 +735,11 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("hole_membrane: expected a finite value >= 0, got " + std::to_string(settings.candidates.fit.hole_membrane));
     }
     o3::validate_tracking_parameters(settings.tracking);  // a bad --innovation-gate-chi2 or --moving-consistency, the same
+    if (settings.disparity.num_disparities < 1 || settings.disparity.num_disparities > 640) {
+      throw std::invalid_argument("--num-disparities: expected 1..640 (the image's width), got " +
+                                  std::to_string(settings.disparity.num_disparities));
+    }
+    arm::DisparityEngine::graph_spec(settings.disparity);  // a bad --multires-far: the engine's own check
   } catch (const std::exception& error) {
     std::fprintf(stderr, "obstacles3d_eval: %s\n", error.what());
     return 2;
@@ -749,6 +770,8 @@ int main(int argc, char** argv) {
               settings.candidates.ground_below_view_upper_bounds ? "upper bounds" : "samples", static_cast<long long>(settings.min_pixels),
               settings.all_visible ? "visible" : "measurable (true disparity in the engine's range, match inside the right image)",
               settings.range_m);
+  std::printf("disparity: [%d, %d) px, %s\n", settings.disparity.min_disparity,
+              settings.disparity.min_disparity + settings.disparity.num_disparities, arm::settings_text(settings.disparity).c_str());
 
   std::vector<std::vector<Tally>> per_scene(settings.scenes.size(), std::vector<Tally>(kMethods));
   try {

@@ -163,7 +163,8 @@ Obstacles3dCommand::Obstacles3dCommand(CLI::App& app) {
       ->capture_default_str();
   command_->add_option("--threads", threads_, "worker threads (0 = one per hardware thread)")->capture_default_str()->check(CLI::Range(0, 256));
   add_camera_mount_options(*command_, mount_options_);
-  add_disparity_engine_options(*command_, engine_options_, "disparities searched: [min-disp, min-disp + num-disp) (default 64)");
+  add_disparity_engine_options(*command_, engine_options_, "disparities searched: [min-disp, min-disp + num-disp) (default 64; 128 with --multires on "
+                               "--multires-far 64: surfaces 1.3-2.6 m ahead measured at half resolution)");
 }
 
 int Obstacles3dCommand::run() const {
@@ -191,7 +192,7 @@ int Obstacles3dCommand::run() const {
   check_obstacle_geometry(geometry, calibration_files_);
 
   const arm::DisparityParameters disparity_parameters =
-      tools::disparity_parameters(engine_options_, width, arm::DisparityParameters{}.num_disparities);
+      tools::disparity_parameters(engine_options_, width, arm::obstacles3d::obstacles3d_disparity_defaults().num_disparities);
   arm::DisparityEngine engine(width, height, disparity_parameters, {}, threads_);
   const arm::TriangulationParameters triangulation =
       triangulation_parameters(geometry, disparity_parameters.min_disparity, disparity_parameters.num_disparities);

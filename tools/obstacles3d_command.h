@@ -42,6 +42,7 @@
 #include <string>
 #include <vector>
 
+#include "arm/obstacles3d/obstacle_candidates.h"
 #include "tools/camera_mount_options.h"
 #include "tools/disparity_options.h"
 
@@ -66,7 +67,7 @@ class Obstacles3dCommand {
   int acceptance_frames_ = 3;
   int threads_ = 2;
   CameraMountOptions mount_options_;
-  DisparityEngineOptions engine_options_;
+  DisparityEngineOptions engine_options_{arm::obstacles3d::obstacles3d_disparity_defaults()};
 };
 
 }  // namespace lpstereo::tools

@@ -258,4 +258,14 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   return result;
 }
 
+DisparityParameters obstacles3d_disparity_defaults() { return DisparityParameters{}; }
+
+DisparityParameters obstacles3d_near_guard_disparity_parameters() {
+  DisparityParameters parameters = obstacles3d_disparity_defaults();
+  parameters.num_disparities = 128;
+  parameters.multires = true;
+  parameters.multires_far_disparities = 64;
+  return parameters;
+}
+
 }  // namespace lpstereo::arm::obstacles3d

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "arm/disparity_engine.h"
 #include "arm/obstacles3d/obstacle_points.h"
 #include "arm/point_cloud.h"
 #include "arm/terrain_points.h"
@@ -113,6 +114,17 @@ class CandidateTest {
   double obstacle_height_m_;
   Eigen::MatrixXd span_minimum_m_;  // (n0 - d0) x (n1 - d1): the smallest control height per span pair
 };
+
+// The matcher of the chain (`lpstereo obstacles3d`, bench/obstacles3d_eval, bench/obstacles3d_chain_bench):
+// the engine's defaults, 64 px at full resolution (nearer than f B / 64 = 2.6 m at 640x480, f 554 px,
+// B 0.3 m, a surface gets whatever value the search finds). Measured and not the default: the near
+// guard, 128 px with 64 at full resolution and the whole range again at half resolution
+// (`--num-disp 128 --multires on --multires-far 64`): floating's false positives fall by about 40 %
+// and the chain runs at 38 fps instead of 46, but the boards it then measures at 1.3-2.6 m lose
+// the free-space line on every seed (docs/obstacles3d.md, "The near guard").
+DisparityParameters obstacles3d_disparity_defaults();
+// The near guard: obstacles3d_disparity_defaults searched over [0, 128) px, 64 of them at full resolution.
+DisparityParameters obstacles3d_near_guard_disparity_parameters();
 
 // `camera` holds the points arm::triangulate made from the disparity map with `view` (its focal
 // length and principal point also say where the image ends); `grey` (u8) and the colour view, when

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "arm/disparity_engine.h"
 #include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/point_cloud.h"
 #include "arm/terrain/terrain_model.h"
@@ -292,6 +293,25 @@ TEST(ObstacleCandidates, CellsWhoseGroundIsBelowTheViewAreUpperBounds) {
   } catch (const std::invalid_argument& error) {
     EXPECT_NE(std::string(error.what()).find("view.focal_px: expected a finite focal length > 0 px"), std::string::npos) << error.what();
   }
+}
+
+// The chain's matcher and the near guard beside it (arm/obstacles3d/obstacle_candidates.h): the guard
+// is the same matcher with 128 px, 64 of them at full resolution, and the half-resolution pass reaches
+// the whole range; the engine accepts both.
+TEST(ObstacleCandidates, TheNearGuardIsTheChainsMatcherWithAHalfResolutionPassTo128Pixels) {
+  const arm::DisparityParameters chain = o3::obstacles3d_disparity_defaults();
+  const arm::DisparityParameters guard = o3::obstacles3d_near_guard_disparity_parameters();
+  EXPECT_FALSE(chain.multires);
+  EXPECT_EQ(chain.num_disparities, 64);
+  EXPECT_TRUE(guard.multires);
+  EXPECT_EQ(guard.num_disparities, 128);
+  EXPECT_EQ(arm::settings_text(guard).rfind(arm::settings_text(chain), 0), 0u)
+      << "the guard changes the range only: " << arm::settings_text(guard);
+  const arm::MultiresSplit split = arm::multires_split(guard.min_disparity, guard.num_disparities, guard.multires_far_disparities);
+  EXPECT_EQ(split.num_far, chain.num_disparities);
+  EXPECT_GE(2 * (split.min_near + split.num_near - 1), guard.num_disparities - 1);
+  EXPECT_NO_THROW(arm::DisparityEngine(640, 480, guard));
+  EXPECT_NO_THROW(arm::DisparityEngine(640, 480, chain));
 }
 
 }  // namespace
