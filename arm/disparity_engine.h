@@ -86,9 +86,10 @@ struct DisparityParameters {
   bool multires = false;       // full-resolution far pass + half-resolution pass, fused (see above)
   // multires only: the full-resolution pass's cap, [1, 512]. Below num_disparities / 2 the half-resolution
   // pass does most of the matching. 64 with num_disparities 128 at 640 px is a near guard: the far pass
-  // costs what the single 64-disparity engine does, the half-resolution pass a quarter of it, and
-  // surfaces 1.3-2.6 m ahead (f B / 128 .. f B / 64 at f 554 px, B 0.3 m) get their half-resolution
-  // disparity instead of the wrong value a 64-disparity matcher returns for them (docs/obstacles3d.md).
+  // is the single 64-disparity engine's, and surfaces 1.3-2.6 m ahead (f B / 128 .. f B / 64 at f
+  // 554 px, B 0.3 m) get their half-resolution disparity instead of the wrong value a 64-disparity
+  // matcher returns for them; in the obstacle chain the engine then takes 14.5 ms instead of 9.7
+  // (docs/obstacles3d.md, "The near guard").
   int multires_far_disparities = 128;
 };
 
