@@ -735,8 +735,9 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("hole_membrane: expected a finite value >= 0, got " + std::to_string(settings.candidates.fit.hole_membrane));
     }
     o3::validate_tracking_parameters(settings.tracking);  // a bad --innovation-gate-chi2 or --moving-consistency, the same
-    if (settings.disparity.num_disparities < 1 || settings.disparity.num_disparities > 640) {
-      throw std::invalid_argument("--num-disparities: expected 1..640 (the image's width), got " +
+    const int image_width = io::preset_stereo_sequence(settings.scenes.front(), static_cast<uint32_t>(settings.first_seed)).base.width;
+    if (settings.disparity.num_disparities < 1 || settings.disparity.num_disparities > image_width) {
+      throw std::invalid_argument("--num-disparities: expected 1.." + std::to_string(image_width) + " (the image's width), got " +
                                   std::to_string(settings.disparity.num_disparities));
     }
     arm::DisparityEngine::graph_spec(settings.disparity);  // a bad --multires-far: the engine's own check

@@ -41,7 +41,7 @@ void add_disparity_engine_options(CLI::App& command, DisparityEngineOptions& opt
   command.add_option("--multires-far", options.multires_far_disparities,
                      "with --multires on: the full-resolution pass's cap in px (the half-resolution pass matches "
                      "the rest of the range)")
-      ->capture_default_str()
+      ->default_str(std::to_string(options.default_multires_far_disparities))
       ->check(CLI::Range(1, 512));
 }
 
@@ -57,7 +57,10 @@ arm::DisparityParameters disparity_parameters(const DisparityEngineOptions& opti
   parameters.speckle_max_size_px = options.speckle_size_px;
   parameters.speckle_max_difference_px = options.speckle_range_px;
   parameters.multires = options.multires == "on";
-  parameters.multires_far_disparities = options.multires_far_disparities;
+  if (options.multires_far_disparities && !parameters.multires) {
+    throw CommandError(kExitUsage, "--multires-far: sets the multi-resolution engine's full-resolution pass; expected --multires on, got off");
+  }
+  parameters.multires_far_disparities = options.multires_far_disparities.value_or(options.default_multires_far_disparities);
   if (options.lr_check == "off") {
     parameters.lr_max_diff = -1;
   } else {

@@ -28,7 +28,7 @@ struct DisparityEngineOptions {
         speckle_size_px(defaults.speckle_max_size_px),
         speckle_range_px(defaults.speckle_max_difference_px),
         multires(defaults.multires ? "on" : "off"),
-        multires_far_disparities(defaults.multires_far_disparities) {}
+        default_multires_far_disparities(defaults.multires_far_disparities) {}
   std::optional<int> min_disparity_px, num_disparities;
   int paths;
   std::optional<int> p1, p2;
@@ -40,7 +40,9 @@ struct DisparityEngineOptions {
   int speckle_size_px;
   int speckle_range_px;
   std::string multires;
-  int multires_far_disparities;
+  // --multires-far: given only with --multires on (else a usage error); unset: the default.
+  std::optional<int> multires_far_disparities;
+  int default_multires_far_disparities;
 };
 
 // Adds the options to `command`; num_disparities_help is --num-disp's help (its default differs).

@@ -166,6 +166,13 @@ TEST(DisparityEngine, MultiresolutionCountingEqualsNative) {
   }
 }
 
+// The graph's disparity_fuse_multires node, or null.
+const NodeSpec* fuse_node(const GraphSpec& spec) {
+  const auto fuse = std::find_if(spec.nodes.begin(), spec.nodes.end(),
+                                 [](const NodeSpec& node) { return node.kernel == "disparity_fuse_multires"; });
+  return fuse == spec.nodes.end() ? nullptr : &*fuse;
+}
+
 TEST(DisparityEngine, MultiresolutionSplitCoversTheWholeRange) {
   for (int min_disparity : {-37, -4, 0, 3, 16}) {
     for (int num_disparities : {1, 2, 5, 64, 128, 129, 200, 256, 301}) {
@@ -186,9 +193,8 @@ TEST(DisparityEngine, MultiresolutionSplitCoversTheWholeRange) {
   parameters.num_disparities = 200;
   parameters.paths = 8;
   const GraphSpec spec = arm::DisparityEngine::graph_spec(parameters);
-  const auto fuse = std::find_if(spec.nodes.begin(), spec.nodes.end(),
-                                 [](const NodeSpec& node) { return node.kernel == "disparity_fuse_multires"; });
-  ASSERT_NE(fuse, spec.nodes.end());
+  const NodeSpec* fuse = fuse_node(spec);
+  ASSERT_NE(fuse, nullptr);
   EXPECT_EQ(fuse->params["num_far"], 128);
   EXPECT_EQ(fuse->params["num_near"], 101);  // [0, 100] half px = [0, 200] px
   EXPECT_EQ(fuse->outputs.at("fused"), "disparity_fused");  // then the median and the speckle filter
@@ -219,9 +225,8 @@ TEST(DisparityEngine, MultiresolutionFarCapIsAParameter) {
   parameters.num_disparities = 128;
   parameters.multires_far_disparities = 64;
   const GraphSpec spec = arm::DisparityEngine::graph_spec(parameters);
-  const auto fuse = std::find_if(spec.nodes.begin(), spec.nodes.end(),
-                                 [](const NodeSpec& node) { return node.kernel == "disparity_fuse_multires"; });
-  ASSERT_NE(fuse, spec.nodes.end());
+  const NodeSpec* fuse = fuse_node(spec);
+  ASSERT_NE(fuse, nullptr);
   EXPECT_EQ(fuse->params["num_far"], 64);
   EXPECT_EQ(fuse->params["num_near"], 65);  // [0, 64] half px = [0, 128] px
   EXPECT_NE(arm::settings_text(parameters).find("multi-resolution (full resolution 64 px, half resolution 65 half px)"),

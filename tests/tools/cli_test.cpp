@@ -309,7 +309,8 @@ TEST_F(Cli, DisparityMatcherOptionsReachTheEngine) {
            {"--census 7x7", "lpstereo: --census: 7x7 not in {5x5,9x7}"},
            {"--median maybe", "lpstereo: --median: maybe not in {on,off}"},
            {"--speckle-size -1", "lpstereo: --speckle-size: Value -1 not in range"},
-           {"--multires on --multires-far 0", "lpstereo: --multires-far: Value 0 not in range"}}) {
+           {"--multires on --multires-far 0", "lpstereo: --multires-far: Value 0 not in range"},
+           {"--multires-far 64", "lpstereo: --multires-far: sets the multi-resolution engine's full-resolution pass; expected --multires on, got off"}}) {
     const Result bad = run("disparity " + pair + " -o " + path("bad.s16") + " " + options);
     EXPECT_EQ(bad.exit_code, 2) << options << ": " << bad.err;
     EXPECT_EQ(count_lines(bad.err), 1) << bad.err;
