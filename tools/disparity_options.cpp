@@ -32,8 +32,12 @@ void add_disparity_engine_options(CLI::App& command, DisparityEngineOptions& opt
                      "SGM: neighbours within this many px belong to one speckle region")
       ->capture_default_str()
       ->check(CLI::Range(0, 4095));
+  add_multires_options(command, options.multires);
+}
+
+void add_multires_options(CLI::App& command, MultiresOptions& options) {
   command.add_option("--multires", options.multires,
-                     "on: full-resolution SGM over [min-disp, min-disp + min(num-disp, 128)) plus a half-resolution "
+                     "on: full-resolution SGM over [min-disp, min-disp + min(num-disp, --multires-far)) plus a half-resolution "
                      "pass over the whole range, fused into one full-resolution map (arm/disparity_engine.h, "
                      "docs/kernels.md); off: one full-resolution pass")
       ->capture_default_str()
@@ -43,6 +47,14 @@ void add_disparity_engine_options(CLI::App& command, DisparityEngineOptions& opt
                      "the rest of the range)")
       ->default_str(std::to_string(options.default_multires_far_disparities))
       ->check(CLI::Range(1, 512));
+}
+
+void apply_multires_options(const MultiresOptions& options, arm::DisparityParameters& parameters) {
+  parameters.multires = options.multires == "on";
+  if (options.multires_far_disparities && !parameters.multires) {
+    throw CommandError(kExitUsage, "--multires-far: sets the multi-resolution engine's full-resolution pass; expected --multires on, got off");
+  }
+  parameters.multires_far_disparities = options.multires_far_disparities.value_or(options.default_multires_far_disparities);
 }
 
 arm::DisparityParameters disparity_parameters(const DisparityEngineOptions& options, int width, int default_num_disparities) {
@@ -56,11 +68,7 @@ arm::DisparityParameters disparity_parameters(const DisparityEngineOptions& opti
   parameters.median = options.median == "on";
   parameters.speckle_max_size_px = options.speckle_size_px;
   parameters.speckle_max_difference_px = options.speckle_range_px;
-  parameters.multires = options.multires == "on";
-  if (options.multires_far_disparities && !parameters.multires) {
-    throw CommandError(kExitUsage, "--multires-far: sets the multi-resolution engine's full-resolution pass; expected --multires on, got off");
-  }
-  parameters.multires_far_disparities = options.multires_far_disparities.value_or(options.default_multires_far_disparities);
+  apply_multires_options(options.multires, parameters);
   if (options.lr_check == "off") {
     parameters.lr_max_diff = -1;
   } else {

@@ -15,6 +15,23 @@
 
 namespace lpstereo::tools {
 
+// --multires on|off and --multires-far F: also used alone, by `lpstereo eval middlebury|kitti`.
+struct MultiresOptions {
+  explicit MultiresOptions(const arm::DisparityParameters& defaults = {})
+      : multires(defaults.multires ? "on" : "off"), default_multires_far_disparities(defaults.multires_far_disparities) {}
+  std::string multires;
+  // --multires-far: given only with --multires on (else a usage error); unset: the default.
+  std::optional<int> multires_far_disparities;
+  int default_multires_far_disparities;
+};
+
+// Adds --multires and --multires-far to `command`.
+void add_multires_options(CLI::App& command, MultiresOptions& options);
+
+// Sets parameters.multires and multires_far_disparities from the options. Throws CommandError
+// (exit 2) for --multires-far without --multires on.
+void apply_multires_options(const MultiresOptions& options, arm::DisparityParameters& parameters);
+
 struct DisparityEngineOptions {
   // The options' defaults are `defaults`' (arm::DisparityParameters' own for `lpstereo disparity`;
   // the obstacle detector's tuned matcher for `lpstereo obstacles`).
@@ -27,8 +44,7 @@ struct DisparityEngineOptions {
         median(defaults.median ? "on" : "off"),
         speckle_size_px(defaults.speckle_max_size_px),
         speckle_range_px(defaults.speckle_max_difference_px),
-        multires(defaults.multires ? "on" : "off"),
-        default_multires_far_disparities(defaults.multires_far_disparities) {}
+        multires(defaults) {}
   std::optional<int> min_disparity_px, num_disparities;
   int paths;
   std::optional<int> p1, p2;
@@ -39,10 +55,7 @@ struct DisparityEngineOptions {
   std::string median;
   int speckle_size_px;
   int speckle_range_px;
-  std::string multires;
-  // --multires-far: given only with --multires on (else a usage error); unset: the default.
-  std::optional<int> multires_far_disparities;
-  int default_multires_far_disparities;
+  MultiresOptions multires;
 };
 
 // Adds the options to `command`; num_disparities_help is --num-disp's help (its default differs).

@@ -155,7 +155,9 @@ int run_eval_odometry(const EvalOptions& options) {
   for (const auto& [given, flag] : {std::pair<bool, const char*>{!options.data_directory.empty(), "--data"},
                                     {!options.baseline.empty(), "--baseline"},
                                     {options.num_disparities.has_value(), "--num-disp"},
-                                    {options.min_disparity_px.has_value(), "--min-disp"}}) {
+                                    {options.min_disparity_px.has_value(), "--min-disp"},
+                                    {options.multires.multires == "on", "--multires"},
+                                    {options.multires.multires_far_disparities.has_value(), "--multires-far"}}) {
     if (given) throw CommandError(kExitUsage, std::string(flag) + ": only for eval middlebury|kitti, not eval odometry");
   }
   const std::string& estimate_path = options.files[0];
@@ -276,6 +278,8 @@ int run_eval(const EvalOptions& options) {
     throw CommandError(kExitUsage, "--num-disp: OpenCV StereoSGBM needs a multiple of 16 (the same range for both), got " +
                                        std::to_string(*options.num_disparities));
   }
+  arm::DisparityParameters defaults;
+  apply_multires_options(options.multires, defaults);  // a usage error before any data is read
   const std::string data_directory = io::shared_data_directory(options.data_directory);
   std::vector<io::StereoPair> pairs = options.benchmark == "middlebury" ? io::load_middlebury_pairs(data_directory)
                                                                          : io::load_kitti_pairs(data_directory);
@@ -285,12 +289,18 @@ int run_eval(const EvalOptions& options) {
       methods.push_back({std::string("opencv ") + io::sgbm_mode_name(mode), mode});
     }
   }
-  const arm::DisparityParameters defaults;
   const io::SgbmSettings sgbm_settings;
   std::printf("eval %s: %zu pair(s) from %s; dense = after the KITTI fill, every ground-truth pixel; valid = only the "
               "pixels the method produced\n",
               options.benchmark.c_str(), pairs.size(), data_directory.c_str());
-  std::printf("lpstereo: arm::DisparityEngine (%s)\n", arm::settings_text(defaults).c_str());
+  // settings_text would name the multi-resolution split of the default range; each pair has its own.
+  arm::DisparityParameters single_pass = defaults;
+  single_pass.multires = false;
+  std::printf("lpstereo: arm::DisparityEngine (%s%s)\n", arm::settings_text(single_pass).c_str(),
+              defaults.multires ? (", multi-resolution: at most " + std::to_string(defaults.multires_far_disparities) +
+                                   " px at full resolution, the whole range at half resolution, fused")
+                                      .c_str()
+                                : "");
   if (with_opencv) std::printf("%s\n", io::sgbm_settings_text(sgbm_settings).c_str());
 
   nlohmann::json report;
@@ -298,7 +308,9 @@ int run_eval(const EvalOptions& options) {
   report["data_directory"] = data_directory;
   report["settings"]["lpstereo"] = {{"engine", "arm::DisparityEngine"},
                                     {"census_width", defaults.census_width},
-                                    {"max_cost_bits", defaults.max_cost_bits}};
+                                    {"max_cost_bits", defaults.max_cost_bits},
+                                    {"multires", defaults.multires}};
+  if (defaults.multires) report["settings"]["lpstereo"]["multires_far_disparities"] = defaults.multires_far_disparities;
   if (with_opencv) report["settings"]["opencv"] = io::sgbm_settings_text(sgbm_settings);
   report["settings"]["fill"] = "KITTI devkit interpolateBackground (dense metrics)";
   report["pairs"] = nlohmann::json::array();
@@ -337,7 +349,7 @@ int run_eval(const EvalOptions& options) {
         disparity_q4 = io::run_opencv_sgbm(pair.left, pair.right, pair.min_disparity_px, pair.num_disparities, *method.sgbm,
                                            sgbm_settings);
       } else {
-        arm::DisparityParameters parameters;
+        arm::DisparityParameters parameters = defaults;
         parameters.min_disparity = pair.min_disparity_px;
         parameters.num_disparities = pair.num_disparities;
         arm::DisparityEngine engine(width, pair.left.height(), parameters, {}, options.threads);

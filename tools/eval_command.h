@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "tools/disparity_options.h"
+
 namespace lpstereo::tools {
 
 struct EvalOptions {
@@ -19,6 +21,7 @@ struct EvalOptions {
   std::optional<int> num_disparities;   // overrides every pair's range
   std::optional<int> min_disparity_px;  // overrides every pair's range
   int threads = 0;                 // engine worker threads (0 = one per hardware thread)
+  MultiresOptions multires;        // --multires on|off [--multires-far F]: the engine's multi-resolution mode
   // odometry only
   std::vector<double> segment_lengths_m;  // --lengths; empty: io::automatic_segment_lengths_m
   std::optional<int> step_frames;         // --step; default 1

@@ -589,6 +589,7 @@ int main(int argc, char** argv) {
   eval->add_option("--threads", eval_options.threads, "engine worker threads (0 = one per hardware thread)")
       ->capture_default_str()
       ->check(CLI::Range(0, 256));
+  tools::add_multires_options(*eval, eval_options.multires);
   eval->add_option("--lengths", eval_options.segment_lengths_m,
                    "odometry: segment lengths in metres, comma-separated (default: the lengths the path allows, "
                    "KITTI's 100,...,800 beyond 800 m)")

@@ -198,6 +198,8 @@ TEST_F(Cli, BadInputGetsOneClearLineAndANonZeroExit) {
       {"unknown target", "disparity " + pair + " -o " + path("o12.png") + " --target cv9 --report " + path("r12.json"),
        "lpstereo: no target named 'cv9'", 1, "o12.png"},
       {"eval without data", "eval middlebury --data " + path("no_data"), "lpstereo: " + path("no_data") + ": no such data folder", 1},
+      {"eval multires-far without multires on", "eval kitti --multires-far 64 --data " + path("no_data"),
+       "lpstereo: --multires-far: sets the multi-resolution engine's full-resolution pass; expected --multires on, got off", 2},
       {"eval num-disp not a multiple of 16 with opencv", "eval kitti --baseline opencv --num-disp 20 --data " + path("pair"),
        "lpstereo: --num-disp: OpenCV StereoSGBM needs a multiple of 16", 2},
       {"malformed graph", "profile --graph " + path("broken.json") + " --width 64 --height 64",
@@ -392,6 +394,20 @@ TEST_F(Cli, EvalRunsTheEngineAndOpenCvOnAKittiLayoutAndWritesEveryNumber) {
   // The harness lines up views, truth and scale: OpenCV's SGM gets most of this textured scene right.
   EXPECT_LT(methods["opencv MODE_HH"]["all"]["dense"]["bad2_pct"].get<double>(), 15.0);
   EXPECT_EQ(json["mean"]["lpstereo"], methods["lpstereo"]);
+  EXPECT_EQ(json["settings"]["lpstereo"]["multires"], false);
+
+  // The multi-resolution engine, its full-resolution pass capped at 32 of the 128 px: named in the
+  // settings, and its own map (not the single pass's numbers).
+  const Result multires = run("eval kitti --multires on --multires-far 32 --data " + path("data") + " --json " + path("m.json"));
+  ASSERT_EQ(multires.exit_code, 0) << multires.err;
+  EXPECT_NE(multires.out.find("multi-resolution: at most 32 px at full resolution"), std::string::npos) << multires.out;
+  std::ifstream multires_file(path("m.json"));
+  const nlohmann::json multires_json = nlohmann::json::parse(multires_file);
+  EXPECT_EQ(multires_json["settings"]["lpstereo"]["multires"], true);
+  EXPECT_EQ(multires_json["settings"]["lpstereo"]["multires_far_disparities"], 32);
+  const nlohmann::json& multires_all = multires_json["pairs"][0]["methods"]["lpstereo"]["all"];
+  EXPECT_NE(multires_all["valid"]["epe_px"], methods["lpstereo"]["all"]["valid"]["epe_px"]);
+  EXPECT_LT(multires_all["dense"]["bad2_pct"].get<double>(), 15.0);
 }
 
 }  // namespace

@@ -133,6 +133,8 @@ TEST_F(EvalOdometryCli, BadInputIsOneLineAndNoOutput) {
       {"plot with middlebury", "eval middlebury", "lpstereo: --lengths, --step, --plot: only for eval odometry", 2},
       {"baseline with odometry", "eval odometry " + truth + " " + truth + " --baseline opencv",
        "lpstereo: --baseline: only for eval middlebury|kitti", 2},
+      {"multires with odometry", "eval odometry " + truth + " " + truth + " --multires on",
+       "lpstereo: --multires: only for eval middlebury|kitti", 2},
   };
   for (const Case& c : cases) {
     const Result result = run(c.arguments + " --json " + path("r.json") + " --plot " + path("plot.png"));
