@@ -18,8 +18,23 @@
 // lies beyond the range can settle):
 //   1. the near value 2 N when N is valid and 2 N > top: the half-resolution pass places the pixel
 //      beyond the far range, where the full-resolution pass cannot see it;
-//   2. else the full value F when F is valid and F <= top (finer steps, full resolution);
+//   2. else the full value F when F is valid and F <= top (finer steps, full resolution), unless N
+//      is invalid and the pixel lies in the left band, x / 2 < min_near + num_near - 1 (below);
 //   3. else invalid.
+// The left band: at half column h the half-resolution pass searched only up to h (the match of a
+// larger disparity lies left of the right image), so there a pixel nearer than its column allows
+// has no match in either pass, and the full-resolution pass, whose search the column cuts short as
+// well, returns a valid-looking value for it. Where the half-resolution pass found no value in the
+// band, the far value is therefore not taken. Measured with `lpstereo eval middlebury|kitti
+// --multires on --multires-far F` (8 Middlebury pairs, KITTI 2015 000046; all pixels, after the
+// KITTI fill / valid pixels only): Middlebury bad-2 F = 64: 8.10 / 4.01 -> 6.87 / 3.68 %, EPE 2.37
+// -> 1.44 px, density 89.3 -> 88.8 %; F = 32: 9.99 / 5.63 -> 8.09 / 4.89 %; KITTI bad-2 F = 64:
+// 7.09 / 4.22 -> 6.78 / 4.18 %, D1 3.66 -> 3.33 %; F = 32: 7.84 / 5.09 -> 7.34 / 4.88 %. (One
+// full-resolution pass over the whole range: Middlebury 6.63 / 3.31 %, KITTI 7.16 / 4.17 %.) Why it
+// matters beyond the benchmarks: a board 1.6 m ahead of the floating sequence's camera (105.8 px)
+// in the left border of the image (columns 52-77) was read 23-36 px by the full-resolution pass,
+// 313 points 4-5 m farther than the board, which lifted the terrain fitted under them
+// (docs/obstacles3d.md, "The near guard").
 // The half-resolution pass decides "near or far", so it should search the far range too (the
 // graphs run it over the whole range: graphs/disparity-multires-wta.json). Measured on the
 // synthetic scene with the unaggregated census WTA (tests/arm/multires_graph_test.cpp): a matcher
@@ -38,7 +53,9 @@
 // Vector schedule: one chunk = 2 K output pixels of a row (K = B::kLanesU16), K half pixels. The
 // near candidate (2 N, or the output invalid value) is duplicated to full resolution with two zips;
 // the far candidate (F, or the output invalid value) is below every near candidate taken (<= top <
-// 2 N), so the rule is one max.
+// 2 N), so the rule is one max. A chunk whose first half column lies in the left band also builds
+// the band's refusal mask (half columns from a lane ramp, compared with the band's end, and-not N
+// valid, zipped to full resolution) and clears the far candidate's mask with it.
 // Op count per chunk (closed form, checked by tests/kernels/disparity_fuse_multires_test.cpp):
 //   load    = 3   (1 half, 2 full)
 //   shift   = 1   (2 N)
@@ -47,7 +64,10 @@
 //   arith   = 2   (per full vector the max)
 //   permute = 2   (zip_lo, zip_hi: each half pixel twice)
 //   store   = 2
-// and per tile 4 broadcasts (permute: the two input invalid values, top, the output invalid value).
+// plus per chunk starting in the left band: permute 3 (the first half column broadcast, two zips),
+// arith 1 (+ the lane ramp), compare 1 (band end > half column), logic 3 (andnot N valid; per full
+// vector andnot); and per tile 1 load (the lane ramp) and 5 broadcasts (permute: the two input
+// invalid values, top, the output invalid value, the band's end).
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -59,11 +79,16 @@
 namespace lpstereo::kernels {
 namespace {
 
+constexpr int kMaxLanesU16 = 32;  // the widest back end's 16-bit lanes (512-bit; the counting back end)
+alignas(64) constexpr int16_t kLaneIndexS16[kMaxLanesU16] = {0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  10, 11, 12, 13, 14, 15,
+                                                             16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31};
+
 struct FuseParams {
   int min_far, num_far;    // full-resolution pixels
   int min_near, num_near;  // half-resolution pixels
   int margin_px;           // full-resolution pixels at the top of the far range not trusted
   int16_t far_invalid_q4, near_invalid_q4, top_q4, output_invalid_q4;
+  int16_t left_band_half_columns;  // min_near + num_near - 1: half columns below it are in the left band
 };
 
 template <class B>
@@ -80,6 +105,10 @@ void disparity_fuse_multires_body(const TileArgs& args) {
   const VS16 far_invalid = B::set1_s16(params.far_invalid_q4);
   const VS16 top = B::set1_s16(params.top_q4);
   const VS16 output_invalid = B::set1_s16(params.output_invalid_q4);
+  static_assert(kHalfLanes <= kMaxLanesU16, "the lane ramp covers every back end's 16-bit lanes");
+  const VS16 lane_index = B::load(kLaneIndexS16);
+  const VS16 left_band_end = B::set1_s16(params.left_band_half_columns);
+  const int tile_half_x = args.tile_x / 2;  // tiles start at even columns (block_width 2)
 
   for (int y = 0; y < output.height; ++y) {
     const int half_y = ((args.tile_y + y) >> 1) - (args.tile_y >> 1);
@@ -89,13 +118,25 @@ void disparity_fuse_multires_body(const TileArgs& args) {
     for (int x = 0; x < width; x += 2 * kHalfLanes) {
       const VS16 near = load_clipped<B>(half_row, x / 2, half_width);
       const VS16 near_doubled = B::template shl<1>(near);
-      const VS16 near_ok = B::bit_and(B::cmpgt(near, near_invalid), B::cmpgt(near_doubled, top));
+      const VS16 near_valid = B::cmpgt(near, near_invalid);
+      const VS16 near_ok = B::bit_and(near_valid, B::cmpgt(near_doubled, top));
       const auto near_value = B::as_u16(B::select(near_ok, near_doubled, output_invalid));
       const VS16 upsampled[2] = {B::as_s16(B::zip_lo(near_value, near_value)), B::as_s16(B::zip_hi(near_value, near_value))};
+      // Rule 2's exception: N invalid in the left band refuses the far value (all ones = refuse).
+      const int first_half_column = tile_half_x + x / 2;
+      const bool in_left_band = first_half_column < params.left_band_half_columns;
+      VS16 refuse_far[2] = {near_valid, near_valid};  // read only in the band, where they are set below
+      if (in_left_band) {
+        const VS16 half_column = B::add(B::set1_s16(static_cast<int16_t>(first_half_column)), lane_index);
+        const auto refuse = B::as_u16(B::bit_andnot(near_valid, B::cmpgt(left_band_end, half_column)));
+        refuse_far[0] = B::as_s16(B::zip_lo(refuse, refuse));
+        refuse_far[1] = B::as_s16(B::zip_hi(refuse, refuse));
+      }
       for (int part = 0; part < 2; ++part) {
         const int column = x + part * kHalfLanes < width ? x + part * kHalfLanes : width;  // no pointer past the row
         const VS16 far = load_clipped<B>(full_row, column, width);
-        const VS16 far_ok = B::bit_andnot(B::cmpgt(far, top), B::cmpgt(far, far_invalid));
+        VS16 far_ok = B::bit_andnot(B::cmpgt(far, top), B::cmpgt(far, far_invalid));
+        if (in_left_band) far_ok = B::bit_andnot(refuse_far[part], far_ok);
         const VS16 far_value = B::select(far_ok, far, output_invalid);
         store_clipped<B>(out_row, column, width, B::max(upsampled[part], far_value));
       }
@@ -130,7 +171,8 @@ void disparity_fuse_multires_reference(const std::vector<PlaneView>& inputs, con
       int fused = params.output_invalid_q4;
       if (near > params.near_invalid_q4 && near_doubled > params.top_q4) {
         fused = near_doubled;
-      } else if (far > params.far_invalid_q4 && far <= params.top_q4) {
+      } else if (far > params.far_invalid_q4 && far <= params.top_q4 &&
+                 (near > params.near_invalid_q4 || x / 2 >= params.left_band_half_columns)) {
         fused = far;
       }
       plane_row<int16_t>(output, y)[x] = static_cast<int16_t>(fused);
@@ -159,6 +201,7 @@ PreparedKernel disparity_fuse_multires_prepare(const nlohmann::json& params, con
   prepared->near_invalid_q4 = static_cast<int16_t>((prepared->min_near - 1) * 16);
   prepared->top_q4 = static_cast<int16_t>(top * 16);
   prepared->output_invalid_q4 = prepared->far_invalid_q4;
+  prepared->left_band_half_columns = static_cast<int16_t>(prepared->min_near + prepared->num_near - 1);
   const PlaneShape& full = input_shapes.at(0);
   const PlaneShape expected_half{(full.width + 1) / 2, (full.height + 1) / 2};
   if (!(input_shapes.at(1) == expected_half)) {
