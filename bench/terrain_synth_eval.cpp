@@ -51,7 +51,7 @@
 // Usage: terrain_synth_eval [--seeds N] [--first-seed S] [--scene SPEC] [--width W --height H] [--census 5|9] [--bands]
 //        [--lr-max-diff PX] [--uniqueness-percent P] [--regularisation R] [--hole-membrane H]
 //        [--control N] [--initial-control N] [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A]
-//        [--threshold-factor F] [--alpha-step A] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
+//        [--threshold-factor F] [--alpha-step A] [--maximum-weight W] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
 //        [--noise-quantile Q] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--disparity-margin M] [--exact-points]
 //        [--support-reach N] [--equalisation-step-m S] [--step-reach N] [--patch-max-cells N] [--fp-bands] [--error-map]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
@@ -563,6 +563,7 @@ int main(int argc, char** argv) {
     else if (a == "--alpha-step") settings.fit.alpha_step = number_argument(i, argc, argv);
     else if (a == "--regularisation") settings.fit.regularisation = number_argument(i, argc, argv);
     else if (a == "--hole-membrane") settings.fit.hole_membrane = number_argument(i, argc, argv);
+    else if (a == "--maximum-weight") settings.fit.maximum_weight = number_argument(i, argc, argv);
     else if (a == "--iterations") settings.fit.max_iterations = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--cell-m") settings.grid.cell_m = number_argument(i, argc, argv);
     else if (a == "--lr-max-diff") settings.lr_max_diff_px = static_cast<int>(number_argument(i, argc, argv));
@@ -606,12 +607,12 @@ int main(int argc, char** argv) {
   const terrain::TerrainFitParameters& f = settings.fit;
   std::printf("terrain_synth_eval: %dx%d, hfov 60 deg, baseline 0.30 m, camera 1.5 m, pitch 0.06 rad, noise %.1f, 4 rays/px; "
               "area %.0fx%.0f m, cell %.2f m; fit: degree %dx%d, control %dx%d (from %dx%d), %d iterations, threshold factor %.2f, "
-              "alpha %.2f + %.2f/iteration, regularisation %.1e, hole membrane %.2f, equalisation tolerance %.3f m and %.1f th, step rule %.2f m within %d cells, patch limit %d cells; obstacle threshold 0.20 m, "
+              "alpha %.2f + %.2f/iteration, maximum weight %g, regularisation %.1e, hole membrane %.2f, equalisation tolerance %.3f m and %.1f th, step rule %.2f m within %d cells, patch limit %d cells; obstacle threshold 0.20 m, "
               "disparity margin %.2f px, support %d cells; occlusion upper bounds %s (%d rows, jump %.2f px, tolerance %.2f m)\n",
               settings.width, settings.height, settings.noise_sigma, settings.grid.forward_max_m - settings.grid.forward_min_m,
               settings.grid.lateral_max_m - settings.grid.lateral_min_m, settings.grid.cell_m, f.degree_forward, f.degree_lateral,
               f.control_forward, f.control_lateral, f.initial_control_forward, f.initial_control_lateral, f.max_iterations,
-              f.threshold_factor, f.alpha_initial, f.alpha_step, f.regularisation, f.hole_membrane, f.equalisation_tolerance_m, f.equalisation_threshold_factor,
+              f.threshold_factor, f.alpha_initial, f.alpha_step, f.maximum_weight, f.regularisation, f.hole_membrane, f.equalisation_tolerance_m, f.equalisation_threshold_factor,
               f.equalisation_step_m, f.equalisation_step_reach_cells, f.equalisation_patch_max_cells, settings.disparity_margin_px, settings.support_reach_cells,
               settings.grid.occlusion_upper_bounds ? "on" : "off", settings.occluder.rows_below_px, settings.occluder.jump_px,
               f.upper_bound_tolerance_m);
