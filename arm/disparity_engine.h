@@ -27,7 +27,9 @@
 //                           full-resolution disparity of [min, min + num);
 //   fuse                    top = min + num_far - 1 - margin (margin = min(2, num_far - 1) px):
 //                           the near value x 2 where it is valid and above top, else the far value
-//                           where it is valid and <= top, else invalid (nearest upsampling).
+//                           where it is valid and <= top (but not where the near value is invalid in
+//                           the left band, x / 2 < the near range's top, whose searches the image's
+//                           edge cuts short), else invalid (nearest upsampling).
 // The near pass searches the far range too because it is the pass that decides "near or far": a
 // matcher whose true disparity lies beyond its range returns a plausible value inside it, so the far
 // pass cannot say "not mine" (measured: kernels/disparity_fuse_multires.cpp). Near pixels thus have
