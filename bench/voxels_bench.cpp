@@ -34,6 +34,7 @@
 #include "arm/obstacles3d/voxel_clustering.h"
 #include "arm/obstacles3d/voxel_map.h"
 #include "arm/point_cloud.h"
+#include "eval/obstacles3d_scoring.h"
 #include "io/stereo_synth.h"
 
 namespace lpstereo {
@@ -352,7 +353,6 @@ void add_visible_box(std::vector<ObstaclePoint>& points, const TruthObject& obje
 void moving_objects_check() {
   constexpr int kSequenceFrames = 50;
   constexpr int kSeeds = 3;
-  constexpr int kSettleFrames = 6;  // acceptance (3) + motion consistency (3): a track cannot be "moving" earlier
   constexpr double kMatchMarginM = 0.75;
   const double focal_px = (kWidth / 2.0) / std::tan(kHfovDeg / 2.0 * std::numbers::pi / 180.0);
   const std::vector<TruthObject> truth = moving_scene();
@@ -366,7 +366,7 @@ void moving_objects_check() {
     ObstacleTracker3d tracker(bench_tracking(focal_px));
     const VoxelClusteringParameters clustering = bench_clustering();
     Eigen::Isometry3d previous_true_world_from_current = Eigen::Isometry3d::Identity();
-    std::vector<int> frames_in_view(truth.size(), 0);
+    eval::CountedRuns runs_in_view;  // the settled rule of obstacles3d_eval's moving figures (eval/obstacles3d_scoring.h)
     for (int frame = 0; frame < kSequenceFrames; ++frame) {
       const double t = frame * kFramePeriodS;
       // The true camera pose (world = first vehicle frame): forward at 5 m/s with a gentle left curve.
@@ -396,8 +396,12 @@ void moving_objects_check() {
         const Eigen::Vector3d centre_vehicle = current_from_world * centre_world;
         centres_camera[i] = camera_from_vehicle * (centre_vehicle - camera_to_vehicle.translation_m());
         in_view[i] = points.size() - before >= 20 && centre_vehicle.x() < kMapForwardM - 2.0;
-        frames_in_view[i] = in_view[i] ? frames_in_view[i] + 1 : 0;
       }
+      std::vector<int> ids_in_view;
+      for (size_t i = 0; i < truth.size(); ++i) {
+        if (in_view[i]) ids_in_view.push_back(static_cast<int>(i));
+      }
+      runs_in_view.next_frame(ids_in_view);
       map.update(points, ego);
       const ClusteringResult clusters = arm::obstacles3d::cluster_voxels(map, clustering);
       const std::vector<Obstacle3d>& obstacles = tracker.update(clusters.clusters, map.world_from_current()).obstacles;
@@ -417,7 +421,7 @@ void moving_objects_check() {
           const bool inside = (offset.array() <= (truth[i].size_m / 2).array() + margin_m).all();
           if (inside && offset.norm() < best_distance) best = static_cast<int>(i), best_distance = offset.norm();
         }
-        const bool settled = best >= 0 && in_view[best] && frames_in_view[best] > kSettleFrames;
+        const bool settled = best >= 0 && runs_in_view.settled(best);
         if (obstacles[o].moving && (best < 0 || settled)) {
           ++moving_flags;
           if (best < 0 || !truth[best].moving()) ++false_positive;
@@ -427,7 +431,7 @@ void moving_objects_check() {
         }
       }
       for (size_t i = 0; i < truth.size(); ++i) {
-        if (!in_view[i] || frames_in_view[i] <= kSettleFrames) continue;
+        if (!runs_in_view.settled(static_cast<int>(i))) continue;
         const int o = matched_obstacle[i];
         if (!truth[i].moving()) {
           if (o >= 0) {
@@ -464,7 +468,7 @@ void moving_objects_check() {
               int(std::count_if(truth.begin(), truth.end(), [](const TruthObject& o) { return o.moving(); })), kVoxelSizeM);
   std::printf("  counted: object-frames in view (>= 20 points, centre < 28 m ahead) after %d frames in view; a reported obstacle belongs "
               "to the object whose box grown by %.2f m + 2 sigma_Z (the stereo depth error there) holds its centre\n",
-              kSettleFrames, kMatchMarginM);
+              eval::kMovingSettleFrames, kMatchMarginM);
   std::printf("  true positives of \"moving\": %.1f %% (%lld of %lld moving object-frames reported and flagged moving; %lld reported)\n",
               100.0 * tp_rate, static_cast<long long>(true_positive), static_cast<long long>(moving_truth_frames),
               static_cast<long long>(moving_detected));

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace lpstereo::eval {
 
@@ -161,6 +162,20 @@ const o3::Obstacle3d* moving_scored_obstacle(const std::vector<o3::Obstacle3d>& 
     if (distance_m < nearest_shown_m && object_shown(obstacle, object_ids) == object.id) nearest_shown_m = distance_m, nearest_shown = &obstacle;
   }
   return nearest_shown != nullptr ? nearest_shown : nearest;
+}
+
+void CountedRuns::next_frame(const std::vector<int>& counted_ids) {
+  std::unordered_map<int, int> next;
+  for (const int id : counted_ids) {
+    const auto previous = runs_.find(id);
+    next[id] = (previous == runs_.end() ? 0 : previous->second) + 1;
+  }
+  runs_ = std::move(next);
+}
+
+int CountedRuns::frames_in_row(int id) const {
+  const auto run = runs_.find(id);
+  return run == runs_.end() ? 0 : run->second;
 }
 
 }  // namespace lpstereo::eval

@@ -336,5 +336,30 @@ TEST(Obstacles3dScoring, MovingIsReadFromTheNearestInGateObstacleThatShowsTheObj
   EXPECT_EQ(eval::moving_scored_obstacle(outside, car, gate, ids), nullptr);
 }
 
+TEST(Obstacles3dScoring, AMovingFlagIsScoredSettledFromAnObjectsSeventhCountedFrameInARow) {
+  eval::CountedRuns runs;
+  // Object 3 counted in frames 0-6, lost in frame 7, back from frame 8; object 5 from frame 2.
+  for (int frame = 0; frame < 7; ++frame) {
+    runs.next_frame(frame >= 2 ? std::vector<int>{3, 5} : std::vector<int>{3});
+    EXPECT_EQ(runs.frames_in_row(3), frame + 1);
+    // Settled from the run's 7th frame on (more than kMovingSettleFrames = 6), not before.
+    EXPECT_EQ(runs.settled(3), frame + 1 > eval::kMovingSettleFrames) << "frame " << frame;
+  }
+  EXPECT_EQ(runs.frames_in_row(5), 5);
+  EXPECT_FALSE(runs.settled(5));
+  runs.next_frame({5});
+  EXPECT_EQ(runs.frames_in_row(3), 0);
+  EXPECT_FALSE(runs.settled(3));
+  EXPECT_EQ(runs.frames_in_row(5), 6);
+  runs.next_frame({3, 5});
+  // A gap restarts the run: object 3 counts from 1 again.
+  EXPECT_EQ(runs.frames_in_row(3), 1);
+  EXPECT_FALSE(runs.settled(3));
+  EXPECT_EQ(runs.frames_in_row(5), 7);
+  EXPECT_TRUE(runs.settled(5));
+  // An id never counted.
+  EXPECT_EQ(runs.frames_in_row(99), 0);
+}
+
 }  // namespace
 }  // namespace lpstereo
