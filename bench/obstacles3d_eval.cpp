@@ -75,7 +75,7 @@
 //        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
 //        [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--all-visible] [--count-low] [--score-hidden-edges] [--vertical-gap-m G]
 //        [--hole-membrane H]
-//        [--innovation-gate-chi2 X] [--moving-consistency N]
+//        [--innovation-gate-chi2 X] [--accel-sigma A] [--moving-consistency N]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 //        [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] [--ground-below-view upper-bounds|samples]
 //        [--num-disparities N] [--multires-far F]
@@ -165,8 +165,8 @@ struct Settings {
   // vertical_gap_m (--vertical-gap-m). One source for the candidates and for the "too low" rule of
   // the scoring.
   o3::CandidateParameters candidates;
-  // The voxel tracker's moving decision and robust update (--innovation-gate-chi2,
-  // --moving-consistency): the defaults of ObstacleTrackingParameters unless given.
+  // The voxel tracker's moving decision, robust update and process noise (--innovation-gate-chi2,
+  // --moving-consistency, --accel-sigma): the defaults of ObstacleTrackingParameters unless given.
   o3::ObstacleTrackingParameters tracking;
   // The disparity engine: the command's (o3::obstacles3d_disparity_defaults: 64 px, one
   // full-resolution pass) unless --num-disparities or --multires-far is given (--num-disparities 128
@@ -704,6 +704,8 @@ int main(int argc, char** argv) {
       settings.surface_path = argv[++i];
     } else if (arg == "--innovation-gate-chi2" && has_value) {
       settings.tracking.innovation_gate_chi2 = std::atof(argv[++i]);
+    } else if (arg == "--accel-sigma" && has_value) {
+      settings.tracking.accel_sigma_mps2 = std::atof(argv[++i]);
     } else if (arg == "--moving-consistency" && has_value) {
       settings.tracking.moving_consistency_frames = std::atoi(argv[++i]);
     } else if (arg == "--vertical-gap-m" && has_value) {
@@ -736,7 +738,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
-                   "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--hole-membrane H] [--innovation-gate-chi2 X] "
+                   "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--hole-membrane H] [--innovation-gate-chi2 X] [--accel-sigma A] "
                    "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
                    "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] "
                    "[--ground-below-view upper-bounds|samples] [--num-disparities N] [--multires-far F]\n",
@@ -764,7 +766,7 @@ int main(int argc, char** argv) {
     if (!(settings.candidates.fit.hole_membrane >= 0) || !std::isfinite(settings.candidates.fit.hole_membrane)) {
       throw std::invalid_argument("hole_membrane: expected a finite value >= 0, got " + std::to_string(settings.candidates.fit.hole_membrane));
     }
-    o3::validate_tracking_parameters(settings.tracking);  // a bad --innovation-gate-chi2 or --moving-consistency, the same
+    o3::validate_tracking_parameters(settings.tracking);  // a bad --innovation-gate-chi2, --accel-sigma or --moving-consistency, the same
     const int image_width = io::preset_stereo_sequence(settings.scenes.front(), static_cast<uint32_t>(settings.first_seed)).base.width;
     if (settings.disparity.num_disparities < 1 || settings.disparity.num_disparities > image_width) {
       throw std::invalid_argument("--num-disparities: expected 1.." + std::to_string(image_width) + " (the image's width), got " +
@@ -801,6 +803,10 @@ int main(int argc, char** argv) {
               settings.candidates.ground_below_view_upper_bounds ? "upper bounds" : "samples", static_cast<long long>(settings.min_pixels),
               settings.all_visible ? "visible" : "measurable (true disparity in the engine's range, match inside the right image)",
               settings.range_m);
+  std::printf("voxel tracker: process noise %.2f m/s^2, innovation gate chi-square %.2f (0: off), moving from %.2f m/s with chi-square %.2f "
+              "after %d update(s), %d consistent vote(s)\n",
+              settings.tracking.accel_sigma_mps2, settings.tracking.innovation_gate_chi2, settings.tracking.moving_speed_mps,
+              settings.tracking.moving_significance_chi2, settings.tracking.moving_min_updates, settings.tracking.moving_consistency_frames);
   std::printf("disparity: [%d, %d) px, %s\n", settings.disparity.min_disparity,
               settings.disparity.min_disparity + settings.disparity.num_disparities, arm::settings_text(settings.disparity).c_str());
 
