@@ -124,6 +124,7 @@
 #include "arm/disparity_engine.h"
 #include "arm/odometry/stereo_odometry.h"
 #include "arm/obstacles3d/augmented_stixels.h"
+#include "arm/obstacles3d/disparity_coverage.h"
 #include "arm/obstacles3d/ego_motion.h"
 #include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/obstacles3d/obstacle_tracking.h"
@@ -525,6 +526,9 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   std::vector<Tally> tallies(kMethods);
   MissLog log{log_file, moving_file, surface_file, &tracker, scene, seed, 0};
   eval::CountedRuns counted_runs;  // the moving flag's settled object-frames
+  // The view check (arm/obstacles3d/disparity_coverage.h) against the truth, printed per sequence.
+  int nearer_view_frames = 0, other_frames = 0, degraded_nearer_view = 0, degraded_other = 0;
+  std::string degraded_other_list, missed_nearer_view_list;
   io::SynthCameraPose previous_pose = first.pose;
   for (int n = 0; n < settings.frames; ++n) {
     log.frame = n;
@@ -583,6 +587,14 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     log_surface_errors(log, candidate_points, probe, camera_from_vehicle);
     const eval::MeasurablePixels measurable =
         eval::measurable_pixels(frame.scene, disparity_parameters.min_disparity, disparity_parameters.num_disparities, &probe);
+    // The command's view check against the truth's frames partly nearer than the range.
+    const bool degraded =
+        o3::disparity_coverage(disparity, engine.invalid_disparity_q4(), o3::DisparityCoverageParameters{}).degraded;
+    const bool nearer_view = eval::view_partly_nearer_than_range(measurable, static_cast<int64_t>(frame.scene.object_ids.total()));
+    (nearer_view ? nearer_view_frames : other_frames) += 1;
+    (nearer_view ? degraded_nearer_view : degraded_other) += degraded ? 1 : 0;
+    if (degraded && !nearer_view) degraded_other_list += (degraded_other_list.empty() ? "" : ", ") + std::to_string(n);
+    if (!degraded && nearer_view) missed_nearer_view_list += (missed_nearer_view_list.empty() ? "" : ", ") + std::to_string(n);
     std::vector<int> counted_ids;
     for (const io::SequenceObjectTruth& object : frame.objects) {
       if (count_object(object, measurable, settings) == ObjectCount::counted) counted_ids.push_back(object.truth.id);
@@ -603,6 +615,11 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   }
   std::printf("%-9s seed %u: %d frames rendered in %.1f s (%.2f s a frame), processed and scored in %.1f s (%.2f s a frame), wall clock\n",
               scene.c_str(), seed, settings.frames, render_s, render_s / settings.frames, pipeline_s, pipeline_s / settings.frames);
+  std::printf("%-9s seed %u: view degraded (>= %.0f %% of the disparities invalid) in %d of the %d frames with >= %.0f %% of the view nearer "
+              "than the search range (missed: %s) and in %d of the %d others (%s)\n",
+              scene.c_str(), seed, 100.0 * o3::DisparityCoverageParameters{}.degraded_invalid_share, degraded_nearer_view, nearer_view_frames,
+              100.0 * eval::kNearerThanRangeShare, missed_nearer_view_list.empty() ? "none" : missed_nearer_view_list.c_str(), degraded_other,
+              other_frames, degraded_other_list.empty() ? "none" : degraded_other_list.c_str());
   if (odometry) {
     if (!frames_without_ego_motion_list.empty()) frames_without_ego_motion_list += ")";
     std::printf("%-9s seed %u: visual odometry failed in %d of %d frames after the first and was implausible in %d%s; bridged with the "

@@ -16,6 +16,7 @@
 
 #include "arm/disparity_engine.h"
 #include "arm/obstacles3d/augmented_stixels.h"
+#include "arm/obstacles3d/disparity_coverage.h"
 #include "arm/obstacles3d/ego_motion.h"
 #include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/obstacles3d/obstacle_tracking.h"
@@ -288,6 +289,7 @@ int Obstacles3dCommand::run() const {
   int dropout_frames = 0;  // frames after the first whose odometry failed ...
   int static_frames = 0;   // ... and of them those not bridged: static camera assumed
   int64_t obstacle_count = 0;
+  int degraded_frames = 0;  // the view check's
   double processing_ms = 0;
   for (int i = 0; i < frame_count; ++i) {
     const int index = source->first_frame() + i;
@@ -297,6 +299,17 @@ int Obstacles3dCommand::run() const {
     const auto started = std::chrono::steady_clock::now();
     const Plane& disparity = engine.compute(pair.frame.left, pair.frame.right);
     const arm::CameraPoints camera = arm::triangulate(disparity, triangulation);
+    // The view check (arm/obstacles3d/disparity_coverage.h): a frame with many invalid disparities
+    // (a surface nearer than the search range, a covered lens) is flagged in its line and counted.
+    const o3::DisparityCoverage coverage = o3::disparity_coverage(disparity, engine.invalid_disparity_q4(), o3::DisparityCoverageParameters{});
+    if (coverage.degraded) {
+      if (degraded_frames == 0) {
+        std::fprintf(stderr, "obstacles3d: frame %d: view degraded: %.1f %% of the disparities invalid (a surface nearer than the search "
+                             "range, or the matcher failing over much of the view): its obstacles are unreliable (later ones are counted in the summary)\n",
+                     index, 100.0 * coverage.invalid_share);
+      }
+      ++degraded_frames;
+    }
     if (!mount_known) {
       const arm::GroundMountEstimate estimate = arm::estimate_ground_mount(camera);
       if (estimate.found) {
@@ -366,6 +379,8 @@ int Obstacles3dCommand::run() const {
     const nlohmann::json line = {{"frame", index},
                                  {"status", candidates.note + "; " + ego_note + "; " + method_status},
                                  {"ego_motion", ego_motion.available},
+                                 {"disparity_invalid_share", std::round(coverage.invalid_share * 10000) / 10000},
+                                 {"view_degraded", coverage.degraded},
                                  {"obstacles", obstacle_lines}};
     lines += line.dump() + "\n";
 
@@ -379,11 +394,11 @@ int Obstacles3dCommand::run() const {
   }
   write_file_atomically(output_, lines);
   std::printf("%d frames (%d .. %d), %lld obstacles, %zu tracks, visual odometry failed in %d frames after the first (%d bridged with "
-              "the last increment, %d without ego-motion: static camera assumed), mean %.1f ms per frame (disparity, terrain, odometry, "
-              "%s) -> %s\n",
+              "the last increment, %d without ego-motion: static camera assumed), view degraded in %d (>= %.0f %% of the disparities "
+              "invalid), mean %.1f ms per frame (disparity, terrain, odometry, %s) -> %s\n",
               frame_count, source->first_frame(), source->first_frame() + frame_count - 1, static_cast<long long>(obstacle_count),
-              track_ids.size(), dropout_frames, dropout_frames - static_frames, static_frames, processing_ms / frame_count, method_.c_str(),
-              output_.c_str());
+              track_ids.size(), dropout_frames, dropout_frames - static_frames, static_frames, degraded_frames,
+              100.0 * o3::DisparityCoverageParameters{}.degraded_invalid_share, processing_ms / frame_count, method_.c_str(), output_.c_str());
   return 0;
 }
 

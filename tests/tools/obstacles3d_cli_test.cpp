@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "tests/support/cli_runner.h"
 #include "tests/support/scratch_directory.h"
@@ -152,6 +153,10 @@ TEST_P(Obstacles3dGridMethods, OneLinePerFrameAndTheBoxWithoutTracks) {
     EXPECT_TRUE(line.at("status").is_string());
     // The same pair three times: the odometry finds the identity, so frames 1 and 2 have ego-motion.
     EXPECT_EQ(line.at("ego_motion").get<bool>(), frame > 0) << line.at("status");
+    // The view check: a textured scene matches nearly everywhere, the view is not degraded.
+    EXPECT_GE(line.at("disparity_invalid_share").get<double>(), 0.0);
+    EXPECT_LT(line.at("disparity_invalid_share").get<double>(), 0.10);
+    EXPECT_FALSE(line.at("view_degraded").get<bool>());
     for (const nlohmann::json& obstacle : line.at("obstacles")) {
       expect_schema(obstacle);
       EXPECT_EQ(obstacle.at("track_id").get<int>(), -1);  // the grids do not track
@@ -296,6 +301,39 @@ TEST_F(Obstacles3dCli, TexturelessFramesGiveEmptyCloudsAndAStaticCamera) {
       EXPECT_FALSE(line.at("ego_motion").get<bool>());
     }
   }
+}
+
+TEST_F(Obstacles3dCli, AViewNearerThanTheSearchRangeIsFlaggedDegraded) {
+  // A random texture seen 100 px apart by the two cameras (right(x - 100) = left(x)), searched with
+  // 64 disparities: nothing in the range matches, the left-right check rejects most of what the
+  // matcher returns, and the view check (arm/obstacles3d/disparity_coverage.h) flags both frames.
+  const std::string folder = path("near");
+  fs::create_directories(folder);
+  cv::Mat texture(288, 740, CV_8UC1);
+  cv::RNG random(7);
+  random.fill(texture, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(texture, texture, cv::Size(3, 3), 0);
+  char name[32];
+  for (int frame = 0; frame < 2; ++frame) {
+    std::snprintf(name, sizeof name, "/left_%06d.png", frame);
+    ASSERT_TRUE(cv::imwrite(folder + name, texture(cv::Rect(0, 0, 640, 288))));
+    std::snprintf(name, sizeof name, "/right_%06d.png", frame);
+    ASSERT_TRUE(cv::imwrite(folder + name, texture(cv::Rect(100, 0, 640, 288))));
+  }
+  const std::string output = path("near.jsonl");
+  const Result result = run("obstacles3d --left " + folder + "/left_%06d.png --right " + folder + "/right_%06d.png --calib " + sequence() +
+                            "/calib.yaml --num-disp 64 --camera-height-m 1.5 --method polar -o " + output);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const std::vector<nlohmann::json> lines = read_lines(output);
+  ASSERT_EQ(lines.size(), 2u);
+  for (const nlohmann::json& line : lines) {
+    EXPECT_GE(line.at("disparity_invalid_share").get<double>(), 0.10) << line.dump();
+    EXPECT_TRUE(line.at("view_degraded").get<bool>()) << line.dump();
+  }
+  // Said once on stderr, counted in the summary.
+  EXPECT_NE(result.err.find("frame 0: view degraded: "), std::string::npos) << result.err;
+  EXPECT_EQ(result.err.find("frame 1: view degraded"), std::string::npos) << result.err;
+  EXPECT_NE(result.out.find("view degraded in 2 (>= 10 % of the disparities invalid)"), std::string::npos) << result.out;
 }
 
 void expect_one_line_failure(const Result& result, int exit_code, const std::string& words, const std::string& output) {

@@ -1,0 +1,34 @@
+#include "arm/obstacles3d/disparity_coverage.h"
+
+#include <stdexcept>
+
+#include "arm/obstacles3d/parameter_check.h"
+
+namespace lpstereo::arm::obstacles3d {
+
+void DisparityCoverageParameters::validate() const {
+  require_parameter(degraded_invalid_share > 0 && degraded_invalid_share <= 1, "degraded_invalid_share", "(0, 1]", degraded_invalid_share);
+}
+
+DisparityCoverage disparity_coverage(const Plane& disparity_q4, int16_t invalid_q4, const DisparityCoverageParameters& parameters,
+                                     ArmWork* work) {
+  parameters.validate();
+  if (disparity_q4.format().type != ElementType::s16) {
+    throw std::invalid_argument("disparity_coverage: expected an s16 disparity map (Q4), got another element type");
+  }
+  DisparityCoverage coverage;
+  coverage.pixels = static_cast<int64_t>(disparity_q4.width()) * disparity_q4.height();
+  for (int y = 0; y < disparity_q4.height(); ++y) {
+    const int16_t* row = disparity_q4.row<int16_t>(y);
+    for (int x = 0; x < disparity_q4.width(); ++x) coverage.invalid_pixels += row[x] == invalid_q4 ? 1 : 0;
+  }
+  coverage.invalid_share = coverage.pixels > 0 ? static_cast<double>(coverage.invalid_pixels) / static_cast<double>(coverage.pixels) : 0.0;
+  coverage.degraded = coverage.pixels == 0 || coverage.invalid_share >= parameters.degraded_invalid_share;
+  if (work != nullptr) {
+    work->scalar_ops += 2 * static_cast<uint64_t>(coverage.pixels);
+    work->memory_bytes += 2 * static_cast<uint64_t>(coverage.pixels);
+  }
+  return coverage;
+}
+
+}  // namespace lpstereo::arm::obstacles3d
