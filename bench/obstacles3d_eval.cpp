@@ -339,11 +339,20 @@ ObjectCount count_object(const io::SequenceObjectTruth& object, const eval::Meas
   return ObjectCount::counted;
 }
 
-void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoSequenceFrame& frame, const o3::StereoErrorModel& error_model,
-                 const eval::MeasurablePixels& measurable, const eval::CountedRuns& runs, const Settings& settings, bool is_voxels,
-                 const char* method, const MissLog& log, Tally& tally) {
+// What every method of a frame is scored against, worked out once per frame.
+struct FrameTruth {
+  const io::StereoSequenceFrame& frame;
+  const eval::MeasurablePixels& measurable;
+  const eval::CountedRuns& runs;  // the moving flag's settled object-frames
+  bool nearer_view = false;       // eval::view_partly_nearer_than_range
+};
+
+void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const FrameTruth& truth, const o3::StereoErrorModel& error_model,
+                 const Settings& settings, bool is_voxels, const char* method, const MissLog& log, Tally& tally) {
+  const io::StereoSequenceFrame& frame = truth.frame;
+  const eval::MeasurablePixels& measurable = truth.measurable;
+  const bool nearer_view = truth.nearer_view;
   ++tally.frames;
-  const bool nearer_view = eval::view_partly_nearer_than_range(measurable, static_cast<int64_t>(frame.scene.object_ids.total()));
   if (nearer_view) ++tally.nearer_view_frames;
   for (const o3::Obstacle3d& obstacle : obstacles) {
     if (obstacle.position_m.z() > settings.range_m) continue;
@@ -415,8 +424,8 @@ void score_frame(const std::vector<o3::Obstacle3d>& obstacles, const io::StereoS
     }
     if (is_voxels) {
       const o3::Obstacle3d* scored = eval::moving_scored_obstacle(obstacles, object.truth, gate, frame.scene.object_ids);
-      log_moving_row(log, object, *scored, *nearest, runs.frames_in_row(object.truth.id));
-      const bool settled = runs.settled(object.truth.id);
+      log_moving_row(log, object, *scored, *nearest, truth.runs.frames_in_row(object.truth.id));
+      const bool settled = truth.runs.settled(object.truth.id);
       if (object.moving) {
         ++tally.moving_total;
         if (scored->moving) ++tally.moving_flagged;
@@ -600,17 +609,18 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
       if (count_object(object, measurable, settings) == ObjectCount::counted) counted_ids.push_back(object.truth.id);
     }
     counted_runs.next_frame(counted_ids);
+    const FrameTruth frame_truth{frame, measurable, counted_runs, nearer_view};
     for (int g = 0; g < 3; ++g) {
       grids[static_cast<size_t>(g)]->update(candidates, ego_motion);
-      score_frame(grids[static_cast<size_t>(g)]->obstacles(), frame, error_model, measurable, counted_runs, settings, false, kMethodNames[g], log,
+      score_frame(grids[static_cast<size_t>(g)]->obstacles(), frame_truth, error_model, settings, false, kMethodNames[g], log,
                   tallies[static_cast<size_t>(g)]);
     }
     stixels.update(candidates, ego_motion);
-    score_frame(stixels.obstacles(), frame, error_model, measurable, counted_runs, settings, false, kMethodNames[3], log, tallies[3]);
+    score_frame(stixels.obstacles(), frame_truth, error_model, settings, false, kMethodNames[3], log, tallies[3]);
     voxel_map.update(candidates, ego_motion);
     const o3::ClusteringResult clusters = o3::cluster_voxels(voxel_map, clustering);
     const o3::TrackingResult& tracks = tracker.update(clusters.clusters, voxel_map.world_from_current());
-    score_frame(tracks.obstacles, frame, error_model, measurable, counted_runs, settings, true, kMethodNames[4], log, tallies[4]);
+    score_frame(tracks.obstacles, frame_truth, error_model, settings, true, kMethodNames[4], log, tallies[4]);
     pipeline_s += seconds_since(started);
   }
   std::printf("%-9s seed %u: %d frames rendered in %.1f s (%.2f s a frame), processed and scored in %.1f s (%.2f s a frame), wall clock\n",

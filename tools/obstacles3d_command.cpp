@@ -300,7 +300,7 @@ int Obstacles3dCommand::run() const {
     const Plane& disparity = engine.compute(pair.frame.left, pair.frame.right);
     const arm::CameraPoints camera = arm::triangulate(disparity, triangulation);
     // The view check (arm/obstacles3d/disparity_coverage.h): a frame with many invalid disparities
-    // (a surface nearer than the search range, a covered lens) is flagged in its line and counted.
+    // (typically a surface nearer than the search range) is flagged in its line and counted.
     const o3::DisparityCoverage coverage = o3::disparity_coverage(disparity, engine.invalid_disparity_q4(), o3::DisparityCoverageParameters{});
     if (coverage.degraded) {
       if (degraded_frames == 0) {
