@@ -23,9 +23,12 @@
 //   keys   u32 S << 16 | (d - min_disparity), min gives the lowest cost, ties to the smallest d.
 //   output s16 Q4 (value / 16 = px): (min_disparity + best) * 16 + sub-pixel offset in [-8, 8];
 //          invalid = (min_disparity - 1) * 16. |disparity| <= 2047 keeps it in s16.
-//   Uniqueness: S2 * (100 - U) < S * 100 in u32 (S2 <= 0xFFFF, U <= 50: no overflow; a pixel with
-//          no disparity farther than 1 from the best gets S2 = 0xFFFF, and 0xFFFF * 50 > 32496 * 100,
-//          so it is never invalidated; that is why U is limited to 50).
+//   Uniqueness: the pixel is kept only when S2 * (100 - U) > S * 100 in u32 (S2 <= 0xFFFF, U <= 50:
+//          no overflow; a pixel with no disparity farther than 1 from the best gets S2 = 0xFFFF, and
+//          0xFFFF * 50 > 32496 * 100, so it is never invalidated; that is why U is limited to 50).
+//          The best must beat S2 strictly: a tie is ambiguous even at S = S2 = 0, the pixel of a
+//          texture-less view (all census bits equal, every cost 0), which the former rule
+//          (invalid when S2 * (100 - U) < S * 100) kept as disparity min_disparity.
 //   Sub-pixel: a = S(b-1) - S(b) > 0, c = S(b+1) - S(b) >= 0, q = (16 |a - c| + a + c) / (2 (a + c))
 //          by a 4-step restoring division (compare, subtract, select, shift; no divide op):
 //          numerator <= 17 (a + c) < 2^21 in u32 lanes; 0 <= q <= 8, so |offset| <= 0.5 px.
@@ -545,8 +548,8 @@ void sgm_tile_for(const TileArgs& args) {
           }
           if (params.uniqueness_percent > 0) {
             const VU32 second = B::bit_and(load_clipped<B>(second_row, first, width), low_half);
-            const VU32 ambiguous = B::cmpgt(B::mullo(best_cost, hundred), B::mullo(second, keep_percent));
-            disparity = B::select(ambiguous, invalid, disparity);
+            const VU32 unique = B::cmpgt(B::mullo(second, keep_percent), B::mullo(best_cost, hundred));
+            disparity = B::select(unique, disparity, invalid);
           }
           if (lr_check) {
             const VU32 right_x = B::sub(position, best);  // x - (min_disparity + best)

@@ -77,7 +77,7 @@ void sgm_reference_select(const SgmVolume& sum, const SgmParams& settings, const
       const int64_t best_cost = sum.at(x, y, best);
       bool valid = true;
       for (int i = 0; i < count && settings.uniqueness_percent > 0; ++i) {
-        if (std::abs(i - best) > 1 && int64_t{sum.at(x, y, i)} * (100 - settings.uniqueness_percent) < best_cost * 100) {
+        if (std::abs(i - best) > 1 && int64_t{sum.at(x, y, i)} * (100 - settings.uniqueness_percent) <= best_cost * 100) {
           valid = false;
         }
       }

@@ -14,8 +14,9 @@
 //                 outside the image) L_r(p, d) = C(p, d).
 //   S(p, d)     = sum of L_r(p, d) over the paths.
 //   best        = argmin_d S (ties: the smallest d).
-//   uniqueness  : invalid when some d with |d - best| > 1 has S(d) * (100 - U) < S(best) * 100
-//                 (OpenCV's uniquenessRatio).
+//   uniqueness  : invalid when some d with |d - best| > 1 has S(d) * (100 - U) <= S(best) * 100
+//                 (OpenCV's uniquenessRatio, except that a tie is ambiguous: OpenCV keeps a
+//                 pixel whose costs are all 0, as in a texture-less view).
 //   sub-pixel   : for min_disparity < best < max disparity, a = S(best - 1) - S(best),
 //                 c = S(best + 1) - S(best), q = (16 |a - c| + (a + c)) / (2 (a + c)) (integer
 //                 division, so q = round-half-up of 8 |a - c| / (a + c), 0 <= q <= 8), offset = q if

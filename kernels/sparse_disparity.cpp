@@ -25,9 +25,9 @@
 //   window; with r = 0 it is exactly census_wta_disparity's cost. Bound: (2r + 1)^2 x 32 <= 800.
 // Winner: the smallest C, ties to the smallest d (as census_wta_disparity and the SGM kernels).
 // Uniqueness (the SGM kernels' rule, kernels/sgm_core.h): with S2 the smallest C(d) over
-//   |d - best| > 1 (0xFFFF when there is none), the keypoint is invalid when C(best) x 100 >
-//   S2 x (100 - U); u32, C <= 800 and S2 <= 0xFFFF: no overflow (0xFFFF x 50 > 800 x 100, so a
-//   keypoint without such a d is never invalidated).
+//   |d - best| > 1 (0xFFFF when there is none), the keypoint is invalid when C(best) x 100 >=
+//   S2 x (100 - U) with U > 0 (a tie is ambiguous, also at C = S2 = 0); u32, C <= 800 and S2 <= 0xFFFF: no
+//   overflow (0xFFFF x 50 > 800 x 100, so a keypoint without such a d is never invalidated).
 // Sub-pixel (the SGM kernels' parabola, kernels/parabola_subpixel.h): a = C(best - 1) - C(best) > 0,
 //   c = C(best + 1) - C(best) >= 0, q = (16 |a - c| + a + c) / (2 (a + c)) by a 4-step restoring
 //   division (0 <= q <= 8), offset = -q when c > a, else +q; no step when best is the first or last
@@ -55,12 +55,12 @@
 //   load     = (A + 1) D                      (strip words per d and window pixel; stored costs)
 //   store    = R E + D                        (strip; costs)
 //   popcount = A D
-//   arith    = 25 + 6 R + A + 3 E + R E + (A + 3) D
+//   arith    = 26 + 6 R + A + 3 E + R E + (A + 3) D
 //   logic    = 19 + A + R E + (A + 4) D
 //   shift    = 7 + R + A + E + R E
 //   compare  = 13 + 4 D
 //   multiply = 3 + 2 R
-// per chunk: permute 1 (narrow to s16), store 1; per tile: load 1, arith 1, permute 26 + R
+// per chunk: permute 1 (narrow to s16), store 1; per tile: load 1, arith 1, permute 27 + R
 // (broadcasts). Chunks per tile: ceil(tile_width / 32).
 // At N = 2048, D = 128, r = 1 (graphs/localization-features.json), profiled on cv1-class: 286,686
 // cycles, 0.36 ms (the census planes it reads cost 2.38 ms a view in census5x5).
@@ -127,6 +127,9 @@ void sparse_disparity_body(const TileArgs& args) {
   const VU32 two = B::set1_u32(2);
   const VU32 hundred = B::set1_u32(100);
   const VU32 keep_percent = B::set1_u32(static_cast<uint32_t>(100 - params.uniqueness_percent));
+  // C x 100 + 1 > S2 x (100 - U) is C x 100 >= S2 x (100 - U): a tie is ambiguous. With U = 0 the
+  // check is off, and C x 100 > S2 x 100 never holds (S2 >= C).
+  const VU32 tie_is_ambiguous = B::set1_u32(params.uniqueness_percent > 0 ? 1u : 0u);
   const VU32 no_second = B::set1_u32(0xFFFFu);
   const VU32 last_step = B::set1_u32(static_cast<uint32_t>(disparities - 1));
   const VS32 disparity_base = B::set1_s32(params.min_disparity * 16);
@@ -226,7 +229,8 @@ void sparse_disparity_body(const TileArgs& args) {
       const VS32 disparity =
           B::add(B::add(B::as_s32(B::template shl<4>(best_step)), disparity_base), B::as_s32(B::bit_and(offset, interior)));
       // Uniqueness and the invalid keypoints.
-      const VU32 ambiguous = B::cmpgt(B::mullo(best_cost, hundred), B::mullo(second, keep_percent));
+      const VU32 ambiguous =
+          B::cmpgt(B::add(B::mullo(best_cost, hundred), tie_is_ambiguous), B::mullo(second, keep_percent));
       const VU32 keep = B::bit_andnot(ambiguous, usable);
       result[half] = B::select(B::as_s32(keep), disparity, invalid);
     }
@@ -288,7 +292,7 @@ void sparse_disparity_reference(const std::vector<PlaneView>& inputs, const std:
     for (int s = 0; s < params.num_disparities; ++s) {
       if (std::abs(s - best) > 1) second = std::min(second, costs[static_cast<size_t>(s)]);
     }
-    if (best_cost * 100 > second * (100 - params.uniqueness_percent)) continue;
+    if (params.uniqueness_percent > 0 && best_cost * 100 >= second * (100 - params.uniqueness_percent)) continue;
     int value = (params.min_disparity + best) * 16;
     if (best > 0 && best < params.num_disparities - 1) {
       const int a = costs[static_cast<size_t>(best - 1)] - best_cost, c = costs[static_cast<size_t>(best + 1)] - best_cost;

@@ -9,9 +9,10 @@
 // from such frames (docs/obstacles3d.md, "Where floating's false positives come from"). The rejected
 // ones raise the invalid share from the 1.7 % of a typical frame (the median over the preset
 // sequences) to 3.5-96 %. Any other failure of the matcher that its checks reject raises it too, so
-// the flag says "degraded", not why. Not caught: a view the matcher does not reject. A uniform grey
-// pair gets disparity 0 everywhere, valid (every cost ties, the left-right check agrees), and an
-// invalid share of 0 (measured on the command with a uniform 640x288 pair).
+// the flag says "degraded", not why. A texture-less view (a uniform grey pair: every cost ties) is
+// all invalid since the uniqueness check rejects ties (kernels/sgm_core.h), so it is flagged with an
+// invalid share of 1 (tests/tools/obstacles3d_cli_test.cpp); before that it got disparity 0, valid
+// everywhere. Not caught: a wrong view the matcher does not reject.
 //
 // The threshold, measured (bench/obstacles3d_eval prints it per sequence; the truth: at least 1 % of
 // the image's pixels belong to an object nearer than the range, eval::view_partly_nearer_than_range):

@@ -374,6 +374,48 @@ TEST(SgmGolden, HalfPixelShiftGivesAHalfPixelSubPixelDisparity) {
   EXPECT_LT(far, pixels / 50) << "pixels off by more than 0.75 px";
 }
 
+// A texture-less pair (a uniform grey view: every census word 0, every cost and every path sum 0 at
+// every disparity): a tie across the whole range is no match. With the uniqueness check on, every
+// pixel is invalid on every back end and in the reference (the former rule kept them all at
+// min_disparity, because 0 x 100 > 0 x (100 - U) is false); with it off, every pixel takes the
+// first disparity of the range (ties to the smallest d, no sub-pixel step at the range's edge).
+TEST(SgmGolden, ATextureLessPairIsInvalidWithUniquenessAndTheFirstDisparityWithout) {
+  const int width = 37, height = 9, min_disparity = -3;
+  Plane grey(width, height, {ElementType::u8, 0});
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) grey.at<uint8_t>(x, y) = 130;
+  }
+  for (const char* census_kernel : {"census5x5", "census9x7"}) {
+    const bool census64 = std::string(census_kernel) == "census9x7";
+    const Plane census = census_of(grey, census_kernel);
+    for (int uniqueness : {5, 0}) {
+      const nlohmann::json params = sgm_params(min_disparity, 20, 5, 60, uniqueness, 1, 1);
+      const int16_t expected = static_cast<int16_t>((uniqueness > 0 ? min_disparity - 1 : min_disparity) * 16);
+      for (simd::Isa isa : simd::available_isas()) {
+        for (KernelBackend backend : {KernelBackend::native, KernelBackend::counting}) {
+          for (int paths : {4, 8}) {
+            if (paths == 4 && census64) continue;  // sgm_4path_census64 is checked by the reference case below
+            const Plane disparity = paths == 4 ? run_4path(census, census, params, backend, isa, 4)
+                                               : run_8path(census, census, params, backend, isa, 5, census64);
+            for (int y = 0; y < height; ++y) {
+              for (int x = 0; x < width; ++x) {
+                ASSERT_EQ(disparity.at<int16_t>(x, y), expected) << census_kernel << " " << paths << " paths, U " << uniqueness
+                                                                 << ", x=" << x << " y=" << y << " " << simd::isa_name(isa);
+              }
+            }
+          }
+        }
+      }
+      KernelCase test_case{census64 ? "sgm_4path_census64" : "sgm_4path", params, {}, 4};
+      test_case.inputs = {census, census};
+      const std::vector<Plane> reference = expect_all_back_ends_match_reference(test_case, {{width, height}, {width, 3}});
+      for (int y = 0; y < height; ++y) {
+        for (int x = 0; x < width; ++x) ASSERT_EQ(reference[0].at<int16_t>(x, y), expected) << "reference x=" << x << " y=" << y;
+      }
+    }
+  }
+}
+
 TEST(SgmOverflow, NoOverflowAtLargestRangeAndPenalties) {
   // The largest supported range (512) and penalties (p1 = p2 = 4000) with census64 costs that swing
   // between 0 and 62 (the word or its complement), so path costs reach C + P2. The 16-bit sums of

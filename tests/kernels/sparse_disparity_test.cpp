@@ -158,6 +158,14 @@ TEST(SparseDisparity, ExtremeDisparitiesAndSubPixelStepsByHand) {
     // The invalid value at the bottom of the range: -2048 x 16 = -32768 for an ambiguous keypoint
     // (every cost 32, U = 10: 3200 > 2880).
     EXPECT_EQ(value_for_costs(2100, 10, -2047, 256, 10, {}, backend, isa), -32768) << label;
+    // A tie is ambiguous: C(10) = 2 and C(30) = 2 with U = 10 (200 >= 180). Also at cost 0 (every
+    // cost 0 at d = 0 .. 7, where 0 x 100 > 0 x 90 would have kept it): invalid; with U = 0 (the
+    // check off) the tie goes to the smallest d, the range's first, so no sub-pixel step: 0.
+    EXPECT_EQ(value_for_costs(100, 60, 0, 40, 10, {{10, 2}, {30, 2}}, backend, isa), -16) << label;
+    std::vector<std::pair<int, int>> zero_costs;
+    for (int d = 0; d <= 7; ++d) zero_costs.push_back({d, 0});
+    EXPECT_EQ(value_for_costs(100, 60, 0, 40, 10, zero_costs, backend, isa), -16) << label;
+    EXPECT_EQ(value_for_costs(100, 60, 0, 40, 0, zero_costs, backend, isa), 0) << label;
   });
   // The cost bound: r = 2, every left word all ones, every right word zero: C = 25 x 32 = 800 at
   // every d, best = the first; kept with U = 0.
@@ -252,12 +260,12 @@ TEST(SparseDisparity, CountedOpsEqualClosedForm) {
       expected[simd::OpClass::load] += 1 + halves * (a + 1) * d;
       expected[simd::OpClass::store] += chunks + halves * (r * e + d);
       expected[simd::OpClass::popcount] += halves * a * d;
-      expected[simd::OpClass::arith] += 1 + halves * (25 + 6 * r + a + 3 * e + r * e + (a + 3) * d);
+      expected[simd::OpClass::arith] += 1 + halves * (26 + 6 * r + a + 3 * e + r * e + (a + 3) * d);
       expected[simd::OpClass::logic] += halves * (19 + a + r * e + (a + 4) * d);
       expected[simd::OpClass::shift] += halves * (7 + r + a + e + r * e);
       expected[simd::OpClass::compare] += halves * (13 + 4 * d);
       expected[simd::OpClass::multiply] += halves * (3 + 2 * r);
-      expected[simd::OpClass::permute] += 26 + r + chunks;
+      expected[simd::OpClass::permute] += 27 + r + chunks;
     }
     EXPECT_TRUE(testing::op_counts_equal(expected, testing::count_ops(test_case, tile_width, 1)))
         << keypoints << " keypoints in tiles of " << tile_width << ", r " << radius << ", D " << disparities;

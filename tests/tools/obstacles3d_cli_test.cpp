@@ -272,10 +272,12 @@ TEST_F(Obstacles3dCli, AnOdometryDropoutIsBridgedWithTheLastIncrementAndSaysSo) 
 }
 
 TEST_F(Obstacles3dCli, TexturelessFramesGiveEmptyCloudsAndAStaticCamera) {
-  // Two uniform grey pairs: no disparity (no texture to match), so an empty cloud per frame, and no
-  // features for the odometry, so frame 1 has no ego-motion: stderr says the camera is assumed static.
-  // With the mount given the status says "empty cloud"; without it, that the mount is unknown (no
-  // ground to estimate it from), and there are no candidates either way.
+  // Two uniform grey pairs: no disparity (no texture to match: every cost ties, and the matcher's
+  // uniqueness check rejects a tie, kernels/sgm_core.h), so an empty cloud per frame, and the view
+  // check flags both frames (every disparity invalid); no features for the odometry, so frame 1 has
+  // no ego-motion: stderr says the camera is assumed static. With the mount given the status says
+  // "empty cloud"; without it, that the mount is unknown (no ground to estimate it from), and there
+  // are no candidates either way.
   const std::string folder = path("flat");
   fs::create_directories(folder);
   const cv::Mat grey(288, 640, CV_8UC1, cv::Scalar(128));
@@ -292,8 +294,13 @@ TEST_F(Obstacles3dCli, TexturelessFramesGiveEmptyCloudsAndAStaticCamera) {
                               sequence() + "/calib.yaml --method voxels -o " + output + mount_flags);
     ASSERT_EQ(result.exit_code, 0) << result.err;
     EXPECT_NE(result.err.find("static camera assumed"), std::string::npos) << result.err;
+    EXPECT_NE(result.err.find("frame 0: view degraded: 100.0 % of the disparities invalid"), std::string::npos) << result.err;
     const std::vector<nlohmann::json> lines = read_lines(output);
     ASSERT_EQ(lines.size(), 2u);
+    for (const nlohmann::json& line : lines) {
+      EXPECT_EQ(line.at("disparity_invalid_share").get<double>(), 1.0) << line.dump();
+      EXPECT_TRUE(line.at("view_degraded").get<bool>()) << line.dump();
+    }
     const char* const expected_status = mount_flags.empty() ? "camera mount unknown" : "empty cloud";
     for (const nlohmann::json& line : lines) {
       EXPECT_NE(line.at("status").get<std::string>().find(expected_status), std::string::npos) << line.dump();
