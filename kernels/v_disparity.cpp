@@ -13,7 +13,10 @@
 //   (a count never wraps and is never 8-bit). The invalid value (min_disparity - 1) * 16 lands in
 //   bin -1 and values above the last bin or below the first land outside: none of them is counted.
 //   min_disparity must therefore be the map's own (a larger one would only drop near-zero bins; a
-//   smaller one would count the invalid marker as a disparity).
+//   smaller one would count the invalid marker as a disparity). One use does that on purpose: with
+//   min_disparity one below the map's and num_bins 1, the one bin holds only the invalid value (the
+//   smallest valid Q4 value is the map's min_disparity x 16), so the output is each row's count of
+//   invalid pixels: the view check of graphs/obstacles3d-stixels*.json (arm/tasks/disparity_coverage.cpp).
 // Width: at most kMaxWidthPx = 65535 * 8 = 524,280 px per row, refused in prepare: the per-lane
 //   counts below are u16 and a back end with 8 u16 lanes (SSE4.2, NEON, scalar) puts at most
 //   ceil(W / 8) <= 65535 pixels of a row in one lane, so no lane count wraps; the sums over lanes

@@ -22,6 +22,11 @@
 // than the range (floating seed 1 frame 57: 7.2 % nearer, 6.3 % invalid). docs/obstacles3d.md, "The
 // view check".
 //
+// On the chip (graphs/obstacles3d-stixels*.json) the per-pixel count is the vector engine's: a
+// v_disparity node with one bin just below the map's range counts each row's invalid pixels, and the
+// ARM task "disparity_coverage" (arm/tasks/disparity_coverage.cpp) sums the rows and applies
+// coverage_of_invalid_count, the same rule as here.
+//
 // Counted work (ArmWork): per pixel 1 compare and 1 add (2 scalar ops) and the 2 bytes read.
 #pragma once
 
@@ -50,5 +55,10 @@ struct DisparityCoverage {
 // map is not s16 or the parameters are out of range.
 DisparityCoverage disparity_coverage(const Plane& disparity_q4, int16_t invalid_q4, const DisparityCoverageParameters& parameters,
                                      ArmWork* work = nullptr);
+
+// The rule alone, from counts already made (the chip's per-row counts summed): invalid_share and
+// degraded as above. Throws std::invalid_argument when the parameters are out of range or the
+// counts are not 0 <= invalid_pixels <= pixels.
+DisparityCoverage coverage_of_invalid_count(int64_t invalid_pixels, int64_t pixels, const DisparityCoverageParameters& parameters);
 
 }  // namespace lpstereo::arm::obstacles3d

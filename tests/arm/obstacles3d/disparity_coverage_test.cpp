@@ -1,11 +1,17 @@
 // The view check (arm/obstacles3d/disparity_coverage.h): the invalid share counted over the map's
-// pixels and not its padding, the threshold's boundary, the counted work, and bad input.
+// pixels and not its padding, the threshold's boundary, the counted work, and bad input; the chip's
+// form (the ARM task "disparity_coverage" on per-row counts, arm/tasks/disparity_coverage.cpp) gives
+// the same record as the host function on the same map, and refuses bad shapes and parameters.
 #include "arm/obstacles3d/disparity_coverage.h"
 
 #include <gtest/gtest.h>
 
 #include <stdexcept>
 #include <string>
+#include <vector>
+
+#include "arm/tasks/coverage_record.h"
+#include "dag/arm_task.h"
 
 namespace lpstereo::arm::obstacles3d {
 namespace {
@@ -75,6 +81,88 @@ TEST(DisparityCoverage, BadInputNamesTheThing) {
   }
   const Plane bytes(8, 4, BufferFormat{ElementType::u8});
   EXPECT_THROW(disparity_coverage(bytes, kInvalidQ4, DisparityCoverageParameters{}), std::invalid_argument);
+}
+
+TEST(DisparityCoverage, CountsOutsideTheMapAreRefused) {
+  EXPECT_THROW(coverage_of_invalid_count(5, 4, DisparityCoverageParameters{}), std::invalid_argument);
+  EXPECT_THROW(coverage_of_invalid_count(-1, 4, DisparityCoverageParameters{}), std::invalid_argument);
+  const DisparityCoverage empty = coverage_of_invalid_count(0, 0, DisparityCoverageParameters{});
+  EXPECT_TRUE(empty.degraded);
+  EXPECT_EQ(empty.invalid_share, 0.0);
+}
+
+const ArmTaskDescriptor& coverage_task() {
+  const ArmTaskDescriptor* task = ArmTaskRegistry::instance().find("disparity_coverage");
+  if (task == nullptr) throw std::runtime_error("ARM task 'disparity_coverage' is not registered");
+  return *task;
+}
+
+// Runs the task on a map's per-row invalid counts (what the v_disparity node with one bin below the
+// range gives; counted here directly) and returns its record.
+std::vector<uint32_t> task_record(const Plane& map, const nlohmann::json& params, ArmWork* work) {
+  Plane rows(1, map.height(), BufferFormat{ElementType::u16, 0});
+  for (int y = 0; y < map.height(); ++y) {
+    int count = 0;
+    for (int x = 0; x < map.width(); ++x) count += map.at<int16_t>(x, y) == kInvalidQ4 ? 1 : 0;
+    rows.at<uint16_t>(0, y) = static_cast<uint16_t>(count);
+  }
+  const ArmTaskDescriptor& task = coverage_task();
+  const PreparedKernel prepared = task.prepare(params, {{1, map.height()}, {map.width(), map.height()}});
+  EXPECT_EQ(prepared.output_shapes.at(0).width, arm::kCoverageWords);
+  Plane record(arm::kCoverageWords, 1, BufferFormat{ElementType::u32, 0});
+  task.run(ArmTaskArgs{{&rows, &map}, {&record}, prepared.params.get(), work});
+  return std::vector<uint32_t>(record.row<uint32_t>(0), record.row<uint32_t>(0) + arm::kCoverageWords);
+}
+
+TEST(DisparityCoverageTask, GivesTheHostFunctionsVerdictFromRowCounts) {
+  Plane map = padded_map(37, 11);
+  for (int y = 2; y < 7; ++y) {
+    for (int x = 29; x < 37; ++x) map.at<int16_t>(x, y) = kInvalidQ4;  // 40 of 407: 9.8 %
+  }
+  ArmWork work;
+  std::vector<uint32_t> record = task_record(map, nlohmann::json::object(), &work);
+  DisparityCoverage host = disparity_coverage(map, kInvalidQ4, DisparityCoverageParameters{});
+  EXPECT_EQ(record[arm::kCoverageInvalidPixels], static_cast<uint32_t>(host.invalid_pixels));
+  EXPECT_EQ(record[arm::kCoveragePixels], 407u);
+  EXPECT_EQ(record[arm::kCoverageInvalidPer65536], 40u * 65536u / 407u);
+  EXPECT_EQ(record[arm::kCoverageDegraded], host.degraded ? 1u : 0u);
+  EXPECT_EQ(record[arm::kCoverageDegraded], 0u);
+  EXPECT_EQ(work.scalar_ops, 2u * 11 + 8);
+  EXPECT_EQ(work.memory_bytes, 2u * 11);
+  // One more invalid pixel: 41 of 407 = 10.07 %, degraded with the default, not with 0.2.
+  map.at<int16_t>(0, 0) = kInvalidQ4;
+  record = task_record(map, nlohmann::json::object(), nullptr);
+  host = disparity_coverage(map, kInvalidQ4, DisparityCoverageParameters{});
+  EXPECT_TRUE(host.degraded);
+  EXPECT_EQ(record[arm::kCoverageDegraded], 1u);
+  EXPECT_EQ(task_record(map, {{"degraded_invalid_share", 0.2}}, nullptr)[arm::kCoverageDegraded], 0u);
+  // Every pixel invalid (a texture-less view): the share is exactly 65536 / 65536.
+  for (int y = 0; y < 11; ++y) {
+    for (int x = 0; x < 37; ++x) map.at<int16_t>(x, y) = kInvalidQ4;
+  }
+  record = task_record(map, nlohmann::json::object(), nullptr);
+  EXPECT_EQ(record[arm::kCoverageInvalidPer65536], 65536u);
+  EXPECT_EQ(record[arm::kCoverageDegraded], 1u);
+}
+
+void expect_prepare_error(const nlohmann::json& params, const std::vector<PlaneShape>& shapes, const std::vector<std::string>& words) {
+  try {
+    coverage_task().prepare(params, shapes);
+    ADD_FAILURE() << "no error";
+  } catch (const KernelError& error) {
+    for (const std::string& word : words) EXPECT_NE(std::string(error.what()).find(word), std::string::npos) << error.what();
+  }
+}
+
+TEST(DisparityCoverageTask, PrepareRefusesBadShapesAndParameters) {
+  const std::vector<PlaneShape> shapes = {{1, 11}, {37, 11}};
+  EXPECT_NO_THROW(coverage_task().prepare(nlohmann::json::object(), shapes));
+  expect_prepare_error(nlohmann::json::object(), {{1, 11}}, {"inputs", "expected 2", "got 1"});
+  expect_prepare_error(nlohmann::json::object(), {{2, 11}, {37, 11}}, {"'invalid_rows'", "1x11", "2x11"});
+  expect_prepare_error(nlohmann::json::object(), {{1, 12}, {37, 11}}, {"'invalid_rows'", "1x11", "1x12"});
+  expect_prepare_error(nlohmann::json::object(), {{1, 11}, {65536, 11}}, {"'disparity'", "65535", "65536"});
+  for (const double share : {0.0, 1.5}) expect_prepare_error({{"degraded_invalid_share", share}}, shapes, {"degraded_invalid_share"});
+  expect_prepare_error({{"threshold", 0.1}}, shapes, {"threshold"});
 }
 
 }  // namespace
