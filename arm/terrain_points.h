@@ -80,6 +80,15 @@ std::string ground_extent_problem(const terrain::HeightGrid& grid, int min_rows 
 // Throws std::invalid_argument unless radius_px >= 1 and jump_px > 0, or for a non-s16 plane.
 int64_t invalidate_near_side_of_discontinuities(Plane& disparity_q4, int16_t invalid_q4, int radius_px, double jump_px);
 
+// The filter's settings as the terrain uses them: `lpstereo terrain`, bench/terrain_synth_eval and
+// bench/terrain_kitti_eval (docs/terrain.md, "invalidate_near_side_of_discontinuities": most
+// fattened ground points lay within 3 px of their object; a flat ground seen from 1.5 m changes by
+// 0.2 px a row, far below the 2 px jump). radius_px 0 turns it off.
+struct DiscontinuityFilter {
+  int radius_px = 3;
+  double jump_px = 2.0;
+};
+
 // The image test of the occlusion-aware terrain sampling (terrain::TerrainGridSpec::
 // occlusion_upper_bounds; arm/terrain/height_grid.cpp has the model). A valid pixel p lies "over an
 // occluder" when, within rows_below_px rows below it in its image column, there is the top of a

@@ -6,7 +6,8 @@
 //
 // Per scene:
 //   1. the stereo pair through arm::DisparityEngine (defaults, 128 disparities: KITTI's 0.54 m
-//      baseline puts 5 m at 78 px), disparity_to_points with the calibration's rectified geometry;
+//      baseline puts 5 m at 78 px), the discontinuity filter as `lpstereo terrain` applies it
+//      (arm::DiscontinuityFilter), disparity_to_points with the calibration's rectified geometry;
 //   2. the camera mount estimated from the stereo points themselves (arm::estimate_ground_mount: a
 //      RANSAC ground plane through the lower image half, what `lpstereo terrain` does without
 //      --camera-height-m); printed beside KITTI's nominal 1.65 m camera height. The mount only fixes
@@ -186,14 +187,19 @@ void evaluate(const Scene& scene) {
   arm::DisparityParameters parameters;
   parameters.num_disparities = 128;
   arm::DisparityEngine engine(left.width(), left.height(), parameters, {}, 2);
-  const Plane& disparity = engine.compute(left, right);
+  // The discontinuity filter with the settings `lpstereo terrain` applies by default.
+  Plane disparity = engine.compute(left, right).clone();
+  const arm::DiscontinuityFilter filter;
+  const int64_t edge_px =
+      arm::invalidate_near_side_of_discontinuities(disparity, engine.invalid_disparity_q4(), filter.radius_px, filter.jump_px);
   const arm::CameraPoints points = arm::triangulate(
       disparity, {geometry.baseline_m, geometry.focal_px, geometry.cx_left_px, geometry.cy_px, parameters.min_disparity,
                   parameters.num_disparities, geometry.cx_right_px - geometry.cx_left_px});
   const arm::GroundMountEstimate mount = arm::estimate_ground_mount(points);
-  std::printf("  settings: %dx%d, focal %.2f px, baseline %.4f m, 128 disparities; area 34 x 22 m, 0.5 m cells, 25 x 25 "
-              "control points, degree 3\n",
-              left.width(), left.height(), geometry.focal_px, geometry.baseline_m);
+  std::printf("  settings: %dx%d, focal %.2f px, baseline %.4f m, 128 disparities, discontinuity filter %d px / %.1f px (%lld "
+              "edge px dropped); area 34 x 22 m, 0.5 m cells, 25 x 25 control points, degree 3\n",
+              left.width(), left.height(), geometry.focal_px, geometry.baseline_m, filter.radius_px, filter.jump_px,
+              static_cast<long long>(edge_px));
   if (!mount.found) {
     std::printf("  FAIL mount estimate: %s\n", mount.reason.c_str());
     ++failures;

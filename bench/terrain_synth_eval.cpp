@@ -94,8 +94,8 @@ struct Settings {
   std::string only_scene;         // --scene SPEC: only the scene kind of that ground spec ("hills", "ditch+berm", ...)
   // --discontinuity-radius, --discontinuity-jump: arm::invalidate_near_side_of_discontinuities on the
   // disparity before triangulation (radius 0: off).
-  int discontinuity_radius_px = 3;
-  double discontinuity_jump_px = 2.0;
+  int discontinuity_radius_px = arm::DiscontinuityFilter{}.radius_px;
+  double discontinuity_jump_px = arm::DiscontinuityFilter{}.jump_px;
   // --disparity-margin: terrain::StereoRayModel (0: the plain classify_points); --support-reach: its
   // support_reach_cells (-1: off). 1 px with support in the point's own cell: see docs/terrain.md.
   double disparity_margin_px = 1.0;

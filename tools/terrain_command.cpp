@@ -113,6 +113,14 @@ TerrainCommand::TerrainCommand(CLI::App& app) {
   command_->add_option("--obstacle-height-m", obstacle_height_m_, "points more than this above the surface are obstacles, m")
       ->capture_default_str()
       ->check(CLI::Range(0.01, 10.0));
+  command_->add_option("--discontinuity-radius", discontinuity_radius_px_,
+                       "drop the near side of every disparity jump, this many px wide: the fattened object edges a window "
+                       "matcher gives, whose points stand in the air beside the object (0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 32));
+  command_->add_option("--discontinuity-jump", discontinuity_jump_px_, "the jump the discontinuity filter acts on, px")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 256.0));
   command_->add_option("--map", map_path_, "also write a top view of the cost grid (PNG)");
   command_->add_option("--points", points_path_, "also write the points coloured by class (PLY, camera frame)");
   command_->add_option("--overlay", overlay_path_, "also write the left image with terrain (green) and obstacle (red) points (PNG)");
@@ -160,7 +168,12 @@ int TerrainCommand::run() const {
       tools::disparity_parameters(engine_options_, left.width(), arm::DisparityParameters{}.num_disparities);
   arm::DisparityEngine engine(left.width(), left.height(), disparity_parameters, {}, threads_);
   const auto started = std::chrono::steady_clock::now();
-  const Plane& disparity = engine.compute(left, pair.right);
+  Plane disparity = engine.compute(left, pair.right).clone();  // filtered in place below, not the engine's buffer
+  // The fattened object edges out before any point is made (arm/terrain_points.h).
+  const int64_t discontinuity_invalidated_px =
+      discontinuity_radius_px_ > 0 ? arm::invalidate_near_side_of_discontinuities(disparity, engine.invalid_disparity_q4(),
+                                                                                 discontinuity_radius_px_, discontinuity_jump_px_)
+                                   : 0;
   const arm::TriangulationParameters triangulation =
       triangulation_parameters(geometry, disparity_parameters.min_disparity, disparity_parameters.num_disparities);
   const arm::CameraPoints points = arm::triangulate(disparity, triangulation);
@@ -331,6 +344,8 @@ int TerrainCommand::run() const {
   }
   json["obstacle_points_camera_m"] = obstacle_points;
   json["point_counts"] = {{"terrain", counts[1]}, {"obstacle", counts[2]}, {"outside", counts[0]}};
+  json["discontinuity_filter"] = {
+      {"radius_px", discontinuity_radius_px_}, {"jump_px", discontinuity_jump_px_}, {"invalidated_px", discontinuity_invalidated_px}};
   write_file_atomically(output_, json.dump(1) + "\n");
 
   // Pictures.
@@ -372,10 +387,11 @@ int TerrainCommand::run() const {
     return kExitTerrainUnknown;
   }
   std::printf("terrain known: %d of %d cells valid, %lld points binned, mean |error| %.3f m after %d iterations; %d obstacle "
-              "points; mount %s (height %.2f m, pitch %.4f rad, roll %.4f rad); disparity %.1f ms, terrain %.1f ms -> %s\n",
+              "points; mount %s (height %.2f m, pitch %.4f rad, roll %.4f rad); %lld edge px dropped; disparity %.1f ms, terrain "
+              "%.1f ms -> %s\n",
               measured->valid_cells(), grid.forward_cells() * grid.lateral_cells(), static_cast<long long>(accumulator.accepted()),
               estimate.mean_abs_error_m, estimate.iterations, counts[2], mount_source.c_str(), mount.position_m.z(), mount.pitch_rad,
-              mount.roll_rad, disparity_ms, terrain_ms, output_.c_str());
+              mount.roll_rad, static_cast<long long>(discontinuity_invalidated_px), disparity_ms, terrain_ms, output_.c_str());
   return 0;
 }
 

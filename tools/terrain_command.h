@@ -1,8 +1,13 @@
 // lpstereo terrain LEFT RIGHT --calib C [--calib C2] -o terrain.json [--area-m 34x22] [--cell-m 0.5]
 //     [--control 25x25] [--degree 3] [--camera-height-m H [--pitch-deg P] [--roll-deg R]]
-//     [--obstacle-height-m 0.2] [--map FILE.png] [--points FILE.ply] [--overlay FILE.png]
+//     [--obstacle-height-m 0.2] [--discontinuity-radius 3] [--discontinuity-jump 2]
+//     [--map FILE.png] [--points FILE.ply] [--overlay FILE.png]
 //     [--threads N] [the disparity engine's options: --min-disp, --num-disp, --paths, ...]
-// Issue 9 deliverable 5. The rectified pair through the disparity engine, disparity_to_points, the
+// Issue 9 deliverable 5. The rectified pair through the disparity engine, the discontinuity filter
+// (arm::invalidate_near_side_of_discontinuities: the near side of every disparity jump of more than
+// --discontinuity-jump px, --discontinuity-radius px wide, is dropped: the fattened object edges,
+// whose points would stand in the air beside the object; 0 turns it off; the settings issue 9's
+// figures are measured with, bench/terrain_synth_eval), disparity_to_points, the
 // camera mount, the point_cell_binning kernel into the 2.5D grid (arm/terrain_points.h), the
 // iterative re-weighted B-spline fit, the traversability cost and the point classes
 // (arm/terrain/terrain_model.h; docs/terrain.md "The terrain command").
@@ -31,7 +36,8 @@
 //                    camera-frame y (down) of the surface at lateral x_m[j] and forward z_m[i], null
 //                    where the surface is unknown (no data in that cell, outside the area, unknown terrain),
 //    "obstacle_points_camera_m": [[x, y, z], ...] (more than --obstacle-height-m above the surface),
-//    "point_counts": {"terrain", "obstacle", "outside"}}
+//    "point_counts": {"terrain", "obstacle", "outside"},
+//    "discontinuity_filter": {"radius_px", "jump_px", "invalidated_px"} (radius 0: off, none invalidated)}
 // Pictures: --map a top view of the cost grid (far at the top, left on the left: green 0 to red at
 // cost >= 1, occupied cells magenta, unknown black); --overlay the left image with the terrain points
 // green and the obstacle points red; --points a PLY of every point in the camera frame coloured by
@@ -50,6 +56,7 @@
 #include <string>
 #include <vector>
 
+#include "arm/terrain_points.h"
 #include "tools/disparity_options.h"
 
 namespace lpstereo::tools {
@@ -71,6 +78,8 @@ class TerrainCommand {
   int degree_ = 3;
   double camera_height_m_ = 0, pitch_deg_ = 0, roll_deg_ = 0;
   double obstacle_height_m_ = 0.2;
+  int discontinuity_radius_px_ = arm::DiscontinuityFilter{}.radius_px;
+  double discontinuity_jump_px_ = arm::DiscontinuityFilter{}.jump_px;
   std::string map_path_, points_path_, overlay_path_;
   DisparityEngineOptions engine_options_;
   int threads_ = 0;

@@ -2,7 +2,8 @@
 // high, objects at 15 m) gives a known terrain whose JSON has every part issue 9 names (the spline
 // with its frame, degrees, knots and control points; the cost grid; surface_grid in the camera frame
 // with y_m rows of x_m columns, near the camera height on the road; the obstacle points), the map,
-// overlay and PLY files, with the mount given or estimated from the ground plane. A wall filling the
+// overlay and PLY files, with the mount given or estimated from the ground plane; the discontinuity
+// filter drops the objects' edge pixels (and gives them back as points when it is off). A wall filling the
 // view and a texture-less pair give "known": false with a reason, one line on stderr and exit 4; bad
 // flags exit 2 and missing files exit 1, each with one line and no output file.
 #include <gtest/gtest.h>
@@ -138,6 +139,26 @@ TEST_F(TerrainCli, LineupGivesAKnownFlatTerrainWithEveryPartOfTheJson) {
   }
   EXPECT_EQ(obstacle_vertices, static_cast<int>(json.at("obstacle_points_camera_m").size()));
   EXPECT_EQ(terrain_vertices, json.at("point_counts").at("terrain").get<int>());
+  // The discontinuity filter, on by default: the near side of the objects' edges is dropped.
+  const nlohmann::json& filter = json.at("discontinuity_filter");
+  EXPECT_EQ(filter.at("radius_px"), 3);
+  EXPECT_EQ(filter.at("jump_px"), 2.0);
+  const int invalidated_px = filter.at("invalidated_px").get<int>();
+  EXPECT_GT(invalidated_px, 100);
+  EXPECT_NE(result.out.find(std::to_string(invalidated_px) + " edge px dropped"), std::string::npos) << result.out;
+  // Off: nothing dropped, and every dropped pixel (a valid disparity more than 2 px above its
+  // neighbour's, so > 0: a point) comes back as a point.
+  const std::string unfiltered = path("terrain_unfiltered.json");
+  const Result off = run("terrain " + scene + "/left.png " + scene + "/right.png --calib " + scene + "/calib.yaml -o " + unfiltered +
+                         " --num-disp 48 --threads 2 --area-m 24x16 --cell-m 0.5 --control 12x10 --degree 3 --camera-height-m 1.5"
+                         " --discontinuity-radius 0");
+  ASSERT_EQ(off.exit_code, 0) << off.err;
+  const nlohmann::json off_json = read_json_file(unfiltered);
+  EXPECT_EQ(off_json.at("discontinuity_filter").at("invalidated_px"), 0);
+  auto total_points = [](const nlohmann::json& counts) {
+    return counts.at("terrain").get<int>() + counts.at("obstacle").get<int>() + counts.at("outside").get<int>();
+  };
+  EXPECT_EQ(total_points(off_json.at("point_counts")), total_points(json.at("point_counts")) + invalidated_px);
 }
 
 TEST_F(TerrainCli, EstimatedMountFindsTheCameraHeight) {
@@ -219,6 +240,8 @@ TEST_F(TerrainCli, BadFlagsAndFilesGiveOneLineAndNoOutput) {
       {pair + " --control 3x25", "--control: expected two integers in [degree + 1, 200] = [4, 200], got '3x25'", 2},
       {pair + " --pitch-deg 5", "--pitch-deg/--roll-deg need --camera-height-m", 2},
       {pair + " --area-m 90x20", "--area-m: expected at most 65x130 m", 2},
+      {pair + " --discontinuity-radius -1", "--discontinuity-radius", 2},
+      {pair + " --discontinuity-jump 0", "--discontinuity-jump", 2},
       {scene + "/missing.png " + scene + "/right.png --calib " + scene + "/calib.yaml -o " + path("bad.json"), "missing.png", 1},
   };
   for (const Case& bad : cases) {
