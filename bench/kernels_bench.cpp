@@ -102,6 +102,18 @@ const KernelDescriptor& kernel_named(const std::string& name) {
   return *kernel;
 }
 
+// The timed loop of a vector node: the tile executor in kTileWidth x kTileHeight tiles on the host's
+// ISA level; `output` is the plane the node writes (kept from being optimised away).
+void time_vector_node(benchmark::State& state, const VectorNodeBinding& binding, const Plane& output, int width, int height) {
+  const simd::Isa isa = simd::active_isa();
+  for (auto _ : state) {
+    run_vector_node(binding, kTileWidth, kTileHeight, KernelBackend::native, isa);
+    benchmark::DoNotOptimize(output.row<uint8_t>(0));
+    benchmark::ClobberMemory();
+  }
+  set_megapixels_per_second(state, width, height);
+}
+
 // Times one lpstereo kernel on the frame's image (and map, for the remap) through run_vector_node.
 void run_lpstereo_kernel(benchmark::State& state, const std::string& name, ElementType output_type) {
   const int width = static_cast<int>(state.range(0));
@@ -117,13 +129,7 @@ void run_lpstereo_kernel(benchmark::State& state, const std::string& name, Eleme
   const PreparedKernel prepared = kernel.prepare(nlohmann::json::object(), shapes);
   Plane output(width, height, {output_type, 0});
   const VectorNodeBinding binding{&kernel, prepared.params.get(), BorderMode::replicate, 0, inputs, {output.view()}};
-  const simd::Isa isa = simd::active_isa();
-  for (auto _ : state) {
-    run_vector_node(binding, kTileWidth, kTileHeight, KernelBackend::native, isa);
-    benchmark::DoNotOptimize(output.row<uint8_t>(0));
-    benchmark::ClobberMemory();
-  }
-  set_megapixels_per_second(state, width, height);
+  time_vector_node(state, binding, output, width, height);
 }
 
 void BM_census5x5(benchmark::State& state) { run_lpstereo_kernel(state, "census5x5", ElementType::census32); }
@@ -162,10 +168,39 @@ void BM_disparity_to_points(benchmark::State& state) {
   Plane x(width, height, millimetres), y(width, height, millimetres), z(width, height, millimetres);
   const VectorNodeBinding binding{&kernel, prepared.params.get(), BorderMode::replicate, 0, {disparity.view()},
                                   {x.view(), y.view(), z.view()}};
-  const simd::Isa isa = simd::active_isa();
+  time_vector_node(state, binding, z, width, height);
+}
+
+// discontinuity_near_side on disparity_frame (the settings of the terrain graphs: radius 3, jump 2 px),
+// against the same rule in OpenCV: invalid pixels mapped to 32767, a 7x7 erode (the window
+// minimum), then the jump test and the invalid value written where it holds.
+void BM_discontinuity_near_side(benchmark::State& state) {
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const Plane& disparity = disparity_frame(width, height);
+  const KernelDescriptor& kernel = kernel_named("discontinuity_near_side");
+  const PreparedKernel prepared = kernel.prepare({{"invalid_q4", -16}, {"radius_px", 3}, {"jump_q4", 32}}, {{width, height}});
+  Plane output(width, height, {ElementType::s16, 4});
+  const VectorNodeBinding binding{&kernel, prepared.params.get(), BorderMode::replicate, 0, {disparity.view()}, {output.view()},
+                                  prepared.input_halos};
+  time_vector_node(state, binding, output, width, height);
+}
+
+void BM_opencv_erode_disparity_jump(benchmark::State& state) {
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const Plane& disparity = disparity_frame(width, height);
+  const cv::Mat map(height, width, CV_16SC1, const_cast<uint8_t*>(disparity.row<uint8_t>(0)), static_cast<size_t>(disparity.stride_bytes()));
+  const cv::Mat element = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(7, 7));
+  cv::Mat valid_only, window_minimum, near_side, output;
   for (auto _ : state) {
-    run_vector_node(binding, kTileWidth, kTileHeight, KernelBackend::native, isa);
-    benchmark::DoNotOptimize(z.row<uint8_t>(0));
+    valid_only = map.clone();
+    valid_only.setTo(32767, map <= -16);
+    cv::erode(valid_only, window_minimum, element, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+    near_side = (map - window_minimum > 32) & (map > -16);
+    output = map.clone();
+    output.setTo(-16, near_side);
+    benchmark::DoNotOptimize(output.data);
     benchmark::ClobberMemory();
   }
   set_megapixels_per_second(state, width, height);
@@ -384,6 +419,8 @@ BENCHMARK(BM_opencv_medianBlur3)->Apply(sizes);
 BENCHMARK(BM_remap_bilinear)->Apply(sizes);
 BENCHMARK(BM_opencv_remap_linear_float_map)->Apply(sizes);
 BENCHMARK(BM_opencv_remap_linear_fixed_map)->Apply(sizes);
+BENCHMARK(BM_discontinuity_near_side)->Apply(sizes);
+BENCHMARK(BM_opencv_erode_disparity_jump)->Apply(sizes);
 BENCHMARK(BM_disparity_to_points)->Apply(sizes);
 BENCHMARK(BM_opencv_reprojectImageTo3D)->Apply(sizes);
 BENCHMARK(BM_point_cell_binning)->Apply(sizes);

@@ -137,6 +137,7 @@ const std::vector<GoldenCase>& golden_cases() {
       {"remap_bilinear", nlohmann::json::object(), BorderMode::constant, {{97, 61}, {97, 61}}, 0xae5d9a5b4982d4f4ull},
       {"downsample2x", nlohmann::json::object(), BorderMode::replicate, {{97, 61}}, 0xf62a5de4e48df7b2ull},
       {"median3x3_s16", {{"invalid_q4", -16}}, BorderMode::replicate, {{97, 61}}, 0x2a44dd156fc0ce16ull},
+      {"discontinuity_near_side", {{"invalid_q4", -16}, {"radius_px", 3}, {"jump_q4", 32}}, BorderMode::replicate, {{97, 61}}, 0xe101cc090dec6f5aull},
       // Inputs -100 .. 1099 (Q4, integer parts -7 .. 68): the invalid marker -64 (bin -1), below
       // the bins, 40 bins (a partial 32-lane block) and above them.
       {"v_disparity", {{"min_disparity", -3}, {"num_bins", 40}}, BorderMode::replicate, {{97, 61}}, 0x8d71a94bed7f6205ull},
