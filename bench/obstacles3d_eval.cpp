@@ -78,7 +78,7 @@
 //        [--innovation-gate-chi2 X] [--accel-sigma A] [--moving-consistency N]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 //        [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] [--ground-below-view upper-bounds|samples]
-//        [--num-disparities N] [--multires-far F]
+//        [--num-disparities N] [--multires-far F] [--discontinuity-radius R] [--discontinuity-jump J]
 // (--threads: the rendering's, the disparity engine's and the odometry's worker threads, default 2;
 // --first-seed: seeds S .. S + N - 1, default 1; --misses: one CSV row per missed object and per false
 // positive of every method, with the nearest obstacle, and per hanging object whose reported lower
@@ -125,6 +125,7 @@
 #include "arm/odometry/stereo_odometry.h"
 #include "arm/obstacles3d/augmented_stixels.h"
 #include "arm/obstacles3d/disparity_coverage.h"
+#include "arm/terrain_points.h"
 #include "arm/obstacles3d/ego_motion.h"
 #include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/obstacles3d/obstacle_tracking.h"
@@ -174,6 +175,11 @@ struct Settings {
   // --multires-far 64: o3::obstacles3d_near_guard_disparity_parameters, measured and not the
   // default; --multires-far 0: one full-resolution pass over the range).
   arm::DisparityParameters disparity = o3::obstacles3d_disparity_defaults();
+  // --discontinuity-radius R (0: off, the chain's default) and --discontinuity-jump J: the terrain's
+  // filter (arm::invalidate_near_side_of_discontinuities, lpstereo terrain's settings when R > 0) on
+  // the map the points and candidates are made from; the view check still reads the engine's map.
+  int discontinuity_radius_px = 0;
+  double discontinuity_jump_px = arm::DiscontinuityFilter{}.jump_px;
 };
 
 // Where the rows of --misses go, and which sequence frame is being scored.
@@ -548,9 +554,16 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     const Plane left = io::mat_to_plane(frame.scene.left, BufferFormat{ElementType::u8});
     const Plane right = io::mat_to_plane(frame.scene.right, BufferFormat{ElementType::u8});
     const Plane& disparity = engine.compute(left, right);
-    const arm::CameraPoints camera = arm::triangulate(disparity, triangulation);
+    Plane filtered;
+    if (settings.discontinuity_radius_px > 0) {
+      filtered = disparity.clone();
+      arm::invalidate_near_side_of_discontinuities(filtered, engine.invalid_disparity_q4(), settings.discontinuity_radius_px,
+                                                   settings.discontinuity_jump_px);
+    }
+    const Plane& point_disparity = settings.discontinuity_radius_px > 0 ? filtered : disparity;
+    const arm::CameraPoints camera = arm::triangulate(point_disparity, triangulation);
     const o3::CandidatePoints candidate_points =
-        o3::extract_obstacle_candidates(disparity, engine.invalid_disparity_q4(), camera, triangulation, left,
+        o3::extract_obstacle_candidates(point_disparity, engine.invalid_disparity_q4(), camera, triangulation, left,
                                         settings.colour ? o3::ColourView{frame.scene.left_colour.data, frame.scene.left_colour.step, true}
                                                         : o3::ColourView{},
                                         to_vehicle, candidate_parameters);
@@ -735,6 +748,10 @@ int main(int argc, char** argv) {
       settings.tracking.accel_sigma_mps2 = std::atof(argv[++i]);
     } else if (arg == "--moving-consistency" && has_value) {
       settings.tracking.moving_consistency_frames = std::atoi(argv[++i]);
+    } else if (arg == "--discontinuity-radius" && has_value) {
+      settings.discontinuity_radius_px = std::atoi(argv[++i]);
+    } else if (arg == "--discontinuity-jump" && has_value) {
+      settings.discontinuity_jump_px = std::atof(argv[++i]);
     } else if (arg == "--vertical-gap-m" && has_value) {
       settings.candidates.grid.vertical_gap_m = std::atof(argv[++i]);
     } else if (arg == "--hole-membrane" && has_value) {
@@ -765,7 +782,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
-                   "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--hole-membrane H] [--innovation-gate-chi2 X] [--accel-sigma A] "
+                   "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--hole-membrane H] [--innovation-gate-chi2 X] [--accel-sigma A] "
                    "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
                    "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] "
                    "[--ground-below-view upper-bounds|samples] [--num-disparities N] [--multires-far F]\n",
@@ -794,6 +811,11 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("hole_membrane: expected a finite value >= 0, got " + std::to_string(settings.candidates.fit.hole_membrane));
     }
     o3::validate_tracking_parameters(settings.tracking);  // a bad --innovation-gate-chi2, --accel-sigma or --moving-consistency, the same
+    if (settings.discontinuity_radius_px < 0 || settings.discontinuity_radius_px > 32 || !(settings.discontinuity_jump_px > 0) ||
+        !std::isfinite(settings.discontinuity_jump_px)) {
+      throw std::invalid_argument("--discontinuity-radius/--discontinuity-jump: expected a radius in [0, 32] px and a jump > 0 px, got " +
+                                  std::to_string(settings.discontinuity_radius_px) + " and " + std::to_string(settings.discontinuity_jump_px));
+    }
     const int image_width = io::preset_stereo_sequence(settings.scenes.front(), static_cast<uint32_t>(settings.first_seed)).base.width;
     if (settings.disparity.num_disparities < 1 || settings.disparity.num_disparities > image_width) {
       throw std::invalid_argument("--num-disparities: expected 1.." + std::to_string(image_width) + " (the image's width), got " +
@@ -830,6 +852,11 @@ int main(int argc, char** argv) {
               settings.candidates.ground_below_view_upper_bounds ? "upper bounds" : "samples", static_cast<long long>(settings.min_pixels),
               settings.all_visible ? "visible" : "measurable (true disparity in the engine's range, match inside the right image)",
               settings.range_m);
+  if (settings.discontinuity_radius_px > 0) {
+    std::printf("discontinuity filter: radius %d px, jump %.2f px, on the map the points and candidates are made from (the view check reads "
+                "the engine's)\n",
+                settings.discontinuity_radius_px, settings.discontinuity_jump_px);
+  }
   std::printf("voxel tracker: process noise %.2f m/s^2, innovation gate chi-square %.2f (0: off), moving from %.2f m/s with chi-square %.2f "
               "after %d update(s), %d consistent vote(s)\n",
               settings.tracking.accel_sigma_mps2, settings.tracking.innovation_gate_chi2, settings.tracking.moving_speed_mps,
