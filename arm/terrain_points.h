@@ -87,6 +87,11 @@ int64_t invalidate_near_side_of_discontinuities(Plane& disparity_q4, int16_t inv
 struct DiscontinuityFilter {
   int radius_px = 3;
   double jump_px = 2.0;
+  // invalidate_near_side_of_discontinuities with these settings, in place; radius_px 0 leaves the
+  // map as it is. Returns the pixels invalidated.
+  int64_t apply(Plane& disparity_q4, int16_t invalid_q4) const {
+    return radius_px > 0 ? invalidate_near_side_of_discontinuities(disparity_q4, invalid_q4, radius_px, jump_px) : 0;
+  }
 };
 
 // The image test of the occlusion-aware terrain sampling (terrain::TerrainGridSpec::

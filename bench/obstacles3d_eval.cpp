@@ -125,7 +125,6 @@
 #include "arm/odometry/stereo_odometry.h"
 #include "arm/obstacles3d/augmented_stixels.h"
 #include "arm/obstacles3d/disparity_coverage.h"
-#include "arm/terrain_points.h"
 #include "arm/obstacles3d/ego_motion.h"
 #include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/obstacles3d/obstacle_tracking.h"
@@ -134,6 +133,7 @@
 #include "arm/obstacles3d/voxel_map.h"
 #include "arm/point_cloud.h"
 #include "arm/terrain/terrain_model.h"
+#include "arm/terrain_points.h"
 #include "eval/obstacles3d_scoring.h"
 #include "io/image_io.h"
 #include "io/stereo_sequence.h"
@@ -178,8 +178,7 @@ struct Settings {
   // --discontinuity-radius R (0: off, the chain's default) and --discontinuity-jump J: the terrain's
   // filter (arm::invalidate_near_side_of_discontinuities, lpstereo terrain's settings when R > 0) on
   // the map the points and candidates are made from; the view check still reads the engine's map.
-  int discontinuity_radius_px = 0;
-  double discontinuity_jump_px = arm::DiscontinuityFilter{}.jump_px;
+  arm::DiscontinuityFilter discontinuity{0, arm::DiscontinuityFilter{}.jump_px};
 };
 
 // Where the rows of --misses go, and which sequence frame is being scored.
@@ -555,12 +554,11 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     const Plane right = io::mat_to_plane(frame.scene.right, BufferFormat{ElementType::u8});
     const Plane& disparity = engine.compute(left, right);
     Plane filtered;
-    if (settings.discontinuity_radius_px > 0) {
+    if (settings.discontinuity.radius_px > 0) {
       filtered = disparity.clone();
-      arm::invalidate_near_side_of_discontinuities(filtered, engine.invalid_disparity_q4(), settings.discontinuity_radius_px,
-                                                   settings.discontinuity_jump_px);
+      settings.discontinuity.apply(filtered, engine.invalid_disparity_q4());
     }
-    const Plane& point_disparity = settings.discontinuity_radius_px > 0 ? filtered : disparity;
+    const Plane& point_disparity = settings.discontinuity.radius_px > 0 ? filtered : disparity;
     const arm::CameraPoints camera = arm::triangulate(point_disparity, triangulation);
     const o3::CandidatePoints candidate_points =
         o3::extract_obstacle_candidates(point_disparity, engine.invalid_disparity_q4(), camera, triangulation, left,
@@ -749,9 +747,9 @@ int main(int argc, char** argv) {
     } else if (arg == "--moving-consistency" && has_value) {
       settings.tracking.moving_consistency_frames = std::atoi(argv[++i]);
     } else if (arg == "--discontinuity-radius" && has_value) {
-      settings.discontinuity_radius_px = std::atoi(argv[++i]);
+      settings.discontinuity.radius_px = std::atoi(argv[++i]);
     } else if (arg == "--discontinuity-jump" && has_value) {
-      settings.discontinuity_jump_px = std::atof(argv[++i]);
+      settings.discontinuity.jump_px = std::atof(argv[++i]);
     } else if (arg == "--vertical-gap-m" && has_value) {
       settings.candidates.grid.vertical_gap_m = std::atof(argv[++i]);
     } else if (arg == "--hole-membrane" && has_value) {
@@ -811,10 +809,10 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("hole_membrane: expected a finite value >= 0, got " + std::to_string(settings.candidates.fit.hole_membrane));
     }
     o3::validate_tracking_parameters(settings.tracking);  // a bad --innovation-gate-chi2, --accel-sigma or --moving-consistency, the same
-    if (settings.discontinuity_radius_px < 0 || settings.discontinuity_radius_px > 32 || !(settings.discontinuity_jump_px > 0) ||
-        !std::isfinite(settings.discontinuity_jump_px)) {
+    if (settings.discontinuity.radius_px < 0 || settings.discontinuity.radius_px > 32 || !(settings.discontinuity.jump_px > 0) ||
+        !std::isfinite(settings.discontinuity.jump_px)) {
       throw std::invalid_argument("--discontinuity-radius/--discontinuity-jump: expected a radius in [0, 32] px and a jump > 0 px, got " +
-                                  std::to_string(settings.discontinuity_radius_px) + " and " + std::to_string(settings.discontinuity_jump_px));
+                                  std::to_string(settings.discontinuity.radius_px) + " and " + std::to_string(settings.discontinuity.jump_px));
     }
     const int image_width = io::preset_stereo_sequence(settings.scenes.front(), static_cast<uint32_t>(settings.first_seed)).base.width;
     if (settings.disparity.num_disparities < 1 || settings.disparity.num_disparities > image_width) {
@@ -852,10 +850,10 @@ int main(int argc, char** argv) {
               settings.candidates.ground_below_view_upper_bounds ? "upper bounds" : "samples", static_cast<long long>(settings.min_pixels),
               settings.all_visible ? "visible" : "measurable (true disparity in the engine's range, match inside the right image)",
               settings.range_m);
-  if (settings.discontinuity_radius_px > 0) {
+  if (settings.discontinuity.radius_px > 0) {
     std::printf("discontinuity filter: radius %d px, jump %.2f px, on the map the points and candidates are made from (the view check reads "
                 "the engine's)\n",
-                settings.discontinuity_radius_px, settings.discontinuity_jump_px);
+                settings.discontinuity.radius_px, settings.discontinuity.jump_px);
   }
   std::printf("voxel tracker: process noise %.2f m/s^2, innovation gate chi-square %.2f (0: off), moving from %.2f m/s with chi-square %.2f "
               "after %d update(s), %d consistent vote(s)\n",

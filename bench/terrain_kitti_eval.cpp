@@ -190,8 +190,7 @@ void evaluate(const Scene& scene) {
   // The discontinuity filter with the settings `lpstereo terrain` applies by default.
   Plane disparity = engine.compute(left, right).clone();
   const arm::DiscontinuityFilter filter;
-  const int64_t edge_px =
-      arm::invalidate_near_side_of_discontinuities(disparity, engine.invalid_disparity_q4(), filter.radius_px, filter.jump_px);
+  const int64_t edge_px = filter.apply(disparity, engine.invalid_disparity_q4());
   const arm::CameraPoints points = arm::triangulate(
       disparity, {geometry.baseline_m, geometry.focal_px, geometry.cx_left_px, geometry.cy_px, parameters.min_disparity,
                   parameters.num_disparities, geometry.cx_right_px - geometry.cx_left_px});

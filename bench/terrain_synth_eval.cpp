@@ -94,8 +94,7 @@ struct Settings {
   std::string only_scene;         // --scene SPEC: only the scene kind of that ground spec ("hills", "ditch+berm", ...)
   // --discontinuity-radius, --discontinuity-jump: arm::invalidate_near_side_of_discontinuities on the
   // disparity before triangulation (radius 0: off).
-  int discontinuity_radius_px = arm::DiscontinuityFilter{}.radius_px;
-  double discontinuity_jump_px = arm::DiscontinuityFilter{}.jump_px;
+  arm::DiscontinuityFilter discontinuity;
   // --disparity-margin: terrain::StereoRayModel (0: the plain classify_points); --support-reach: its
   // support_reach_cells (-1: off). 1 px with support in the point's own cell: see docs/terrain.md.
   double disparity_margin_px = 1.0;
@@ -189,10 +188,7 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
   const Plane left = io::mat_to_plane(scene.left, BufferFormat{ElementType::u8});
   const Plane right = io::mat_to_plane(scene.right, BufferFormat{ElementType::u8});
   Plane disparity = engine.compute(left, right).clone();
-  if (settings.discontinuity_radius_px > 0) {
-    result.discontinuity_invalidated = arm::invalidate_near_side_of_discontinuities(disparity, engine.invalid_disparity_q4(),
-                                                                                    settings.discontinuity_radius_px, settings.discontinuity_jump_px);
-  }
+  result.discontinuity_invalidated = settings.discontinuity.apply(disparity, engine.invalid_disparity_q4());
   const double cx = (width - 1) / 2.0, cy = (height - 1) / 2.0;
   const arm::TriangulationParameters triangulation{options.baseline_m, scene.focal_px, cx, cy, 0, disparity_parameters.num_disparities, 0};
   const arm::CameraPoints points = arm::triangulate(disparity, triangulation);
@@ -570,8 +566,8 @@ int main(int argc, char** argv) {
     else if (a == "--uniqueness-percent") settings.uniqueness_percent = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--census") settings.census_width = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--exact-points") settings.exact_points = true;
-    else if (a == "--discontinuity-radius") settings.discontinuity_radius_px = static_cast<int>(number_argument(i, argc, argv));
-    else if (a == "--discontinuity-jump") settings.discontinuity_jump_px = number_argument(i, argc, argv);
+    else if (a == "--discontinuity-radius") settings.discontinuity.radius_px = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--discontinuity-jump") settings.discontinuity.jump_px = number_argument(i, argc, argv);
     else if (a == "--disparity-margin") settings.disparity_margin_px = number_argument(i, argc, argv);
     else if (a == "--support-reach") settings.support_reach_cells = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--equalisation-step-m") settings.fit.equalisation_step_m = number_argument(i, argc, argv);

@@ -113,12 +113,12 @@ TerrainCommand::TerrainCommand(CLI::App& app) {
   command_->add_option("--obstacle-height-m", obstacle_height_m_, "points more than this above the surface are obstacles, m")
       ->capture_default_str()
       ->check(CLI::Range(0.01, 10.0));
-  command_->add_option("--discontinuity-radius", discontinuity_radius_px_,
+  command_->add_option("--discontinuity-radius", discontinuity_filter_.radius_px,
                        "drop the near side of every disparity jump, this many px wide: the fattened object edges a window "
                        "matcher gives, whose points stand in the air beside the object (0 = off)")
       ->capture_default_str()
       ->check(CLI::Range(0, 32));
-  command_->add_option("--discontinuity-jump", discontinuity_jump_px_, "the jump the discontinuity filter acts on, px")
+  command_->add_option("--discontinuity-jump", discontinuity_filter_.jump_px, "the jump the discontinuity filter acts on, px")
       ->capture_default_str()
       ->check(CLI::Range(0.1, 256.0));
   command_->add_option("--map", map_path_, "also write a top view of the cost grid (PNG)");
@@ -170,10 +170,7 @@ int TerrainCommand::run() const {
   const auto started = std::chrono::steady_clock::now();
   Plane disparity = engine.compute(left, pair.right).clone();  // filtered in place below, not the engine's buffer
   // The fattened object edges out before any point is made (arm/terrain_points.h).
-  const int64_t discontinuity_invalidated_px =
-      discontinuity_radius_px_ > 0 ? arm::invalidate_near_side_of_discontinuities(disparity, engine.invalid_disparity_q4(),
-                                                                                 discontinuity_radius_px_, discontinuity_jump_px_)
-                                   : 0;
+  const int64_t discontinuity_invalidated_px = discontinuity_filter_.apply(disparity, engine.invalid_disparity_q4());
   const arm::TriangulationParameters triangulation =
       triangulation_parameters(geometry, disparity_parameters.min_disparity, disparity_parameters.num_disparities);
   const arm::CameraPoints points = arm::triangulate(disparity, triangulation);
@@ -345,7 +342,7 @@ int TerrainCommand::run() const {
   json["obstacle_points_camera_m"] = obstacle_points;
   json["point_counts"] = {{"terrain", counts[1]}, {"obstacle", counts[2]}, {"outside", counts[0]}};
   json["discontinuity_filter"] = {
-      {"radius_px", discontinuity_radius_px_}, {"jump_px", discontinuity_jump_px_}, {"invalidated_px", discontinuity_invalidated_px}};
+      {"radius_px", discontinuity_filter_.radius_px}, {"jump_px", discontinuity_filter_.jump_px}, {"invalidated_px", discontinuity_invalidated_px}};
   write_file_atomically(output_, json.dump(1) + "\n");
 
   // Pictures.

@@ -78,8 +78,7 @@ class TerrainCommand {
   int degree_ = 3;
   double camera_height_m_ = 0, pitch_deg_ = 0, roll_deg_ = 0;
   double obstacle_height_m_ = 0.2;
-  int discontinuity_radius_px_ = arm::DiscontinuityFilter{}.radius_px;
-  double discontinuity_jump_px_ = arm::DiscontinuityFilter{}.jump_px;
+  arm::DiscontinuityFilter discontinuity_filter_;
   std::string map_path_, points_path_, overlay_path_;
   DisparityEngineOptions engine_options_;
   int threads_ = 0;
