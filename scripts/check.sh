@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it (.ci/run calls this): installs the Debian packages, then
 #   1. release build, every test (with the real-driver tests in a VM: vivid, vimc; their logs printed);
-#   2. debug-asan build (AddressSanitizer + UndefinedBehaviorSanitizer), every test;
+#   2. debug-asan build (AddressSanitizer + UndefinedBehaviorSanitizer), every test; its debug
+#      sections are compressed (-gz, CMakePresets.json): every test program links every kernel, and
+#      the uncompressed build filled a CI machine's disk at the link step (stop 31's run);
 #   3. the release tests that exercise every kernel, run on an emulated CPU without AVX-512
 #      (qemu-x86_64 -cpu Haswell): the binary built here must run there, dispatching to AVX2;
 #   4. aarch64 cross-build (NEON), every test through qemu-aarch64;
