@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it (.ci/run calls this): installs the Debian packages, then
 #   1. release build, every test (with the real-driver tests in a VM: vivid, vimc; their logs printed);
-#   2. debug-asan build (AddressSanitizer + UndefinedBehaviorSanitizer), every test; its debug
-#      sections are compressed (-gz, CMakePresets.json): every test program links every kernel, and
-#      the uncompressed build filled a CI machine's disk at the link step (stop 31's run);
+#   2. debug-asan build (AddressSanitizer + UndefinedBehaviorSanitizer), every test. Its libraries
+#      are shared objects and it compiles at -O1 (CMakePresets.json): linked statically, every test
+#      program carried every kernel (100-230 MB each; stop 31's CI ran out of disk), and at -O0 the
+#      keyframe localizer test alone ran 960 s (stop 32's CI ran out of time; 66 s at -O1). Measured on
+#      the cold 2-core machine: build 52 min, 1.6 GB; ctest 690 s, the slowest test 110 s;
 #   3. the release tests that exercise every kernel, run on an emulated CPU without AVX-512
 #      (qemu-x86_64 -cpu Haswell): the binary built here must run there, dispatching to AVX2;
 #   4. aarch64 cross-build (NEON), every test through qemu-aarch64;
