@@ -34,7 +34,8 @@
 // --fp-bands prints, per scene, where the false obstacle points on ground pixels are (5 m bands: their
 // own height error, the surface's, how many lie within 2 m of the berm line y = 7 m) and why (nearest
 // object pixel, disparity error) and the missed obstacle points (FN: the exact point's height above the
-// ground, the disparity error, the nearest pixel that is not an obstacle pixel).
+// ground, the disparity error, the nearest pixel that is not an obstacle pixel; per 5 m band, the
+// surface's mean error under them and how many the height test against the true ground would find).
 // The mount is checked first on the exact ground truth: its ground pixels, through the same
 // triangulation formula and CameraToVehicle, must lie on SynthGroundTruth (max error: "mount").
 // Diagnostics beside the two lines, to tell the stereo's share from the fit's: "bias" (mean signed
@@ -53,7 +54,7 @@
 //        [--control N] [--initial-control N] [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A]
 //        [--threshold-factor F] [--alpha-step A] [--maximum-weight W] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
 //        [--noise-quantile Q] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--disparity-margin M] [--exact-points]
-//        [--support-reach N] [--equalisation-step-m S] [--step-reach N] [--patch-max-cells N] [--fp-bands] [--error-map]
+//        [--support-reach N] [--equalisation-step-m S] [--step-reach N] [--patch-max-cells N] [--obstacle-refit-m H] [--fp-bands] [--error-map]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 // The disparity range is 80 at 640 px wide and scales with the width (160 at 1280).
 // Exit 0 when every scene meets both lines, 1 otherwise.
@@ -111,7 +112,8 @@ struct Settings {
   int uniqueness_percent = arm::DisparityParameters{}.uniqueness_percent;
   // The fit's defaults but the step rule on (0.45 m within 4 cells; --equalisation-step-m 0 for the
   // thesis's equalisation everywhere) with its patch limit of 16 cells (--patch-max-cells 0: none):
-  // docs/terrain.md has the figures with and without.
+  // docs/terrain.md has the figures with and without. The obstacle refit stays off (the fit's
+  // default; --obstacle-refit-m 0.45 is the measured setting).
   terrain::TerrainFitParameters fit = [] {
     terrain::TerrainFitParameters parameters;
     parameters.equalisation_step_m = 0.45;
@@ -424,6 +426,10 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
   int64_t fp_count[7] = {}, fp_berm[7] = {}, fp_near[4] = {}, fp_disparity[4] = {};
   double fp_point_error[7] = {}, fp_surface_error[7] = {};
   int64_t fn_height[3] = {}, fn_disparity[4] = {}, fn_near[4] = {};
+  // Missed obstacle points per 5 m band: how many, the surface's mean error under them, and how many
+  // the same height test against the true ground would have found (the surface's share of the misses).
+  int64_t fn_count[7] = {}, fn_found_by_truth[7] = {};
+  double fn_surface_error[7] = {};
   // The pixel truth: a pixel is an obstacle pixel when it shows an object whose exact point is more
   // than 20 cm above the true ground.
   std::vector<uint8_t> pixel_obstacle(static_cast<size_t>(width) * height, 0);
@@ -483,6 +489,11 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
         }
       }
       fn_near[nearest <= 3 ? 0 : nearest <= 6 ? 1 : nearest <= 12 ? 2 : 3] += 1;
+      const Eigen::Vector3d& q = measured[k];
+      const int band = std::clamp(static_cast<int>(q.x() / 5), 0, 6);
+      fn_count[band] += 1;
+      fn_surface_error[band] += estimate.surface.height_m(q.x(), q.y()) - ground_height(q);
+      fn_found_by_truth[band] += q.z() - ground_height(q) > 0.2 ? 1 : 0;
     }
     if (settings.false_positive_bands && !obstacle && found && scene.object_ids.at<uint16_t>(v, u) == 0) {
       // Why a ground point is taken for an obstacle: its own height error (point above the true
@@ -515,6 +526,11 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
     std::printf("    FP ground: object within 3 px %lld, 4-6 px %lld, 7-12 px %lld, further %lld; disparity error < 0.5 px %lld, 0.5-1 %lld, 1-2 %lld, >= 2 %lld\n",
                 (long long)fp_near[0], (long long)fp_near[1], (long long)fp_near[2], (long long)fp_near[3], (long long)fp_disparity[0],
                 (long long)fp_disparity[1], (long long)fp_disparity[2], (long long)fp_disparity[3]);
+    for (int band = 0; band < 7; ++band) {
+      if (fn_count[band] == 0) continue;
+      std::printf("    FN %2d-%2d m: %6lld points, mean surface error %+6.1f cm, above 20 cm over the true ground %lld\n", band * 5, band * 5 + 5,
+                  (long long)fn_count[band], 100.0 * fn_surface_error[band] / double(fn_count[band]), (long long)fn_found_by_truth[band]);
+    }
     for (int band = 0; band < 7; ++band) {
       if (fp_count[band] == 0) continue;
       std::printf("    FP ground %2d-%2d m: %6lld points, mean point error %+6.1f cm, mean surface error %+6.1f cm, within 2 m of y = 7 m %lld\n",
@@ -572,6 +588,7 @@ int main(int argc, char** argv) {
     else if (a == "--support-reach") settings.support_reach_cells = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--equalisation-step-m") settings.fit.equalisation_step_m = number_argument(i, argc, argv);
     else if (a == "--patch-max-cells") settings.fit.equalisation_patch_max_cells = static_cast<int>(number_argument(i, argc, argv));
+    else if (a == "--obstacle-refit-m") settings.fit.obstacle_refit_height_m = number_argument(i, argc, argv);
     else if (a == "--step-reach") settings.fit.equalisation_step_reach_cells = static_cast<int>(number_argument(i, argc, argv));
     else if (a == "--thesis-cell-rule") settings.grid.cell_rule = terrain::TerrainGridSpec::CellRule::thesis;
     else if (a == "--noise-quantile") settings.grid.noise_floor_quantile = number_argument(i, argc, argv);
@@ -603,13 +620,13 @@ int main(int argc, char** argv) {
   const terrain::TerrainFitParameters& f = settings.fit;
   std::printf("terrain_synth_eval: %dx%d, hfov 60 deg, baseline 0.30 m, camera 1.5 m, pitch 0.06 rad, noise %.1f, 4 rays/px; "
               "area %.0fx%.0f m, cell %.2f m; fit: degree %dx%d, control %dx%d (from %dx%d), %d iterations, threshold factor %.2f, "
-              "alpha %.2f + %.2f/iteration, maximum weight %g, regularisation %.1e, hole membrane %.2f, equalisation tolerance %.3f m and %.1f th, step rule %.2f m within %d cells, patch limit %d cells; obstacle threshold 0.20 m, "
+              "alpha %.2f + %.2f/iteration, maximum weight %g, regularisation %.1e, hole membrane %.2f, equalisation tolerance %.3f m and %.1f th, step rule %.2f m within %d cells, patch limit %d cells, obstacle refit %.2f m; obstacle threshold 0.20 m, "
               "disparity margin %.2f px, support %d cells; occlusion upper bounds %s (%d rows, jump %.2f px, tolerance %.2f m)\n",
               settings.width, settings.height, settings.noise_sigma, settings.grid.forward_max_m - settings.grid.forward_min_m,
               settings.grid.lateral_max_m - settings.grid.lateral_min_m, settings.grid.cell_m, f.degree_forward, f.degree_lateral,
               f.control_forward, f.control_lateral, f.initial_control_forward, f.initial_control_lateral, f.max_iterations,
               f.threshold_factor, f.alpha_initial, f.alpha_step, f.maximum_weight, f.regularisation, f.hole_membrane, f.equalisation_tolerance_m, f.equalisation_threshold_factor,
-              f.equalisation_step_m, f.equalisation_step_reach_cells, f.equalisation_patch_max_cells, settings.disparity_margin_px, settings.support_reach_cells,
+              f.equalisation_step_m, f.equalisation_step_reach_cells, f.equalisation_patch_max_cells, f.obstacle_refit_height_m, settings.disparity_margin_px, settings.support_reach_cells,
               settings.grid.occlusion_upper_bounds ? "on" : "off", settings.occluder.rows_below_px, settings.occluder.jump_px,
               f.upper_bound_tolerance_m);
   std::printf("%-26s %4s %10s %10s %9s %9s %11s %10s %7s %7s %9s %9s %8s %7s %9s %8s %8s %8s %9s %6s %8s %8s %6s\n", "scene", "seed", "rms<=20m", "rms<=34m", "bias<=20m",

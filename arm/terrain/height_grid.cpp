@@ -89,7 +89,7 @@
 //
 // Counted work (ArmWork), with P accepted points, R rejected points, C = m0 m1 cells:
 //   scalar_ops   = 10 per add_point call (finite checks, two subtract-multiply-floor, range compares)
-//                  + 6 per accepted point (count, two sums with a multiply, a min compare)
+//                  + 7 per accepted point (count, two sums with a multiply, a min and a max compare)
 //                  + 2 per add_to_cell call (range compares), accepted or not
 //                  + 12 C in finish() (eq. 3.2: two divides, a square root, a max; or the 8-neighbour
 //                  mean of an empty cell)
@@ -100,9 +100,9 @@
 //                  + with the vertical-gap rule: 2 per accepted point (its cell and height stored),
 //                  3 P for the counting sort by cell, and per measured cell with n points
 //                  n ceil(log2 n) compares for its sort and n for the scan (summed over the cells)
-//   memory_bytes = 12 P (the point read from a DRAM buffer, three floats on the chip) + 28 C (the
-//                  accumulator cells, 4 + 3 x 8 bytes, read once by finish; they stay in the cache
-//                  while binning: 68 x 44 cells are 84 KiB) + 8 C (the heights written)
+//   memory_bytes = 12 P (the point read from a DRAM buffer, three floats on the chip) + 36 C (the
+//                  accumulator cells, 4 + 4 x 8 bytes, read once by finish; they stay in the cache
+//                  while binning: 68 x 44 cells are 105 KiB) + 16 C (the heights and the highest points written)
 //                  + with the vertical-gap rule 16 P (cell index and height written, then read back
 //                  by the counting sort, 4 + 4 bytes each way)
 //                  + with occlusion_upper_bounds P (the point's flag byte) + 8 C (the lowest point's
@@ -208,6 +208,7 @@ HeightGridAccumulator::HeightGridAccumulator(const TerrainGridSpec& spec) : spec
   sum_z_ = Eigen::MatrixXd::Zero(m0, m1);
   sum_z2_ = Eigen::MatrixXd::Zero(m0, m1);
   min_z_ = Eigen::MatrixXd::Constant(m0, m1, std::numeric_limits<double>::infinity());
+  max_z_ = Eigen::MatrixXd::Constant(m0, m1, -std::numeric_limits<double>::infinity());
   if (spec_.occlusion_upper_bounds) lowest_over_occluder_ = Eigen::MatrixXi::Zero(m0, m1);
 }
 
@@ -239,6 +240,7 @@ void HeightGridAccumulator::accumulate(int forward_cell, int lateral_cell, doubl
   count_(forward_cell, lateral_cell) += 1;
   sum_z_(forward_cell, lateral_cell) += z_m;
   sum_z2_(forward_cell, lateral_cell) += z_m * z_m;
+  max_z_(forward_cell, lateral_cell) = std::max(max_z_(forward_cell, lateral_cell), z_m);
   double& lowest = min_z_(forward_cell, lateral_cell);
   if (z_m < lowest) {
     lowest = z_m;
@@ -271,6 +273,7 @@ HeightGrid HeightGridAccumulator::finish() const {
   grid.spec = spec_;
   grid.height_m = Eigen::MatrixXd::Constant(m0, m1, std::numeric_limits<double>::quiet_NaN());
   grid.point_count = count_;
+  grid.max_height_m = (count_.array() > 0).select(max_z_, std::numeric_limits<double>::quiet_NaN());
   grid.state = Eigen::MatrixXi::Constant(m0, m1, kCellInvalid);
   // The statistics the cell rule reads: the accumulated ones, or with the vertical-gap rule, in
   // the cells cut at a gap, those of the points below the cut.
@@ -381,9 +384,9 @@ ArmWork HeightGridAccumulator::work() const {
   const uint64_t cells = static_cast<uint64_t>(count_.size());
   ArmWork work;
   const uint64_t per_cell = spec_.cell_rule == TerrainGridSpec::CellRule::noise_floor ? 12 + 8 : 12;
-  work.scalar_ops = 10 * static_cast<uint64_t>(add_point_calls_) + 6 * static_cast<uint64_t>(accepted_) +
+  work.scalar_ops = 10 * static_cast<uint64_t>(add_point_calls_) + 7 * static_cast<uint64_t>(accepted_) +
                     2 * static_cast<uint64_t>(add_to_cell_calls_) + per_cell * cells;
-  work.memory_bytes = 12 * static_cast<uint64_t>(accepted_) + (28 + 8) * cells;
+  work.memory_bytes = 12 * static_cast<uint64_t>(accepted_) + (36 + 16) * cells;
   if (spec_.occlusion_upper_bounds) {
     work.scalar_ops += 2 * static_cast<uint64_t>(accepted_) + 2 * cells;
     work.memory_bytes += static_cast<uint64_t>(accepted_) + 8 * cells;

@@ -102,6 +102,14 @@ TEST(HeightGridAccumulator, CellRuleAndNeighbourFill) {
   EXPECT_TRUE(std::isnan(grid.height_m(3, 0)));
   // Filled cells: (1,0), (1,1), (1,2), (0,2) around the first two; (4,2), (4,3), (5,2) around (5,3).
   EXPECT_EQ(grid.valid_cells(), 3 + 4 + 3);
+  // The highest point of each measured cell, whatever the cell rule made of it; NaN without points.
+  EXPECT_EQ(grid.max_height_m(0, 0), 10.0);
+  EXPECT_EQ(grid.max_height_m(0, 1), 1.4);
+  EXPECT_EQ(grid.max_height_m(5, 3), 2.0);
+  EXPECT_TRUE(std::isnan(grid.max_height_m(1, 0)));  // filled
+  EXPECT_TRUE(std::isnan(grid.max_height_m(3, 0)));  // invalid
+  EXPECT_EQ(grid.max_height_m.rows(), 6);
+  EXPECT_EQ(grid.max_height_m.cols(), 4);
 }
 
 // The noise-floor rule on one forward row (row 2 of small_spec, 4 cells), stereo-like noise +-s
@@ -177,15 +185,15 @@ TEST(HeightGridAccumulator, WorkFollowsTheDocumentedModel) {
   for (int k = 0; k < 10; ++k) accumulator.add_point(Eigen::Vector3d(0.2 * k, 0, 1));  // 0 .. 1.8: all inside
   accumulator.add_point(Eigen::Vector3d(9, 0, 1));                                    // rejected
   for (int k = 0; k < 3; ++k) accumulator.add_to_cell(1, 1, 0.5);
-  // 10 per add_point call, 6 per accepted point, 2 per add_to_cell call, 12 + 8 per cell (24 cells)
-  // with the noise-floor rule, 12 with eq. 3.2.
-  EXPECT_EQ(accumulator.work().scalar_ops, 10u * 11 + 6u * 13 + 2u * 3 + 20u * 24);
-  EXPECT_EQ(accumulator.work().memory_bytes, 12u * 13 + 36u * 24);
+  // 10 per add_point call, 7 per accepted point, 2 per add_to_cell call, 12 + 8 per cell (24 cells)
+  // with the noise-floor rule, 12 with eq. 3.2; 12 bytes per point, 36 + 16 per cell.
+  EXPECT_EQ(accumulator.work().scalar_ops, 10u * 11 + 7u * 13 + 2u * 3 + 20u * 24);
+  EXPECT_EQ(accumulator.work().memory_bytes, 12u * 13 + 52u * 24);
   TerrainGridSpec thesis_spec = small_spec();
   thesis_spec.cell_rule = TerrainGridSpec::CellRule::thesis;
   HeightGridAccumulator thesis(thesis_spec);
   thesis.add_to_cell(1, 1, 0.5);
-  EXPECT_EQ(thesis.work().scalar_ops, 6u + 2u + 12u * 24);
+  EXPECT_EQ(thesis.work().scalar_ops, 7u + 2u + 12u * 24);
 }
 
 // The vertical-gap rule (TerrainGridSpec::vertical_gap_m), eq. 3.2 for hand-computed cells. Cell
@@ -277,8 +285,8 @@ TEST(HeightGridAccumulator, VerticalGapRuleWorkFollowsTheDocumentedModel) {
   for (int k = 0; k < 3; ++k) accumulator.add_to_cell(2, 0, 0.0);
   // eq. 3.2's 2 per add_to_cell call, 6 per accepted point, 12 per cell (24 cells); the rule's
   // (2 + 3) per point and n ceil(log2 n) + n per cell: 5 x 3 + 5 = 20 and 3 x 2 + 3 = 9.
-  EXPECT_EQ(accumulator.work().scalar_ops, 2u * 8 + 6u * 8 + 12u * 24 + 5u * 8 + 20u + 9u);
-  EXPECT_EQ(accumulator.work().memory_bytes, 12u * 8 + 36u * 24 + 16u * 8);
+  EXPECT_EQ(accumulator.work().scalar_ops, 2u * 8 + 7u * 8 + 12u * 24 + 5u * 8 + 20u + 9u);
+  EXPECT_EQ(accumulator.work().memory_bytes, 12u * 8 + 52u * 24 + 16u * 8);
 }
 
 }  // namespace

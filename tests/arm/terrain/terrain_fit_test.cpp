@@ -1,6 +1,7 @@
 // The iterative re-weighted fit (arm/terrain/terrain_fit.cpp): exact fits of a plane and a quadratic,
 // equalisation never raising a sample, a box on flat ground kept out of the surface while a plain
-// least-squares fit is pulled up, every unknown-terrain case, and parameters out of range.
+// least-squares fit is pulled up, every unknown-terrain case, parameters out of range, the step rule,
+// its patch limit and the obstacle refit.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -398,6 +399,8 @@ TEST(TerrainFit, ParametersOutOfRangeThrowNamingTheParameter) {
       {"equalisation_step_m", [](TerrainFitParameters& p) { p.equalisation_step_m = -0.1; }},
       {"equalisation_step_reach_cells", [](TerrainFitParameters& p) { p.equalisation_step_reach_cells = -1; }},
       {"equalisation_patch_max_cells", [](TerrainFitParameters& p) { p.equalisation_patch_max_cells = -1; }},
+      {"obstacle_refit_height_m", [](TerrainFitParameters& p) { p.obstacle_refit_height_m = -0.1; }},
+      {"obstacle_refit_height_m", [](TerrainFitParameters& p) { p.obstacle_refit_height_m = std::numeric_limits<double>::infinity(); }},
   };
   for (const auto& bad : cases) {
     TerrainFitParameters parameters = base;
@@ -408,6 +411,15 @@ TEST(TerrainFit, ParametersOutOfRangeThrowNamingTheParameter) {
   HeightGrid grid = grid_of(spec_of(10, 10, 0.5), [](double, double) { return 0.0; });
   grid.spec.cell_m = 0.25;
   EXPECT_THROW(fit_terrain(grid, base), std::invalid_argument);
+  // Highest points that do not match the grid's cells.
+  HeightGrid highest = grid_of(spec_of(10, 10, 0.5), [](double, double) { return 0.0; });
+  highest.max_height_m = Eigen::MatrixXd::Zero(3, 3);
+  try {
+    fit_terrain(highest, base);
+    ADD_FAILURE() << "grid.max_height_m: no throw";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()).rfind("grid.max_height_m: expected 20x20", 0), 0u) << error.what();
+  }
 }
 
 // The step rule (equalisation_step_m > 0, terrain_fit.cpp): a sample more than equalisation_step_m
@@ -577,6 +589,120 @@ TEST(TerrainFit, PatchLimitKeepsALongLowRidgeAndCutsAnIsolatedBump) {
   // per iteration; everything else is the same run.
   const int candidates = static_cast<int>((label.array() >= 0).count());
   EXPECT_EQ(limited.work.scalar_ops, unlimited.work.scalar_ops + static_cast<uint64_t>(4 * m0 * m1 + 10 * candidates));
+}
+
+// The obstacle refit (obstacle_refit_height_m, terrain_fit.cpp). A car-sized obstacle on flat ground,
+// 0.25 m cells over 22 m x 22 m: its 8 x 18 cells' samples stand 0.3 m up (what the cell rule gives
+// for the lower part of a car over a cell it fills), its points reach 1.5 m (max_height_m). With the
+// step rule and its patch limit of 16 cells (bench/terrain_synth_eval's setting) the 144-cell patch
+// under the 0.45 m step is left to the re-weighting and the single fit stays lifted under it; the
+// refit leaves the 144 cells out (their highest points stand 1.5 m above the first surface, the
+// ground's 0.02 m do not) and bridges them from the ground around.
+HeightGrid car_grid(bool record_highest_points, double sample_height_m = 0.3) {
+  const TerrainGridSpec spec = spec_of(22, 22, 0.25);
+  const auto on_car = [](double x, double y) { return std::abs(x - 11.0) < 2.25 && std::abs(y) < 1.0; };
+  HeightGrid grid = grid_of(spec, [&](double x, double y) { return on_car(x, y) ? sample_height_m : 0.0; });
+  if (record_highest_points) {
+    grid.max_height_m = Eigen::MatrixXd::Constant(grid.height_m.rows(), grid.height_m.cols(), 0.02);
+    for (int i = 0; i < spec.forward_cells(); ++i)
+      for (int j = 0; j < spec.lateral_cells(); ++j)
+        if (on_car(spec.cell_centre_x_m(i), spec.cell_centre_y_m(j))) grid.max_height_m(i, j) = 1.5;
+  }
+  return grid;
+}
+
+TerrainFitParameters refit_parameters(double refit_height_m) {
+  TerrainFitParameters parameters;
+  parameters.equalisation_step_m = 0.45;
+  parameters.equalisation_patch_max_cells = 16;
+  parameters.obstacle_refit_height_m = refit_height_m;
+  return parameters;
+}
+
+TEST(TerrainFit, ObstacleRefitBridgesALargeObstaclesFootprint) {
+  const HeightGrid grid = car_grid(true);
+  const TerrainEstimate single = fit_terrain(grid, refit_parameters(0.0));
+  const TerrainEstimate refit = fit_terrain(grid, refit_parameters(0.45));
+  ASSERT_TRUE(single.known) << single.reason;
+  ASSERT_TRUE(refit.known) << refit.reason;
+  // The failure the refit removes (this could fail): the single fit stands well up under the car.
+  EXPECT_GT(single.surface.height_m(11.0, 0.0), 0.1);
+  EXPECT_EQ(single.obstacle_refit_left_out_cells, 0);
+  EXPECT_EQ(refit.obstacle_refit_left_out_cells, 8 * 18);
+  // The refit's surface is the ground everywhere, under the car too.
+  EXPECT_LT(max_abs_surface(refit), 0.01);
+  // The left-out cells keep their samples (for the occupancy), unequalised, with weight 0.
+  const TerrainGridSpec& spec = grid.spec;
+  int car_cells = 0;
+  for (int i = 0; i < spec.forward_cells(); ++i) {
+    for (int j = 0; j < spec.lateral_cells(); ++j) {
+      EXPECT_EQ(refit.grid.state(i, j), kCellMeasured);
+      if (grid.max_height_m(i, j) < 1) continue;
+      ++car_cells;
+      EXPECT_EQ(refit.grid.height_m(i, j), 0.3);
+      EXPECT_EQ(refit.weights(i, j), 0.0);
+    }
+  }
+  EXPECT_EQ(car_cells, 8 * 18);
+  EXPECT_GT(refit.iterations, single.iterations);
+}
+
+// The refit's answer is the fit of the grid without the left-out cells, and its work is the first
+// fit's, the test's (the surface at every cell, 3 per cell) and the second fit's.
+TEST(TerrainFit, ObstacleRefitIsTheFitWithoutTheLeftOutCells) {
+  const HeightGrid grid = car_grid(true);
+  const TerrainEstimate single = fit_terrain(grid, refit_parameters(0.0));
+  HeightGrid reduced = grid;
+  for (int i = 0; i < grid.height_m.rows(); ++i) {
+    for (int j = 0; j < grid.height_m.cols(); ++j) {
+      if (grid.max_height_m(i, j) < 1) continue;
+      reduced.state(i, j) = kCellInvalid;
+      reduced.height_m(i, j) = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+  const TerrainEstimate second = fit_terrain(reduced, refit_parameters(0.0));
+  const TerrainEstimate refit = fit_terrain(grid, refit_parameters(0.45));
+  ASSERT_TRUE(single.known && second.known && refit.known);
+  EXPECT_EQ(refit.surface.control_z_m, second.surface.control_z_m);
+  EXPECT_EQ(refit.iterations, single.iterations + second.iterations);
+  const int m0 = static_cast<int>(grid.height_m.rows()), m1 = static_cast<int>(grid.height_m.cols());
+  const int n1 = refit.surface.control_z_m.cols();
+  const uint64_t test_ops = static_cast<uint64_t>(2 * m0 * 4 * n1 + 2 * m0 * m1 * 4 + 3 * m0 * m1);
+  EXPECT_EQ(refit.work.scalar_ops, single.work.scalar_ops + test_ops + second.work.scalar_ops);
+  EXPECT_EQ(refit.work.memory_bytes, single.work.memory_bytes + second.work.memory_bytes);
+}
+
+// Without highest points the refit reads the cells' own heights: the car's 0.3 m samples, which the
+// single fit follows, stand 0.45 m above nothing, so nothing is left out and the answer is the single
+// fit's; samples 1.5 m up (the car's full height in its cells) are equalised by the step rule (every
+// cell is within its reach of the car's side), stand above the first surface and are left out.
+TEST(TerrainFit, ObstacleRefitReadsTheCellHeightsWithoutHighestPoints) {
+  const HeightGrid grid = car_grid(false);
+  const TerrainEstimate single = fit_terrain(grid, refit_parameters(0.0));
+  const TerrainEstimate high = fit_terrain(grid, refit_parameters(0.45));
+  ASSERT_TRUE(single.known && high.known);
+  EXPECT_EQ(high.obstacle_refit_left_out_cells, 0);
+  EXPECT_EQ(high.surface.control_z_m, single.surface.control_z_m);
+  const TerrainEstimate tall = fit_terrain(car_grid(false, 1.5), refit_parameters(0.45));
+  ASSERT_TRUE(tall.known) << tall.reason;
+  EXPECT_EQ(tall.obstacle_refit_left_out_cells, 8 * 18);
+  EXPECT_LT(max_abs_surface(tall), 0.01);
+}
+
+// A refit that leaves fewer than min_valid_cells cells gives unknown terrain, saying why: an obstacle
+// filling the view (every cell's highest point 2 m up but 10 cells' at the ground) is no ground to fit.
+TEST(TerrainFit, ObstacleRefitLeavingTooFewCellsGivesUnknownTerrain) {
+  HeightGrid grid = grid_of(spec_of(10, 10, 0.5), [](double, double) { return 0.0; });
+  grid.max_height_m = Eigen::MatrixXd::Constant(20, 20, 2.0);
+  for (int j = 0; j < 10; ++j) grid.max_height_m(3 + j % 2, j) = 0.0;
+  TerrainFitParameters parameters = small_parameters(3, 10);
+  parameters.obstacle_refit_height_m = 0.45;
+  const TerrainEstimate estimate = fit_terrain(grid, parameters);
+  EXPECT_FALSE(estimate.known);
+  EXPECT_EQ(estimate.obstacle_refit_left_out_cells, 390);
+  EXPECT_EQ(estimate.reason.rfind("terrain unknown: with the 390 cells standing more than 0.45 m above the first surface left out, 10 valid cells", 0), 0u)
+      << estimate.reason;
+  EXPECT_EQ(estimate.surface.control_z_m.size(), 0);
 }
 
 }  // namespace
