@@ -74,7 +74,7 @@
 // Usage: obstacles3d_eval [--frames N] [--seeds N] [--scenes urban,country,mining,floating]
 //        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
 //        [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--all-visible] [--count-low] [--score-hidden-edges] [--vertical-gap-m G]
-//        [--hole-membrane H]
+//        [--hole-membrane H] [--obstacle-refit-m H]
 //        [--innovation-gate-chi2 X] [--accel-sigma A] [--moving-consistency N]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 //        [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] [--ground-below-view upper-bounds|samples]
@@ -92,7 +92,8 @@
 // telling a terrain lift under a hanging object from the stixels' own error; --vertical-gap-m: the
 // terrain's 2.5D sampling leaves out of a cell the points above a vertical gap wider than G, default
 // the TerrainGridSpec's (off), arm/terrain/height_grid.cpp; --hole-membrane: the candidates' terrain
-// fit's membrane over holes (TerrainFitParameters::hole_membrane); --occlusion-upper-bounds: the
+// fit's membrane over holes (TerrainFitParameters::hole_membrane); --obstacle-refit-m: its obstacle
+// refit (TerrainFitParameters::obstacle_refit_height_m, default off); --occlusion-upper-bounds: the
 // occlusion-aware sampling of the candidates' terrain (grid.occlusion_upper_bounds, default the
 // CandidateParameters'), --occluder-rows / --occluder-jump its image test (arm::OccluderTest),
 // --upper-bound-tolerance-m the fit's one-sided tolerance; --far-side-rows / --far-side-columns /
@@ -754,6 +755,8 @@ int main(int argc, char** argv) {
       settings.candidates.grid.vertical_gap_m = std::atof(argv[++i]);
     } else if (arg == "--hole-membrane" && has_value) {
       settings.candidates.fit.hole_membrane = std::atof(argv[++i]);
+    } else if (arg == "--obstacle-refit-m" && has_value) {
+      settings.candidates.fit.obstacle_refit_height_m = std::atof(argv[++i]);
     } else if (arg == "--occlusion-upper-bounds" && has_value && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off")) {
       settings.candidates.grid.occlusion_upper_bounds = std::string(argv[++i]) == "on";
     } else if (arg == "--ground-below-view" && has_value && (std::string(argv[i + 1]) == "upper-bounds" || std::string(argv[i + 1]) == "samples")) {
@@ -780,7 +783,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
-                   "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--hole-membrane H] [--innovation-gate-chi2 X] [--accel-sigma A] "
+                   "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--hole-membrane H] [--obstacle-refit-m H] [--innovation-gate-chi2 X] [--accel-sigma A] "
                    "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
                    "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] "
                    "[--ground-below-view upper-bounds|samples] [--num-disparities N] [--multires-far F]\n",
@@ -807,6 +810,10 @@ int main(int argc, char** argv) {
     }
     if (!(settings.candidates.fit.hole_membrane >= 0) || !std::isfinite(settings.candidates.fit.hole_membrane)) {
       throw std::invalid_argument("hole_membrane: expected a finite value >= 0, got " + std::to_string(settings.candidates.fit.hole_membrane));
+    }
+    if (!(settings.candidates.fit.obstacle_refit_height_m >= 0) || !std::isfinite(settings.candidates.fit.obstacle_refit_height_m)) {
+      throw std::invalid_argument("obstacle_refit_height_m: expected a finite value >= 0, got " +
+                                  std::to_string(settings.candidates.fit.obstacle_refit_height_m));
     }
     o3::validate_tracking_parameters(settings.tracking);  // a bad --innovation-gate-chi2, --accel-sigma or --moving-consistency, the same
     if (settings.discontinuity.radius_px < 0 || settings.discontinuity.radius_px > 32 || !(settings.discontinuity.jump_px > 0) ||
@@ -837,13 +844,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::printf("obstacles3d_eval: %d frames per sequence (the issue wants >= 300), seeds %d..%d, 640x480, ego-motion %s, candidates "
-              "coloured from the %s image, %d thread(s); terrain: hole membrane %.2f, occlusion upper bounds %s (%d rows, jump %.2f px, tolerance %.2f m), "
+              "coloured from the %s image, %d thread(s); terrain: hole membrane %.2f, obstacle refit %.2f m, occlusion upper bounds %s (%d rows, jump %.2f px, tolerance %.2f m), "
               "points on the far side of an edge: no candidates (%d rows above, %d columns beside, jump %.2f px; 0 and 0: off), "
               "cells with their ground below the view: %s\n"
               "objects counted when >= %lld %s pixels and <= %.0f m; gate |dx| <= 1 m + w/2, |dz| <= max(1 m, 3 sigma_Z) + l/2\n",
               settings.frames, settings.first_seed, settings.first_seed + settings.seeds - 1,
               settings.true_ego_motion ? "TRUE (the sequence's camera motion)" : "from visual odometry (as the command)",
-              settings.colour ? "left colour" : "grey", settings.threads, settings.candidates.fit.hole_membrane,
+              settings.colour ? "left colour" : "grey", settings.threads, settings.candidates.fit.hole_membrane, settings.candidates.fit.obstacle_refit_height_m,
               settings.candidates.grid.occlusion_upper_bounds ? "on" : "off",
               settings.candidates.occluder.rows_below_px, settings.candidates.occluder.jump_px, settings.candidates.fit.upper_bound_tolerance_m,
               settings.candidates.far_side.rows_above_px, settings.candidates.far_side.columns_beside_px, settings.candidates.far_side.jump_px,
