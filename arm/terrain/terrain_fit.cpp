@@ -162,8 +162,8 @@
 //                  control points (the unmarked cells' first surface, the start set);
 //   once: 8 C (the data checks) + 4 V (the final error) + 13 C when the step rule is on (4 neighbour
 //         compares per cell, up to 8 per reached cell, the mask);
-//   with the obstacle refit: the surface at every cell once more (2 m0 (d0 + 1) n1 + 2 m0 m1 (d1 + 1)),
-//         3 C (the test, the reduced grid) and, when a cell was left out, the whole procedure again;
+//   with the obstacle refit: 3 C (the test against the final fit's surface at the cells, the reduced
+//         grid) and, when a cell was left out, the whole procedure again;
 //   per iteration with the patch limit: 4 C (the candidate mask) + 10 per candidate cell (the flood
 //         fill: 4 neighbour tests, queue and size writes);
 //   memory_bytes = 12 C (the grid's heights and states read once) + 16 C (equalised grid and
@@ -510,8 +510,9 @@ TerrainEstimate unknown(TerrainEstimate estimate, const std::string& reason) {
   return estimate;
 }
 
-// Algorithm 3.1.5.1 on one grid (the model above, without the obstacle refit).
-TerrainEstimate fit_reweighted(const HeightGrid& grid, const TerrainFitParameters& parameters) {
+// Algorithm 3.1.5.1 on one grid (the model above, without the obstacle refit). final_at_cells, when
+// not null, receives the final surface at every cell centre (the final fit computes it anyway).
+TerrainEstimate fit_reweighted(const HeightGrid& grid, const TerrainFitParameters& parameters, Eigen::MatrixXd* final_at_cells = nullptr) {
   const int m0 = static_cast<int>(grid.height_m.rows()), m1 = static_cast<int>(grid.height_m.cols());
   TerrainEstimate estimate;
   estimate.grid = grid;
@@ -710,6 +711,7 @@ TerrainEstimate fit_reweighted(const HeightGrid& grid, const TerrainFitParameter
   estimate.weights = weights;
   estimate.surface = surface;
   estimate.known = true;
+  if (final_at_cells != nullptr) *final_at_cells = std::move(at_cells);
   estimate.work.memory_bytes += static_cast<uint64_t>(16 * m0 * m1 + 8 * surface.control_z_m.size());
   return estimate;
 }
@@ -718,14 +720,13 @@ TerrainEstimate fit_reweighted(const HeightGrid& grid, const TerrainFitParameter
 
 TerrainEstimate fit_terrain(const HeightGrid& grid, const TerrainFitParameters& parameters) {
   validate(parameters, grid);
-  TerrainEstimate first = fit_reweighted(grid, parameters);
-  if (!first.known || !(parameters.obstacle_refit_height_m > 0)) return first;
+  const bool refit = parameters.obstacle_refit_height_m > 0;
+  Eigen::MatrixXd at_cells;
+  TerrainEstimate first = fit_reweighted(grid, parameters, refit ? &at_cells : nullptr);
+  if (!first.known || !refit) return first;
   // The obstacle refit (header): leave out the cells whose highest point stands above the surface.
   const int m0 = static_cast<int>(grid.height_m.rows()), m1 = static_cast<int>(grid.height_m.cols());
-  const Eigen::MatrixXd at_cells = surface_heights_at_cells(first.surface, grid.spec);
-  const int d0 = first.surface.degree_forward, d1 = first.surface.degree_lateral;
-  const int n1 = static_cast<int>(first.surface.control_z_m.cols());
-  first.work.scalar_ops += static_cast<uint64_t>(2 * m0 * (d0 + 1) * n1 + 2 * m0 * m1 * (d1 + 1) + 3 * m0 * m1);
+  first.work.scalar_ops += static_cast<uint64_t>(3 * m0 * m1);
   const bool recorded = grid.max_height_m.size() != 0;
   HeightGrid reduced = grid;
   int left_out = 0;
@@ -747,9 +748,10 @@ TerrainEstimate fit_terrain(const HeightGrid& grid, const TerrainFitParameters& 
   second.iterations += first.iterations;
   second.obstacle_refit_left_out_cells = left_out;
   if (!second.known) {
-    second.reason = "terrain unknown: with the " + std::to_string(left_out) + " cells standing more than " +
-                    format_number(parameters.obstacle_refit_height_m) + " m above the first surface left out, " +
-                    second.reason.substr(std::string("terrain unknown: ").size());
+    const std::string prefix = "terrain unknown: ";
+    const std::string why = second.reason.rfind(prefix, 0) == 0 ? second.reason.substr(prefix.size()) : second.reason;
+    second.reason = prefix + "with the " + std::to_string(left_out) + " cells standing more than " +
+                    format_number(parameters.obstacle_refit_height_m) + " m above the first surface left out, " + why;
     return second;
   }
   // The left-out cells keep their heights (not equalised, weight 0) for the occupancy.
