@@ -44,6 +44,8 @@
 //        cells whose ground lies below the image as upper bounds, the default, or as plain samples)
 //        [--near-guard on|off] (on: 128 disparities, 64 at full resolution and all at half resolution,
 //        docs/obstacles3d.md "The near guard"; off: the command's 64, the default)
+//        [--local-ground on|off] (the candidates measured from the terrain inliers around them,
+//        CandidateParameters::local_ground_reference; default the candidates')
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -89,6 +91,7 @@ struct Settings {
   arm::FarSideTest far_side;  // the candidates' default
   bool ground_below_view_upper_bounds = true;  // the candidates' default
   bool near_guard = false;                     // --near-guard on: o3::obstacles3d_near_guard_disparity_parameters
+  bool local_ground = o3::CandidateParameters{}.local_ground_reference;  // the candidates' default
 };
 
 struct RenderedFrame {
@@ -130,6 +133,9 @@ bool parse(int argc, char** argv, Settings& settings) {
     } else if (flag == "--near-guard") {
       if (std::strcmp(value, "on") != 0 && std::strcmp(value, "off") != 0) return false;
       settings.near_guard = std::strcmp(value, "on") == 0;
+    } else if (flag == "--local-ground") {
+      if (std::strcmp(value, "on") != 0 && std::strcmp(value, "off") != 0) return false;
+      settings.local_ground = std::strcmp(value, "on") == 0;
     } else if (flag == "--ground-below-view") {
       if (std::strcmp(value, "upper-bounds") != 0 && std::strcmp(value, "samples") != 0) return false;
       settings.ground_below_view_upper_bounds = std::strcmp(value, "upper-bounds") == 0;
@@ -150,7 +156,7 @@ int run(int argc, char** argv) {
   Settings settings;
   if (!parse(argc, argv, settings)) {
     std::fprintf(stderr, "usage: obstacles3d_chain_bench [--scene urban|country|mining|floating] [--seed K] [--frames N >= 1] [--passes P >= 1] "
-                 "[--far-side R,C (rows, columns in [0, 64])] [--ground-below-view upper-bounds|samples] [--near-guard on|off]\n");
+                 "[--far-side R,C (rows, columns in [0, 64])] [--ground-below-view upper-bounds|samples] [--near-guard on|off] [--local-ground on|off]\n");
     return 2;
   }
   io::StereoSequenceOptions options = io::preset_stereo_sequence(settings.scene, settings.seed);
@@ -188,6 +194,7 @@ int run(int argc, char** argv) {
   candidate_parameters.threads = kThreads;
   candidate_parameters.far_side = settings.far_side;
   candidate_parameters.ground_below_view_upper_bounds = settings.ground_below_view_upper_bounds;
+  candidate_parameters.local_ground_reference = settings.local_ground;
   arm::terrain::TraversabilityParameters traversability_parameters;
   traversability_parameters.obstacle_height_m = candidate_parameters.obstacle_height_m;
   const Eigen::Isometry3d vehicle_from_camera = to_vehicle.vehicle_from_camera();
@@ -206,12 +213,13 @@ int run(int argc, char** argv) {
   std::printf("  disparity: %s\n", arm::settings_text(disparity_parameters).c_str());
   std::printf("  terrain: %g..%g m x %g..%g m, %g m cells, %d x %d control points of degree %d, candidates > %g m above the surface, "
               "none on the far side of an edge (%d rows above, %d columns beside; 0 and 0: off), cells with their ground below the view: %s; "
-              "%d threads (bands of rows)\n",
+              "local ground %s; %d threads (bands of rows)\n",
               candidate_parameters.grid.forward_min_m, candidate_parameters.grid.forward_max_m, candidate_parameters.grid.lateral_min_m,
               candidate_parameters.grid.lateral_max_m, candidate_parameters.grid.cell_m, candidate_parameters.fit.control_forward,
               candidate_parameters.fit.control_lateral, candidate_parameters.fit.degree_forward, candidate_parameters.obstacle_height_m,
               candidate_parameters.far_side.rows_above_px, candidate_parameters.far_side.columns_beside_px,
-              candidate_parameters.ground_below_view_upper_bounds ? "upper bounds" : "samples", candidate_parameters.threads);
+              candidate_parameters.ground_below_view_upper_bounds ? "upper bounds" : "samples",
+              candidate_parameters.local_ground_reference ? "on" : "off", candidate_parameters.threads);
   std::printf("  stixels: polar grid %d x %d cells, min_points %d, true ego-motion from the sequence's poses\n",
               stixel_parameters.grid.columns(), stixel_parameters.grid.rows(), stixel_parameters.min_points);
 

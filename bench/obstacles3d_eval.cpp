@@ -74,7 +74,7 @@
 // Usage: obstacles3d_eval [--frames N] [--seeds N] [--scenes urban,country,mining,floating]
 //        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
 //        [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--all-visible] [--count-low] [--score-hidden-edges] [--vertical-gap-m G]
-//        [--hole-membrane H] [--obstacle-refit-m H]
+//        [--hole-membrane H] [--obstacle-refit-m H] [--local-ground on|off] [--local-ground-reach N]
 //        [--innovation-gate-chi2 X] [--accel-sigma A] [--moving-consistency N]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 //        [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] [--ground-below-view upper-bounds|samples]
@@ -93,7 +93,10 @@
 // terrain's 2.5D sampling leaves out of a cell the points above a vertical gap wider than G, default
 // the TerrainGridSpec's (off), arm/terrain/height_grid.cpp; --hole-membrane: the candidates' terrain
 // fit's membrane over holes (TerrainFitParameters::hole_membrane); --obstacle-refit-m: its obstacle
-// refit (TerrainFitParameters::obstacle_refit_height_m, default off); --occlusion-upper-bounds: the
+// refit (TerrainFitParameters::obstacle_refit_height_m, default off); --local-ground: the candidates
+// measured from the terrain inliers around them where the surface stands above them (CandidateParameters::
+// local_ground_reference, default the CandidateParameters'), --local-ground-reach its window's half
+// width in cells (arm/obstacles3d/local_ground.h); --occlusion-upper-bounds: the
 // occlusion-aware sampling of the candidates' terrain (grid.occlusion_upper_bounds, default the
 // CandidateParameters'), --occluder-rows / --occluder-jump its image test (arm::OccluderTest),
 // --upper-bound-tolerance-m the fit's one-sided tolerance; --far-side-rows / --far-side-columns /
@@ -755,6 +758,10 @@ int main(int argc, char** argv) {
       settings.candidates.grid.vertical_gap_m = std::atof(argv[++i]);
     } else if (arg == "--hole-membrane" && has_value) {
       settings.candidates.fit.hole_membrane = std::atof(argv[++i]);
+    } else if (arg == "--local-ground" && has_value && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off")) {
+      settings.candidates.local_ground_reference = std::string(argv[++i]) == "on";
+    } else if (arg == "--local-ground-reach" && has_value) {
+      settings.candidates.local_ground.reach_cells = std::atoi(argv[++i]);
     } else if (arg == "--obstacle-refit-m" && has_value) {
       settings.candidates.fit.obstacle_refit_height_m = std::atof(argv[++i]);
     } else if (arg == "--occlusion-upper-bounds" && has_value && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off")) {
@@ -783,7 +790,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
-                   "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--hole-membrane H] [--obstacle-refit-m H] [--innovation-gate-chi2 X] [--accel-sigma A] "
+                   "[--count-low] [--score-hidden-edges] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--hole-membrane H] [--obstacle-refit-m H] [--local-ground on|off] [--local-ground-reach N] [--innovation-gate-chi2 X] [--accel-sigma A] "
                    "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
                    "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] "
                    "[--ground-below-view upper-bounds|samples] [--num-disparities N] [--multires-far F]\n",
@@ -800,10 +807,12 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    // a bad --vertical-gap-m, --occluder-rows, --occluder-jump, --far-side-rows, --far-side-columns or --far-side-jump: one line naming it, before any file is written
+    // a bad --vertical-gap-m, --occluder-rows, --occluder-jump, --far-side-rows, --far-side-columns, --far-side-jump or --local-ground-reach:
+    // one line naming it, before any file is written
     settings.candidates.grid.validate();
     settings.candidates.occluder.validate();
     settings.candidates.far_side.validate();
+    settings.candidates.local_ground.validate();
     if (!(settings.candidates.fit.upper_bound_tolerance_m >= 0) || !std::isfinite(settings.candidates.fit.upper_bound_tolerance_m)) {
       throw std::invalid_argument("upper_bound_tolerance_m: expected a finite value >= 0, got " +
                                   std::to_string(settings.candidates.fit.upper_bound_tolerance_m));
@@ -857,6 +866,12 @@ int main(int argc, char** argv) {
               settings.candidates.ground_below_view_upper_bounds ? "upper bounds" : "samples", static_cast<long long>(settings.min_pixels),
               settings.all_visible ? "visible" : "measurable (true disparity in the engine's range, match inside the right image)",
               settings.range_m);
+  if (settings.candidates.local_ground_reference) {
+    std::printf("local ground: candidates measured from the terrain inliers' median within %d cell(s) where it lies below the surface "
+                "(band %.2f m below, at least %d points)\n",
+                settings.candidates.local_ground.reach_cells, settings.candidates.local_ground.band_below_m,
+                settings.candidates.local_ground.min_points);
+  }
   if (settings.discontinuity.radius_px > 0) {
     std::printf("discontinuity filter: radius %d px, jump %.2f px, on the map the points and candidates are made from (the view check reads "
                 "the engine's)\n",

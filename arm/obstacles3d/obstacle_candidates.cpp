@@ -87,6 +87,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   }
   parameters.occluder.validate();
   parameters.far_side.validate();
+  parameters.local_ground.validate();
   CandidatePoints result;
   // The image split into contiguous bands of rows, one per thread: each band's points are built on
   // its own thread, then the points are classified in equal shares, one per thread; every sequential
@@ -248,12 +249,22 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     result.outside_area += share.outside_area;
     result.far_side += share.far_side;
   }
-  char note[240];
+  if (parameters.local_ground_reference && !result.points.empty()) {
+    LocalGround local_ground(parameters.grid, result.terrain.surface, parameters.obstacle_height_m, parameters.local_ground);
+    local_ground.mark_candidates(result.points);
+    for (const Band& band : bands) {
+      for (const Eigen::Vector3d& vehicle : band.vehicle_points) local_ground.add_point(vehicle);
+    }
+    result.local_ground_cells = local_ground.apply(result.points);
+  }
+  char note[320];
   std::snprintf(note, sizeof note,
                 "terrain: %lld points, %zu obstacle candidates, %lld outside the terrain area, %lld on the far side of an edge, %d cells "
-                "with their ground below the view",
+                "with their ground below the view%s",
                 static_cast<long long>(result.cloud_points), result.points.size(), static_cast<long long>(result.outside_area),
-                static_cast<long long>(result.far_side), result.below_view_cells);
+                static_cast<long long>(result.far_side), result.below_view_cells,
+                parameters.local_ground_reference ? (", " + std::to_string(result.local_ground_cells) + " candidate cells measured from their local ground").c_str()
+                                                  : "");
   result.note = note;
   return result;
 }

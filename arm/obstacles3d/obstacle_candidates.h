@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "arm/disparity_engine.h"
+#include "arm/obstacles3d/local_ground.h"
 #include "arm/obstacles3d/obstacle_points.h"
 #include "arm/point_cloud.h"
 #include "arm/terrain_points.h"
@@ -74,6 +75,12 @@ struct CandidateParameters {
   // poles apart. Ground that rises into view nearer (a hill, a ramp) is marked too and counts as
   // any sample while it lies under or within the fit's tolerance of that surface.
   bool ground_below_view_upper_bounds = true;
+  // The local ground (local_ground.h): each candidate measured from the terrain inliers seen around
+  // it where the fitted surface stands above them (a far sign's points lift the surface 0.1 m under
+  // it, and the sign then reads 0.1 m low). The candidate set and the fit are unchanged; only the
+  // candidates' heights (height_above_ground_m) are. Off until measured on every preset sequence.
+  bool local_ground_reference = false;
+  LocalGroundParameters local_ground;
   // [1, 16]: steps 1 and 3 run on this many threads (step 1 on bands of rows, at most one band per 16
   // rows; step 3 on shares of the points); the result is the same for any count (joined in row order).
   int threads = 1;
@@ -85,6 +92,7 @@ struct CandidatePoints {
   int64_t outside_area = 0;           // not covered by the terrain area (no height above ground)
   int64_t far_side = 0;               // above obstacle_height_m but on the far side of an edge: not candidates
   int below_view_cells = 0;           // 2.5D cells whose ground lies below the image, marked upper bounds
+  int local_ground_cells = 0;         // candidate cells measured from their local ground (local_ground_reference)
   terrain::TerrainEstimate terrain;   // the fit (terrain.known false: no candidates)
   // The 2.5D grid before the fit's equalisation (empty when the cloud was empty): what
   // terrain::compute_traversability takes beside the fit (terrain.grid is the equalised one).

@@ -29,7 +29,7 @@ namespace lpstereo::arm::obstacles3d {
 struct ObstaclePoint {
   Eigen::Vector3f camera_m = Eigen::Vector3f::Zero();
   Eigen::Vector3f vehicle_m = Eigen::Vector3f::Zero();
-  float height_above_ground_m = 0;  // above the fitted terrain surface (may be < 0: a ditch)
+  float height_above_ground_m = 0;  // above the fitted terrain surface, or the local ground seen under it (obstacle_candidates.h)
   float disparity_px = 0;           // the measurement behind the point (> 0)
   uint16_t u_px = 0, v_px = 0;      // left-image pixel
   std::array<uint8_t, 3> rgb{};     // R, G, B; a grey source repeats its value

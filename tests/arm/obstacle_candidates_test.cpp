@@ -65,17 +65,8 @@ void paint_rectangle(Frame& frame, int u_first, int u_end, int v_first, int v_en
   frame.camera = arm::triangulate(frame.disparity, kView);
 }
 
-o3::CandidatePoints extract(const Frame& frame, int threads) {
-  o3::CandidateParameters parameters;
-  parameters.threads = threads;
-  return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, kView, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
-}
-
-TEST(ObstacleCandidates, AreClassifyPointsObstaclesWithTheirHeight) {
-  const Frame frame = make_frame();
-  const o3::CandidatePoints result = extract(frame, 2);
-  ASSERT_TRUE(result.terrain.known) << result.note;
-  // Every valid pixel's vehicle point, in row order (the function's own conversion: mm -> float m).
+// Every valid pixel's vehicle point, in row order (the function's own conversion: mm -> float m).
+std::vector<Eigen::Vector3d> frame_vehicle_points(const Frame& frame) {
   std::vector<Eigen::Vector3d> vehicle_points;
   for (int v = 0; v < kHeight; ++v) {
     for (int u = 0; u < kWidth; ++u) {
@@ -86,6 +77,22 @@ TEST(ObstacleCandidates, AreClassifyPointsObstaclesWithTheirHeight) {
       vehicle_points.push_back(frame.to_vehicle.apply(camera_m.cast<double>()));
     }
   }
+  return vehicle_points;
+}
+
+// The fit's own heights (z - S): the local ground has a test of its own below.
+o3::CandidatePoints extract(const Frame& frame, int threads) {
+  o3::CandidateParameters parameters;
+  parameters.threads = threads;
+  parameters.local_ground_reference = false;
+  return o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, kView, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+}
+
+TEST(ObstacleCandidates, AreClassifyPointsObstaclesWithTheirHeight) {
+  const Frame frame = make_frame();
+  const o3::CandidatePoints result = extract(frame, 2);
+  ASSERT_TRUE(result.terrain.known) << result.note;
+  const std::vector<Eigen::Vector3d> vehicle_points = frame_vehicle_points(frame);
   EXPECT_EQ(result.cloud_points, static_cast<int64_t>(vehicle_points.size()));
   const std::vector<arm::terrain::PointClass> classes = arm::terrain::classify_points(vehicle_points, result.terrain, 0.2);
   std::vector<Eigen::Vector3d> expected;
@@ -105,6 +112,40 @@ TEST(ObstacleCandidates, AreClassifyPointsObstaclesWithTheirHeight) {
         << k;
     EXPECT_EQ(point.disparity_px, 6.0f) << k;  // only the box stands above the road
     EXPECT_EQ(point.rgb[0], frame.grey.at<uint8_t>(point.u_px, point.v_px)) << k;
+  }
+}
+
+// The local ground (CandidateParameters::local_ground_reference, local_ground.h): the same
+// candidates, each measured from the terrain inliers around it by LocalGround over every point of
+// the frame; the box's candidates stand at least as high as without it.
+TEST(ObstacleCandidates, TheLocalGroundMeasuresTheSameCandidatesFromTheInliersAroundThem) {
+  Frame frame = make_frame();
+  paint_rectangle(frame, 20, 40, 70, 80, 5);  // a board 12 m ahead, 0.3-0.9 m up, over the road
+  o3::CandidateParameters parameters;
+  parameters.local_ground_reference = false;
+  const o3::CandidatePoints off =
+      o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, kView, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+  parameters.local_ground_reference = true;
+  parameters.threads = 3;
+  const o3::CandidatePoints on =
+      o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, kView, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+  ASSERT_TRUE(off.terrain.known && on.terrain.known) << off.note << " / " << on.note;
+  EXPECT_EQ(on.terrain.surface.control_z_m, off.terrain.surface.control_z_m);
+  ASSERT_EQ(on.points.size(), off.points.size());
+  ASSERT_GT(on.points.size(), 500u);
+  // The reference: LocalGround over every valid pixel's vehicle point.
+  o3::LocalGround local_ground(parameters.grid, off.terrain.surface, parameters.obstacle_height_m, parameters.local_ground);
+  std::vector<o3::ObstaclePoint> expected = off.points;
+  local_ground.mark_candidates(expected);
+  for (const Eigen::Vector3d& point : frame_vehicle_points(frame)) local_ground.add_point(point);
+  EXPECT_EQ(on.local_ground_cells, local_ground.apply(expected));
+  EXPECT_EQ(off.local_ground_cells, 0);
+  EXPECT_GT(on.local_ground_cells, 0);
+  for (size_t k = 0; k < on.points.size(); ++k) {
+    EXPECT_EQ(on.points[k].vehicle_m, off.points[k].vehicle_m) << k;
+    EXPECT_EQ(on.points[k].height_above_ground_m, expected[k].height_above_ground_m) << k;
+    EXPECT_GE(on.points[k].height_above_ground_m, off.points[k].height_above_ground_m) << k;
+    EXPECT_LE(on.points[k].height_above_ground_m, off.points[k].height_above_ground_m + parameters.local_ground.band_below_m) << k;
   }
 }
 

@@ -1,0 +1,81 @@
+// The local ground of the obstacle candidates (issue 10; used by extract_obstacle_candidates): a
+// candidate's height taken above the ground points seen around it, where the fitted terrain surface
+// stands above them.
+//
+// Why. The surface is a smooth B-spline through the 2.5D cells' samples (arm/terrain). Where a
+// cell's points are mostly an obstacle's and its ground points few, the cell's sample stands above
+// the ground and the re-weighting does not always pull it down: at 25-30 m a hanging sign's points
+// scatter over several forward cells (the depth sigma there is 1.3 m at 640x480) with 3-8 road
+// points each against 14-81 of the sign's, and the surface stands 0.10-0.13 m above the true ground
+// there (docs/obstacles3d.md, "The far sign's surface"). The sign's lower edge, measured above that
+// surface, is then read 0.12 m low (1.78 m for 1.90 m) and the free space under it is lost. The road
+// points seen under the sign still lie on the true ground: 0.12 m under the surface. Measuring the
+// candidates from them mends the reading without changing the fit or the candidate set.
+//
+// Model. Per cell of the 2.5D grid (TerrainGridSpec) that holds at least one candidate, the points
+// of the (2 reach + 1)^2 cells around it whose height above the surface h = z - S(x, y) lies in
+// [-band_below_m, obstacle_height_m] (the terrain's inliers: a ditch's points farther under the
+// surface and the candidates themselves are not ground samples of that cell) give the median m of
+// their h. When at least min_points do and m < 0 (the surface stands above the ground seen there),
+// every candidate of the cell gets h - m. A surface below the seen ground (m >= 0) is left alone:
+// there the inliers may be an obstacle's foot, 0-0.2 m up, and lowering a candidate by it would
+// take height the obstacle has.
+//
+// Counted work (ArmWork, the ARM side's model of the three steps): marking, 6 ops per candidate and
+// 2 per cell of its (2 reach + 1)^2 window, a byte per grid cell; the gather, 4 ops per point (the
+// cell index and the mark), plus for each point in a marked cell the surface evaluation (the basis
+// values of both axes, the tensor product: 6 p (p + 1) + 6 q (q + 1) + 2 (p + 1) (q + 1) + 8, as
+// the ARM task augmented_stixels counts it) and 4 bytes per inlier kept; the median, 4 ops per pooled
+// value (copy and selection) per candidate cell; the re-reference, 6 ops per candidate.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "arm/obstacles3d/obstacle_points.h"
+#include "arm/terrain/terrain_model.h"
+#include "dag/arm_task.h"
+
+namespace lpstereo::arm::obstacles3d {
+
+struct LocalGroundParameters {
+  int reach_cells = 1;         // [0, 8]: the window's half width in cells (0: the cell alone)
+  double band_below_m = 0.4;   // (0, 10): how far under the surface a point still samples its ground
+  int min_points = 8;          // [1, 100000]: fewer inliers in the window leave the cell's candidates alone
+  // Throws std::invalid_argument naming the parameter, the expected range and the value.
+  void validate() const;
+};
+
+class LocalGround {
+ public:
+  // `surface` must outlive this; obstacle_height_m is the candidates' threshold (the band's top).
+  LocalGround(const terrain::TerrainGridSpec& spec, const terrain::BsplineSurface& surface, double obstacle_height_m,
+              const LocalGroundParameters& parameters);
+
+  // 1. The cells holding the candidates, and the windows around them.
+  void mark_candidates(const std::vector<ObstaclePoint>& candidates);
+  // 2. Every point of the frame, in any order (the candidates may be among them: they lie above the band).
+  void add_point(const Eigen::Vector3d& vehicle_m);
+  // 3. The candidates of step 1 measured from their cell's local ground where it lies under the
+  // surface; returns how many cells were. Call once.
+  int apply(std::vector<ObstaclePoint>& candidates);
+
+  const ArmWork& work() const { return work_; }
+
+ private:
+  size_t index(int forward_cell, int lateral_cell) const;
+
+  const terrain::TerrainGridSpec& spec_;
+  const terrain::BsplineSurface& surface_;
+  double obstacle_height_m_;
+  LocalGroundParameters parameters_;
+  int forward_cells_ = 0, lateral_cells_ = 0;
+  std::vector<uint8_t> holds_candidates_, in_window_;
+  std::vector<std::vector<float>> inlier_heights_m_;  // per cell in a window: h of its inliers
+  uint64_t surface_evaluation_ops_ = 0;
+  ArmWork work_;
+};
+
+}  // namespace lpstereo::arm::obstacles3d
