@@ -29,6 +29,9 @@
 //      vehicle frame; outside the surface's area it is counted (outside), else CandidateTest
 //      classifies it and a candidate ObstaclePoint is kept (camera and vehicle position in m, h, d,
 //      pixel);
+//   2b. with local_ground 1, the candidates measured from the terrain inliers around them where the
+//      surface stands above them (arm/obstacles3d/local_ground.h, the host chain's
+//      CandidateParameters::local_ground_reference), over the sampled points;
 //   3. AugmentedStixels::update(candidates, no ego-motion): polar grid update, stixels, obstacles;
 //   4. the "stixels" and "obstacles" records (at most max_stixels and max_obstacles rows).
 //
@@ -45,7 +48,9 @@
 // (0, 10)); sample_step (4, 1 .. 64); the stixels (AugmentedStixelParameters, the polar grid at
 // OccupancyGridParameters::defaults(polar, input width)): min_points (3), max_height_gap_m (0.5),
 // min_cluster_stixels (1), height_trim_fraction (0.02); max_stixels (4096, 1 .. 65536),
-// max_obstacles (256, 1 .. 65536).
+// max_obstacles (256, 1 .. 65536); local_ground (0 or 1, default 0: the graphs leave it off),
+// local_ground_reach_cells (1, 0 .. 8), local_ground_min_points (8, 1 .. 100000: the host's count
+// over every pixel; a sample_step of k sees about 1 / k^2 of those points).
 //
 // Counted work (deterministic, ArmWork), with S = ceil(W / step) ceil(H / step) sampled pixels of a
 // W x H plane, V of them with a point, I of those inside the surface's area, E of those with S
@@ -59,11 +64,13 @@
 //                  subtraction and compare; the per-point model arm/terrain/traversability.cpp gives
 //                  classify_points)
 //                  + 16 N (the candidate's fields and the disparity)
+//                  + with local_ground, LocalGround's own counted work (local_ground.h)
 //                  + the stixels' own counted work (AugmentedStixels::work(): the polar grid per
 //                  point and cell, the stixels per point, the clustering per stixel) + 16 T + 16 O + 64;
 //   memory_bytes = 12 W ceil(H / step) (the sampled rows of three planes, whole cache lines, as the
 //                  terrain task counts them) + 4 (kTerrainHeaderWords + n0 n1) (the record)
-//                  + sizeof(ObstaclePoint) N (the candidates written) + the stixels' own counted
+//                  + sizeof(ObstaclePoint) N (the candidates written) + with local_ground, LocalGround's
+//                  and 24 I (the points over the surface kept for its pass) + the stixels' own counted
 //                  bytes + 4 kStixelWords (1 + T) + 4 kObstacle3dWords (1 + O).
 #include <algorithm>
 #include <cmath>
@@ -74,6 +81,7 @@
 #include <vector>
 
 #include "arm/obstacles3d/augmented_stixels.h"
+#include "arm/obstacles3d/local_ground.h"
 #include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/point_cloud.h"
 #include "arm/tasks/stixel_record.h"
@@ -96,6 +104,8 @@ struct AugmentedStixelsTaskParams {
   int sample_step = 4;
   int max_stixels = 4096, max_obstacles = 256;
   o3::AugmentedStixelParameters stixels;
+  bool local_ground = false;  // the host chain's local ground (arm/obstacles3d/local_ground.h)
+  o3::LocalGroundParameters local_ground_parameters;
 };
 
 std::string shape_text(const PlaneShape& shape) { return std::to_string(shape.width) + "x" + std::to_string(shape.height); }
@@ -112,7 +122,8 @@ PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShap
   check_param_names(params, {"forward_min_m", "forward_max_m", "lateral_min_m", "lateral_max_m", "cell_m", "degree_forward",
                              "degree_lateral", "control_forward", "control_lateral", "focal_px", "baseline_m", "u0_px",
                              "camera_height_m", "pitch_rad", "roll_rad", "obstacle_height_m", "sample_step", "min_points",
-                             "max_height_gap_m", "min_cluster_stixels", "height_trim_fraction", "max_stixels", "max_obstacles"});
+                             "max_height_gap_m", "min_cluster_stixels", "height_trim_fraction", "max_stixels", "max_obstacles",
+                             "local_ground", "local_ground_reach_cells", "local_ground_min_points"});
   if (input_shapes.size() != 4) {
     throw KernelError("inputs: expected 4 (x, y, z, terrain), got " + std::to_string(input_shapes.size()));
   }
@@ -164,6 +175,9 @@ PreparedKernel prepare(const nlohmann::json& params, const std::vector<PlaneShap
   } catch (const std::invalid_argument& error) {
     throw KernelError(std::string("stixel parameters: ") + error.what());
   }
+  p.local_ground = param_int(params, "local_ground", 0, 0, 1) == 1;
+  p.local_ground_parameters.reach_cells = param_int(params, "local_ground_reach_cells", 1, 0, 8);
+  p.local_ground_parameters.min_points = param_int(params, "local_ground_min_points", 8, 1, 100000);
   return PreparedKernel{prepared, {{kStixelWords, 1 + p.max_stixels}, {kObstacle3dWords, 1 + p.max_obstacles}}};
 }
 
@@ -221,6 +235,7 @@ void run(const ArmTaskArgs& args) {
     const CameraToVehicle to_vehicle(p.mount);
     const double focal_baseline = p.focal_px * p.baseline_m;
     std::vector<o3::ObstaclePoint> candidates;
+    std::vector<Eigen::Vector3d> inside_points;  // with local_ground: every point over the surface, for its inliers
     const o3::CandidateTest test(surface, p.obstacle_height_m);
     uint64_t sampled = 0, valid = 0, inside = 0, evaluated_points = 0;
     for (int v = 0; v < x_plane.height(); v += p.sample_step) {
@@ -238,6 +253,7 @@ void run(const ArmTaskArgs& args) {
         const o3::CandidateTest::Class point_class = test.classify(vehicle_m, &height_m, &evaluated);
         if (point_class == o3::CandidateTest::Class::outside) continue;
         ++inside;
+        if (p.local_ground) inside_points.push_back(vehicle_m);
         evaluated_points += evaluated;
         if (point_class != o3::CandidateTest::Class::candidate) continue;
         o3::ObstaclePoint point;
@@ -258,6 +274,14 @@ void run(const ArmTaskArgs& args) {
     ops += 3 * sampled + 15 * valid + 24 * inside + evaluated_points * (6 * d0 * (d0 + 1) + 6 * d1 * (d1 + 1) + 2 * (d0 + 1) * (d1 + 1) + 8) +
            16 * candidates.size();
     work.memory_bytes += sizeof(o3::ObstaclePoint) * candidates.size();
+    if (p.local_ground && !candidates.empty()) {
+      o3::LocalGround local_ground(p.grid, surface, p.obstacle_height_m, p.local_ground_parameters);
+      local_ground.mark_candidates(candidates);
+      for (const Eigen::Vector3d& vehicle_m : inside_points) local_ground.add_point(vehicle_m);
+      local_ground.apply(candidates);
+      work += local_ground.work();
+      work.memory_bytes += sizeof(Eigen::Vector3d) * inside_points.size();  // the points kept for the second pass
+    }
 
     // 3. The stixels (one frame's evidence, static camera).
     o3::AugmentedStixels stixels(p.stixels);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "arm/obstacles3d/augmented_stixels.h"
+#include "arm/obstacles3d/local_ground.h"
 #include "arm/obstacles3d/obstacle_candidates.h"
 #include "arm/point_cloud.h"
 #include "arm/tasks/stixel_record.h"
@@ -224,6 +225,77 @@ TEST(AugmentedStixelsTask, BoxAndHangingSignOverFlatTerrain) {
                                        4ull * arm::kStixelWords + 4ull * arm::kObstacle3dWords);
 }
 
+// local_ground 1 (arm/obstacles3d/local_ground.h): a sign 1.5-1.8 m up at 7 m over road points seen
+// around it, with a terrain record 0.12 m above that road (every control height 120 mm). Without the
+// local ground the sign is measured from the record's surface, 0.12 m low; with it, from the road's
+// median, 0.12 m under the surface: its true heights. The counted work grows by LocalGround's own
+// count on the same candidates and points, plus 24 bytes per point kept for its pass.
+TEST(AugmentedStixelsTask, TheLocalGroundMeasuresTheSignFromTheRoadUnderALiftedSurface) {
+  Scene scene;
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      if (v < 10) {
+        put(scene, u, v, -1.2 + 0.02 * u, 1.5 + 0.3 * v / 9.0, 7.0);  // the sign, 0.8 m wide
+      } else if (v < 20) {
+        put(scene, u, v, -1.6 + 0.04 * u, 0.0, 6.3 + 0.15 * (v - 10));  // the road at 6.3-7.65 m
+      } else {
+        scene.x.at<int32_t>(u, v) = scene.y.at<int32_t>(u, v) = scene.z.at<int32_t>(u, v) = kernels::kNoPointMm;
+      }
+    }
+  }
+  Plane record = terrain_record(true);
+  for (int w = arm::kTerrainHeaderWords; w < record.width(); ++w) record.row<int32_t>(0)[w] = 120;
+  nlohmann::json params = base_params();
+  const TaskRun off = run_task(scene, record, params);
+  params["local_ground"] = 1;
+  const TaskRun on = run_task(scene, record, params);
+  const auto sign_lower_edge_mm = [](const TaskRun& run) {
+    const int32_t* header = run.obstacles.row<const int32_t>(0);
+    EXPECT_EQ(header[0], 1);
+    return header[0] >= 1 ? run.obstacles.row<const int32_t>(1)[arm::kObstacle3dMinHeightMm] : -1;
+  };
+  constexpr double kSignLowerEdgeMm = 1500 + 1.5 * 7000 / kFocalPx;  // the fattening term as above, at ~7 m
+  EXPECT_NEAR(sign_lower_edge_mm(on), kSignLowerEdgeMm, 15);
+  EXPECT_NEAR(sign_lower_edge_mm(off), kSignLowerEdgeMm - 120, 15);
+  EXPECT_EQ(on.stixels.row<const int32_t>(0)[arm::kStixelHeaderCandidatePoints], 10 * kWidth);
+
+  // The work: LocalGround on the task's candidates (built from the scene as the task builds them)
+  // and every point over the surface.
+  arm::CameraMount mount;
+  mount.position_m = Eigen::Vector3d(0, 0, kCameraHeightM);
+  const arm::CameraToVehicle to_vehicle(mount);
+  arm::terrain::TerrainGridSpec grid;
+  grid.forward_max_m = 10.0;
+  grid.lateral_min_m = -4.0;
+  grid.lateral_max_m = 4.0;
+  arm::terrain::BsplineSurface surface;
+  surface.knots_forward_m = arm::terrain::clamped_uniform_knots(kControlForward, 3, 0.0, 10.0);
+  surface.knots_lateral_m = arm::terrain::clamped_uniform_knots(kControlLateral, 3, -4.0, 4.0);
+  surface.control_z_m = Eigen::MatrixXd::Constant(kControlForward, kControlLateral, 0.12);
+  surface.forward_max_m = 10.0;
+  surface.lateral_min_m = -4.0;
+  surface.lateral_max_m = 4.0;
+  std::vector<o3::ObstaclePoint> candidates;
+  std::vector<Eigen::Vector3d> inside;
+  for (int v = 0; v < 20; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      const Eigen::Vector3d camera_m(scene.x.at<int32_t>(u, v) * 1e-3, scene.y.at<int32_t>(u, v) * 1e-3, scene.z.at<int32_t>(u, v) * 1e-3);
+      const Eigen::Vector3d vehicle_m = to_vehicle.apply(camera_m);
+      inside.push_back(vehicle_m);
+      if (v >= 10) continue;
+      o3::ObstaclePoint point;
+      point.vehicle_m = vehicle_m.cast<float>();
+      candidates.push_back(point);
+    }
+  }
+  o3::LocalGround local_ground(grid, surface, 0.2, o3::LocalGroundParameters{});
+  local_ground.mark_candidates(candidates);
+  for (const Eigen::Vector3d& point : inside) local_ground.add_point(point);
+  EXPECT_EQ(local_ground.apply(candidates), 3);  // the sign spans vehicle y 0.42 .. 1.2 m (left): three lateral cells at x 7.0
+  EXPECT_EQ(on.work.scalar_ops, off.work.scalar_ops + local_ground.work().scalar_ops);
+  EXPECT_EQ(on.work.memory_bytes, off.work.memory_bytes + local_ground.work().memory_bytes + sizeof(Eigen::Vector3d) * inside.size());
+}
+
 TEST(AugmentedStixelsTask, SampleStepReadsEveryNthRowAndColumn) {
   const Scene scene = make_scene();
   nlohmann::json params = base_params();
@@ -285,6 +357,12 @@ TEST(AugmentedStixelsTask, PrepareRefusesBadParametersAndShapes) {
   nlohmann::json area = base_params();
   area["forward_max_m"] = -1.0;
   expect_prepare_error(area, shapes, {"grid parameters"});
+  nlohmann::json local_ground = base_params();
+  local_ground["local_ground"] = 2;
+  expect_prepare_error(local_ground, shapes, {"local_ground"});
+  local_ground = base_params();
+  local_ground["local_ground_reach_cells"] = 9;
+  expect_prepare_error(local_ground, shapes, {"local_ground_reach_cells"});
   nlohmann::json unknown = base_params();
   unknown["voxel_m"] = 0.25;
   expect_prepare_error(unknown, shapes, {"voxel_m"});
