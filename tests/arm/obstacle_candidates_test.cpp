@@ -122,6 +122,7 @@ TEST(ObstacleCandidates, TheLocalGroundMeasuresTheSameCandidatesFromTheInliersAr
   Frame frame = make_frame();
   paint_rectangle(frame, 20, 40, 70, 80, 5);  // a board 12 m ahead, 0.3-0.9 m up, over the road
   o3::CandidateParameters parameters;
+  ASSERT_TRUE(parameters.local_ground_reference);  // the default
   parameters.local_ground_reference = false;
   const o3::CandidatePoints off =
       o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, kView, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
