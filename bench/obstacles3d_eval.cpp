@@ -709,6 +709,10 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     const bool has_value = i + 1 < argc;
+    // The next argument is one of the two words (an on|off or upper-bounds|samples option).
+    const auto next_is_one_of = [&](const char* first, const char* second) {
+      return has_value && (std::strcmp(argv[i + 1], first) == 0 || std::strcmp(argv[i + 1], second) == 0);
+    };
     if (arg == "--frames" && has_value) {
       settings.frames = std::atoi(argv[++i]);
     } else if (arg == "--seeds" && has_value) {
@@ -758,15 +762,15 @@ int main(int argc, char** argv) {
       settings.candidates.grid.vertical_gap_m = std::atof(argv[++i]);
     } else if (arg == "--hole-membrane" && has_value) {
       settings.candidates.fit.hole_membrane = std::atof(argv[++i]);
-    } else if (arg == "--local-ground" && has_value && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off")) {
+    } else if (arg == "--local-ground" && next_is_one_of("on", "off")) {
       settings.candidates.local_ground_reference = std::string(argv[++i]) == "on";
     } else if (arg == "--local-ground-reach" && has_value) {
       settings.candidates.local_ground.reach_cells = std::atoi(argv[++i]);
     } else if (arg == "--obstacle-refit-m" && has_value) {
       settings.candidates.fit.obstacle_refit_height_m = std::atof(argv[++i]);
-    } else if (arg == "--occlusion-upper-bounds" && has_value && (std::string(argv[i + 1]) == "on" || std::string(argv[i + 1]) == "off")) {
+    } else if (arg == "--occlusion-upper-bounds" && next_is_one_of("on", "off")) {
       settings.candidates.grid.occlusion_upper_bounds = std::string(argv[++i]) == "on";
-    } else if (arg == "--ground-below-view" && has_value && (std::string(argv[i + 1]) == "upper-bounds" || std::string(argv[i + 1]) == "samples")) {
+    } else if (arg == "--ground-below-view" && next_is_one_of("upper-bounds", "samples")) {
       settings.candidates.ground_below_view_upper_bounds = std::string(argv[++i]) == "upper-bounds";
     } else if (arg == "--occluder-rows" && has_value) {
       settings.candidates.occluder.rows_below_px = std::atoi(argv[++i]);

@@ -24,8 +24,7 @@ LocalGround::LocalGround(const terrain::TerrainGridSpec& spec, const terrain::Bs
   in_window_.assign(cells, 0);
   inlier_heights_m_.resize(cells);
   work_.memory_bytes += 2 * cells;
-  const uint64_t p = static_cast<uint64_t>(surface.degree_forward), q = static_cast<uint64_t>(surface.degree_lateral);
-  surface_evaluation_ops_ = 6 * p * (p + 1) + 6 * q * (q + 1) + 2 * (p + 1) * (q + 1) + 8;
+  surface_evaluation_ops_ = terrain::surface_evaluation_ops(surface.degree_forward, surface.degree_lateral);
 }
 
 size_t LocalGround::index(int forward_cell, int lateral_cell) const {

@@ -23,9 +23,9 @@
 //
 // Counted work (ArmWork, the ARM side's model of the three steps): marking, 6 ops per candidate and
 // 2 per cell of its (2 reach + 1)^2 window, a byte per grid cell; the gather, 4 ops per point (the
-// cell index and the mark), plus for each point in a marked cell the surface evaluation (the basis
-// values of both axes, the tensor product: 6 p (p + 1) + 6 q (q + 1) + 2 (p + 1) (q + 1) + 8, as
-// the ARM task augmented_stixels counts it) and 4 bytes per inlier kept; the median, 4 ops per pooled
+// cell index and the mark), plus for each point in a marked cell the surface evaluation
+// (terrain::surface_evaluation_ops, as the ARM task augmented_stixels counts it) and 4 bytes per
+// inlier kept; the median, 4 ops per pooled
 // value (copy and selection) per candidate cell; the re-reference, 6 ops per candidate.
 #pragma once
 

@@ -257,15 +257,16 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     }
     result.local_ground_cells = local_ground.apply(result.points);
   }
-  char note[320];
+  char note[240];
   std::snprintf(note, sizeof note,
                 "terrain: %lld points, %zu obstacle candidates, %lld outside the terrain area, %lld on the far side of an edge, %d cells "
-                "with their ground below the view%s",
+                "with their ground below the view",
                 static_cast<long long>(result.cloud_points), result.points.size(), static_cast<long long>(result.outside_area),
-                static_cast<long long>(result.far_side), result.below_view_cells,
-                parameters.local_ground_reference ? (", " + std::to_string(result.local_ground_cells) + " candidate cells measured from their local ground").c_str()
-                                                  : "");
+                static_cast<long long>(result.far_side), result.below_view_cells);
   result.note = note;
+  if (parameters.local_ground_reference) {
+    result.note += ", " + std::to_string(result.local_ground_cells) + " candidate cells measured from their local ground";
+  }
   return result;
 }
 

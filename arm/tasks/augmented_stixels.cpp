@@ -61,8 +61,8 @@
 //                  knots and the control-height bound of arm::obstacles3d::CandidateTest)
 //                  + E (6 p (p + 1) + 6 q (q + 1) + 2 (p + 1) (q + 1) + 8) for the E points the bound
 //                  cannot decide (S(x, y): the basis values of both axes, the tensor product, the
-//                  subtraction and compare; the per-point model arm/terrain/traversability.cpp gives
-//                  classify_points)
+//                  subtraction and compare, terrain::surface_evaluation_ops; the per-point model
+//                  arm/terrain/traversability.cpp gives classify_points)
 //                  + 16 N (the candidate's fields and the disparity)
 //                  + with local_ground, LocalGround's own counted work (local_ground.h)
 //                  + the stixels' own counted work (AugmentedStixels::work(): the polar grid per
@@ -270,8 +270,7 @@ void run(const ArmTaskArgs& args) {
     header[kStixelHeaderSampledPixels] = clamp_count(sampled);
     header[kStixelHeaderValidPoints] = clamp_count(valid);
     header[kStixelHeaderOutsidePoints] = clamp_count(valid - inside);
-    const uint64_t d0 = static_cast<uint64_t>(p.degree_forward), d1 = static_cast<uint64_t>(p.degree_lateral);
-    ops += 3 * sampled + 15 * valid + 24 * inside + evaluated_points * (6 * d0 * (d0 + 1) + 6 * d1 * (d1 + 1) + 2 * (d0 + 1) * (d1 + 1) + 8) +
+    ops += 3 * sampled + 15 * valid + 24 * inside + evaluated_points * terrain::surface_evaluation_ops(p.degree_forward, p.degree_lateral) +
            16 * candidates.size();
     work.memory_bytes += sizeof(o3::ObstaclePoint) * candidates.size();
     if (p.local_ground && !candidates.empty()) {

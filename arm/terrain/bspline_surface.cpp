@@ -181,6 +181,11 @@ double evaluate(const BsplineSurface& surface, double x_m, double y_m, Eigen::Ve
 
 }  // namespace
 
+uint64_t surface_evaluation_ops(int degree_forward, int degree_lateral) {
+  const uint64_t p = static_cast<uint64_t>(degree_forward), q = static_cast<uint64_t>(degree_lateral);
+  return 6 * p * (p + 1) + 6 * q * (q + 1) + 2 * (p + 1) * (q + 1) + 8;
+}
+
 double BsplineSurface::height_m(double x_m, double y_m) const {
   if (!contains(x_m, y_m)) return quiet_nan();
   return evaluate(*this, x_m, y_m, nullptr);

@@ -150,6 +150,12 @@ struct BsplineSurface {
   Eigen::Vector2d gradient(double x_m, double y_m) const;
 };
 
+// The counted scalar operations of one S(x, y) evaluation on the ARM side (ArmWork): the basis
+// values of both axes by the Cox-de Boor triangle, 6 d (d + 1) each, the (d0 + 1)(d1 + 1) tensor
+// product's multiply-adds, and 8 for the subtraction and compare around it. The model the callers
+// that evaluate the surface per point count with (the ARM task augmented_stixels, LocalGround).
+uint64_t surface_evaluation_ops(int degree_forward, int degree_lateral);
+
 // B-spline basis helpers (arm/terrain/bspline_surface.cpp; Cox-de Boor, thesis eq. 3.4-3.5).
 // Clamped uniform knots: degree + 1 copies of each end, control_points - degree - 1 interior knots
 // evenly spaced. Throws std::invalid_argument unless control_points > degree >= 1 and min_m < max_m.
