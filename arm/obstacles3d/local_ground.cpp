@@ -14,15 +14,17 @@ void LocalGroundParameters::validate() const {
 }
 
 LocalGround::LocalGround(const terrain::TerrainGridSpec& spec, const terrain::BsplineSurface& surface, double obstacle_height_m,
-                         const LocalGroundParameters& parameters)
+                         const LocalGroundParameters& parameters, int shares)
     : spec_(spec), surface_(surface), obstacle_height_m_(obstacle_height_m), parameters_(parameters) {
   parameters.validate();
+  require_parameter(shares >= 1 && shares <= 1024, "shares", "a count in [1, 1024]", shares);
   forward_cells_ = spec.forward_cells();
   lateral_cells_ = spec.lateral_cells();
   const size_t cells = static_cast<size_t>(forward_cells_) * static_cast<size_t>(lateral_cells_);
   holds_candidates_.assign(cells, 0);
   in_window_.assign(cells, 0);
-  inlier_heights_m_.resize(cells);
+  shares_.resize(static_cast<size_t>(shares));
+  for (Share& share : shares_) share.inlier_heights_m.resize(cells);
   work_.memory_bytes += 2 * cells;
   surface_evaluation_ops_ = terrain::surface_evaluation_ops(surface.degree_forward, surface.degree_lateral);
 }
@@ -36,7 +38,7 @@ void LocalGround::mark_candidates(const std::vector<ObstaclePoint>& candidates) 
   for (const ObstaclePoint& candidate : candidates) {
     work_.scalar_ops += 6;
     int i = 0, j = 0;
-    if (!spec_.cell_of(candidate.vehicle_m.x(), candidate.vehicle_m.y(), &i, &j)) continue;
+    if (!spec_.cell_of(candidate.vehicle_m.x(), candidate.vehicle_m.y(), forward_cells_, lateral_cells_, &i, &j)) continue;
     if (holds_candidates_[index(i, j)]) continue;
     holds_candidates_[index(i, j)] = 1;
     for (int a = std::max(0, i - reach); a <= std::min(forward_cells_ - 1, i + reach); ++a) {
@@ -48,16 +50,27 @@ void LocalGround::mark_candidates(const std::vector<ObstaclePoint>& candidates) 
   }
 }
 
-void LocalGround::add_point(const Eigen::Vector3d& vehicle_m) {
-  work_.scalar_ops += 4;
+void LocalGround::add_point(const Eigen::Vector3d& vehicle_m, int share, double height_above_m) {
+  Share& state = shares_.at(static_cast<size_t>(share));
+  ArmWork& work = state.work;
+  work.scalar_ops += 4;
   int i = 0, j = 0;
-  if (!spec_.cell_of(vehicle_m.x(), vehicle_m.y(), &i, &j) || !in_window_[index(i, j)]) return;
+  if (!spec_.cell_of(vehicle_m.x(), vehicle_m.y(), forward_cells_, lateral_cells_, &i, &j) || !in_window_[index(i, j)]) return;
   if (!surface_.contains(vehicle_m.x(), vehicle_m.y())) return;
-  work_.scalar_ops += surface_evaluation_ops_;
-  const double above_m = vehicle_m.z() - surface_.height_m(vehicle_m.x(), vehicle_m.y());
+  double above_m = height_above_m;
+  if (std::isnan(above_m)) {
+    work.scalar_ops += surface_evaluation_ops_;
+    above_m = vehicle_m.z() - surface_.height_m(vehicle_m.x(), vehicle_m.y());
+  }
   if (!(above_m >= -parameters_.band_below_m && above_m <= obstacle_height_m_)) return;
-  inlier_heights_m_[index(i, j)].push_back(static_cast<float>(above_m));
-  work_.memory_bytes += 4;
+  state.inlier_heights_m[index(i, j)].push_back(static_cast<float>(above_m));
+  work.memory_bytes += 4;
+}
+
+ArmWork LocalGround::work() const {
+  ArmWork total = work_;
+  for (const Share& share : shares_) total += share.work;
+  return total;
 }
 
 int LocalGround::apply(std::vector<ObstaclePoint>& candidates) {
@@ -71,8 +84,10 @@ int LocalGround::apply(std::vector<ObstaclePoint>& candidates) {
       pooled.clear();
       for (int a = std::max(0, i - reach); a <= std::min(forward_cells_ - 1, i + reach); ++a) {
         for (int b = std::max(0, j - reach); b <= std::min(lateral_cells_ - 1, j + reach); ++b) {
-          const std::vector<float>& heights = inlier_heights_m_[index(a, b)];
-          pooled.insert(pooled.end(), heights.begin(), heights.end());
+          for (const Share& share : shares_) {
+            const std::vector<float>& heights = share.inlier_heights_m[index(a, b)];
+            pooled.insert(pooled.end(), heights.begin(), heights.end());
+          }
         }
       }
       work_.scalar_ops += 4 * pooled.size();
@@ -90,7 +105,7 @@ int LocalGround::apply(std::vector<ObstaclePoint>& candidates) {
   for (ObstaclePoint& candidate : candidates) {
     work_.scalar_ops += 6;
     int i = 0, j = 0;
-    if (spec_.cell_of(candidate.vehicle_m.x(), candidate.vehicle_m.y(), &i, &j)) candidate.height_above_ground_m -= offset_m[index(i, j)];
+    if (spec_.cell_of(candidate.vehicle_m.x(), candidate.vehicle_m.y(), forward_cells_, lateral_cells_, &i, &j)) candidate.height_above_ground_m -= offset_m[index(i, j)];
   }
   return cells;
 }

@@ -25,11 +25,15 @@
 // 2 per cell of its (2 reach + 1)^2 window, a byte per grid cell; the gather, 4 ops per point (the
 // cell index and the mark), plus for each point in a marked cell the surface evaluation
 // (terrain::surface_evaluation_ops, as the ARM task augmented_stixels counts it) and 4 bytes per
-// inlier kept; the median, 4 ops per pooled
-// value (copy and selection) per candidate cell; the re-reference, 6 ops per candidate.
+// inlier kept (no evaluation for a point whose height the caller gives); the median, 4 ops per pooled
+// value (copy and selection) per candidate cell; the re-reference, 6 ops per candidate. The gather
+// may be split into shares run on threads: each share keeps its own inliers and its own count, so
+// the result and the counted work do not depend on how many shares there are or how the points are
+// dealt to them (the median is the same order statistic of the same values).
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -50,19 +54,25 @@ struct LocalGroundParameters {
 
 class LocalGround {
  public:
-  // `surface` must outlive this; obstacle_height_m is the candidates' threshold (the band's top).
+  // `surface` must outlive this; obstacle_height_m is the candidates' threshold (the band's top);
+  // `shares` (>= 1) is how many gathers may run at once (step 2).
   LocalGround(const terrain::TerrainGridSpec& spec, const terrain::BsplineSurface& surface, double obstacle_height_m,
-              const LocalGroundParameters& parameters);
+              const LocalGroundParameters& parameters, int shares = 1);
 
   // 1. The cells holding the candidates, and the windows around them.
   void mark_candidates(const std::vector<ObstaclePoint>& candidates);
-  // 2. Every point of the frame, in any order (the candidates may be among them: they lie above the band).
-  void add_point(const Eigen::Vector3d& vehicle_m);
+  // 2. Every point of the frame, in any order and dealt to the shares in any way (the candidates may
+  // be among them: they lie above the band). Calls with different shares may run on different
+  // threads at once; one share's calls must not. height_above_m: z - S(x, y) when the caller has it
+  // (CandidateTest::classify evaluates it for every candidate and for the terrain points its bound
+  // cannot decide), which saves the evaluation and its counted work; NaN: evaluated here.
+  void add_point(const Eigen::Vector3d& vehicle_m, int share = 0, double height_above_m = std::numeric_limits<double>::quiet_NaN());
   // 3. The candidates of step 1 measured from their cell's local ground where it lies under the
   // surface; returns how many cells were. Call once.
   int apply(std::vector<ObstaclePoint>& candidates);
 
-  const ArmWork& work() const { return work_; }
+  // The work of the three steps, every share's gather included.
+  ArmWork work() const;
 
  private:
   size_t index(int forward_cell, int lateral_cell) const;
@@ -73,9 +83,15 @@ class LocalGround {
   LocalGroundParameters parameters_;
   int forward_cells_ = 0, lateral_cells_ = 0;
   std::vector<uint8_t> holds_candidates_, in_window_;
-  std::vector<std::vector<float>> inlier_heights_m_;  // per cell in a window: h of its inliers
+  // One gather's state: per cell in a window, h of the inliers it gathered there; and its work. On a
+  // cache line of its own: the shares' counters are written per point from different threads.
+  struct alignas(64) Share {
+    std::vector<std::vector<float>> inlier_heights_m;
+    ArmWork work;
+  };
+  std::vector<Share> shares_;
   uint64_t surface_evaluation_ops_ = 0;
-  ArmWork work_;
+  ArmWork work_;  // marking, median, re-reference
 };
 
 }  // namespace lpstereo::arm::obstacles3d

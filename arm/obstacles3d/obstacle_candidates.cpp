@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <thread>
 
@@ -61,9 +62,8 @@ CandidateTest::Class CandidateTest::classify(const Eigen::Vector3d& vehicle_m, d
   }
   if (evaluated != nullptr) *evaluated = true;
   const double above_m = vehicle_m.z() - surface_.height_m(vehicle_m.x(), vehicle_m.y());
-  if (!(above_m > obstacle_height_m_)) return Class::terrain;
   *height_above_m = above_m;
-  return Class::candidate;
+  return above_m > obstacle_height_m_ ? Class::candidate : Class::terrain;
 }
 
 CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t invalid_disparity_q4, const CameraPoints& camera,
@@ -218,19 +218,29 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   std::vector<size_t> points_before_band(bands.size() + 1, 0);
   for (size_t b = 0; b < bands.size(); ++b) points_before_band[b + 1] = points_before_band[b] + bands[b].points.size();
   const size_t point_count = points_before_band.back();
-  std::vector<Share> shares(bands.size());
-  run_bands([&](int worker) {
-    Share& share = shares[static_cast<size_t>(worker)];
+  // Calls visit(band, i, k) for the points k in [N w / T, N (w + 1) / T) of the bands'
+  // concatenation (i: the index in its band).
+  const auto for_each_point_of_share = [&](int worker, const auto& visit) {
     const size_t first = point_count * static_cast<size_t>(worker) / static_cast<size_t>(band_count);
     const size_t end = point_count * static_cast<size_t>(worker + 1) / static_cast<size_t>(band_count);
     size_t band_index = static_cast<size_t>(std::upper_bound(points_before_band.begin(), points_before_band.end(), first) -
                                             points_before_band.begin()) - 1;
     for (size_t global = first; global < end; ++global) {
       while (global >= points_before_band[band_index + 1]) ++band_index;
-      const Band& band = bands[band_index];
-      const size_t i = global - points_before_band[band_index];
+      visit(bands[band_index], global - points_before_band[band_index], global);
+    }
+  };
+  std::vector<Share> shares(bands.size());
+  // z - S(x, y) of every point whose class needed S (NaN for the others): the local ground reuses it.
+  const bool local_ground = parameters.local_ground_reference;
+  std::vector<double> evaluated_height_m(local_ground ? point_count : 0, std::numeric_limits<double>::quiet_NaN());
+  run_bands([&](int worker) {
+    Share& share = shares[static_cast<size_t>(worker)];
+    for_each_point_of_share(worker, [&](const Band& band, size_t i, size_t global) {
       double height_above_m = 0;
-      const CandidateTest::Class point_class = test.classify(band.vehicle_points[i], &height_above_m);
+      bool evaluated = false;
+      const CandidateTest::Class point_class = test.classify(band.vehicle_points[i], &height_above_m, &evaluated);
+      if (local_ground && evaluated) evaluated_height_m[global] = height_above_m;
       if (point_class == CandidateTest::Class::outside) {
         ++share.outside_area;
       } else if (point_class == CandidateTest::Class::candidate && far_side_test && band.far_side[i] != 0) {
@@ -239,7 +249,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
         share.candidates.push_back(band.points[i]);
         share.candidates.back().height_above_ground_m = static_cast<float>(height_above_m);
       }
-    }
+    });
   });
   size_t candidate_count = 0;
   for (const Share& share : shares) candidate_count += share.candidates.size();
@@ -249,13 +259,18 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     result.outside_area += share.outside_area;
     result.far_side += share.far_side;
   }
-  if (parameters.local_ground_reference && !result.points.empty()) {
-    LocalGround local_ground(parameters.grid, result.terrain.surface, parameters.obstacle_height_m, parameters.local_ground);
-    local_ground.mark_candidates(result.points);
-    for (const Band& band : bands) {
-      for (const Eigen::Vector3d& vehicle : band.vehicle_points) local_ground.add_point(vehicle);
-    }
-    result.local_ground_cells = local_ground.apply(result.points);
+  if (local_ground && !result.points.empty()) {
+    // The gather needs z - S at every point near a candidate: the classification's where it has it
+    // (the candidates among them), else evaluated, on the classification's shares and threads (the
+    // result depends on neither, local_ground.h).
+    LocalGround ground(parameters.grid, result.terrain.surface, parameters.obstacle_height_m, parameters.local_ground, band_count);
+    ground.mark_candidates(result.points);
+    run_bands([&](int worker) {
+      for_each_point_of_share(worker, [&](const Band& band, size_t i, size_t global) {
+        ground.add_point(band.vehicle_points[i], worker, evaluated_height_m[global]);
+      });
+    });
+    result.local_ground_cells = ground.apply(result.points);
   }
   char note[240];
   std::snprintf(note, sizeof note,
@@ -264,7 +279,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
                 static_cast<long long>(result.cloud_points), result.points.size(), static_cast<long long>(result.outside_area),
                 static_cast<long long>(result.far_side), result.below_view_cells);
   result.note = note;
-  if (parameters.local_ground_reference) {
+  if (local_ground) {
     result.note += ", " + std::to_string(result.local_ground_cells) + " candidate cells measured from their local ground";
   }
   return result;

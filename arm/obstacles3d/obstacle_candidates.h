@@ -116,8 +116,9 @@ class CandidateTest {
   enum class Class : uint8_t { outside, terrain, candidate };
   // `surface` must outlive the test; obstacle_height_m as in CandidateParameters.
   CandidateTest(const terrain::BsplineSurface& surface, double obstacle_height_m);
-  // The point's class; for a candidate *height_above_m = z - S(x, y). *evaluated (may be null) says
-  // whether S was evaluated (the ARM task counts that work).
+  // The point's class; *height_above_m = z - S(x, y) whenever S was evaluated (every candidate, and
+  // the terrain points the control heights' bound could not decide), else left alone. *evaluated
+  // (may be null) says whether S was (the ARM task counts that work).
   Class classify(const Eigen::Vector3d& vehicle_m, double* height_above_m, bool* evaluated = nullptr) const;
 
  private:

@@ -64,17 +64,20 @@
 //                  subtraction and compare, terrain::surface_evaluation_ops; the per-point model
 //                  arm/terrain/traversability.cpp gives classify_points)
 //                  + 16 N (the candidate's fields and the disparity)
-//                  + with local_ground, LocalGround's own counted work (local_ground.h)
+//                  + with local_ground, LocalGround's own counted work (local_ground.h; it evaluates
+//                  S only for the points the classification did not)
 //                  + the stixels' own counted work (AugmentedStixels::work(): the polar grid per
 //                  point and cell, the stixels per point, the clustering per stixel) + 16 T + 16 O + 64;
 //   memory_bytes = 12 W ceil(H / step) (the sampled rows of three planes, whole cache lines, as the
 //                  terrain task counts them) + 4 (kTerrainHeaderWords + n0 n1) (the record)
 //                  + sizeof(ObstaclePoint) N (the candidates written) + with local_ground, LocalGround's
-//                  and 24 I (the points over the surface kept for its pass) + the stixels' own counted
+//                  and 32 I (the points over the surface and their evaluated heights kept for its
+//                  pass) + the stixels' own counted
 //                  bytes + 4 kStixelWords (1 + T) + 4 kObstacle3dWords (1 + O).
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -235,7 +238,10 @@ void run(const ArmTaskArgs& args) {
     const CameraToVehicle to_vehicle(p.mount);
     const double focal_baseline = p.focal_px * p.baseline_m;
     std::vector<o3::ObstaclePoint> candidates;
-    std::vector<Eigen::Vector3d> inside_points;  // with local_ground: every point over the surface, for its inliers
+    // With local_ground: every point over the surface, for its inliers, and its z - S where the
+    // classification evaluated S (NaN where it did not), which LocalGround then need not evaluate.
+    std::vector<Eigen::Vector3d> inside_points;
+    std::vector<double> inside_heights_m;
     const o3::CandidateTest test(surface, p.obstacle_height_m);
     uint64_t sampled = 0, valid = 0, inside = 0, evaluated_points = 0;
     for (int v = 0; v < x_plane.height(); v += p.sample_step) {
@@ -253,7 +259,10 @@ void run(const ArmTaskArgs& args) {
         const o3::CandidateTest::Class point_class = test.classify(vehicle_m, &height_m, &evaluated);
         if (point_class == o3::CandidateTest::Class::outside) continue;
         ++inside;
-        if (p.local_ground) inside_points.push_back(vehicle_m);
+        if (p.local_ground) {
+          inside_points.push_back(vehicle_m);
+          inside_heights_m.push_back(evaluated ? height_m : std::numeric_limits<double>::quiet_NaN());
+        }
         evaluated_points += evaluated;
         if (point_class != o3::CandidateTest::Class::candidate) continue;
         o3::ObstaclePoint point;
@@ -276,10 +285,11 @@ void run(const ArmTaskArgs& args) {
     if (p.local_ground && !candidates.empty()) {
       o3::LocalGround local_ground(p.grid, surface, p.obstacle_height_m, p.local_ground_parameters);
       local_ground.mark_candidates(candidates);
-      for (const Eigen::Vector3d& vehicle_m : inside_points) local_ground.add_point(vehicle_m);
+      for (size_t k = 0; k < inside_points.size(); ++k) local_ground.add_point(inside_points[k], 0, inside_heights_m[k]);
       local_ground.apply(candidates);
       work += local_ground.work();
-      work.memory_bytes += sizeof(Eigen::Vector3d) * inside_points.size();  // the points kept for the second pass
+      // the points and heights kept for the second pass
+      work.memory_bytes += (sizeof(Eigen::Vector3d) + sizeof(double)) * inside_points.size();
     }
 
     // 3. The stixels (one frame's evidence, static camera).

@@ -139,26 +139,19 @@ int cells_over(double min_m, double max_m, double cell_m) {
 int TerrainGridSpec::forward_cells() const { return cells_over(forward_min_m, forward_max_m, cell_m); }
 int TerrainGridSpec::lateral_cells() const { return cells_over(lateral_min_m, lateral_max_m, cell_m); }
 
-namespace {
-
-// TerrainGridSpec::cell_of with the grid's cell counts given: the accumulator, which bins every
-// point of a frame, knows them and saves the two divides that computing them costs per point.
-bool cell_of_grid(const TerrainGridSpec& spec, int forward_cells, int lateral_cells, double x_m, double y_m, int* forward_cell,
-                  int* lateral_cell) {
+bool TerrainGridSpec::cell_of(double x_m, double y_m, int forward_cells, int lateral_cells, int* forward_cell, int* lateral_cell) const {
   if (!std::isfinite(x_m) || !std::isfinite(y_m)) return false;
-  if (x_m < spec.forward_min_m || y_m < spec.lateral_min_m || x_m >= spec.forward_max_m || y_m >= spec.lateral_max_m) return false;
-  const int i = static_cast<int>(std::floor((x_m - spec.forward_min_m) / spec.cell_m));
-  const int j = static_cast<int>(std::floor((y_m - spec.lateral_min_m) / spec.cell_m));
+  if (x_m < forward_min_m || y_m < lateral_min_m || x_m >= forward_max_m || y_m >= lateral_max_m) return false;
+  const int i = static_cast<int>(std::floor((x_m - forward_min_m) / cell_m));
+  const int j = static_cast<int>(std::floor((y_m - lateral_min_m) / cell_m));
   if (i < 0 || j < 0 || i >= forward_cells || j >= lateral_cells) return false;
   *forward_cell = i;
   *lateral_cell = j;
   return true;
 }
 
-}  // namespace
-
 bool TerrainGridSpec::cell_of(double x_m, double y_m, int* forward_cell, int* lateral_cell) const {
-  return cell_of_grid(*this, forward_cells(), lateral_cells(), x_m, y_m, forward_cell, lateral_cell);
+  return cell_of(x_m, y_m, forward_cells(), lateral_cells(), forward_cell, lateral_cell);
 }
 
 double TerrainGridSpec::cell_centre_x_m(int forward_cell) const { return forward_min_m + (forward_cell + 0.5) * cell_m; }
@@ -216,7 +209,7 @@ bool HeightGridAccumulator::add_point(const Eigen::Vector3d& point_vehicle_m, bo
   ++add_point_calls_;
   int i = 0, j = 0;
   if (!std::isfinite(point_vehicle_m.z()) ||
-      !cell_of_grid(spec_, static_cast<int>(count_.rows()), static_cast<int>(count_.cols()), point_vehicle_m.x(), point_vehicle_m.y(), &i, &j)) {
+      !spec_.cell_of(point_vehicle_m.x(), point_vehicle_m.y(), static_cast<int>(count_.rows()), static_cast<int>(count_.cols()), &i, &j)) {
     ++rejected_;
     return false;
   }

@@ -72,6 +72,9 @@ struct TerrainGridSpec {
   int lateral_cells() const;
   // The cell holding (x, y), or false outside the area (or non-finite).
   bool cell_of(double x_m, double y_m, int* forward_cell, int* lateral_cell) const;
+  // The same cell, with the counts forward_cells() and lateral_cells() given: they cost two divides a
+  // call, which a loop over every point of a frame computes once.
+  bool cell_of(double x_m, double y_m, int forward_cells, int lateral_cells, int* forward_cell, int* lateral_cell) const;
   double cell_centre_x_m(int forward_cell) const;
   double cell_centre_y_m(int lateral_cell) const;
   // Throws std::invalid_argument "<name>: expected ..., got ..." for a bad area or cell size.

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -229,7 +230,8 @@ TEST(AugmentedStixelsTask, BoxAndHangingSignOverFlatTerrain) {
 // around it, with a terrain record 0.12 m above that road (every control height 120 mm). Without the
 // local ground the sign is measured from the record's surface, 0.12 m low; with it, from the road's
 // median, 0.12 m under the surface: its true heights. The counted work grows by LocalGround's own
-// count on the same candidates and points, plus 24 bytes per point kept for its pass.
+// count on the same candidates and points (with the heights the classification evaluated), plus 32
+// bytes per point kept for its pass.
 TEST(AugmentedStixelsTask, TheLocalGroundMeasuresTheSignFromTheRoadUnderALiftedSurface) {
   Scene scene;
   for (int v = 0; v < kHeight; ++v) {
@@ -277,11 +279,17 @@ TEST(AugmentedStixelsTask, TheLocalGroundMeasuresTheSignFromTheRoadUnderALiftedS
   surface.lateral_max_m = 4.0;
   std::vector<o3::ObstaclePoint> candidates;
   std::vector<Eigen::Vector3d> inside;
+  std::vector<double> inside_heights_m;  // z - S where the classification evaluated it
+  const o3::CandidateTest test(surface, 0.2);
   for (int v = 0; v < 20; ++v) {
     for (int u = 0; u < kWidth; ++u) {
       const Eigen::Vector3d camera_m(scene.x.at<int32_t>(u, v) * 1e-3, scene.y.at<int32_t>(u, v) * 1e-3, scene.z.at<int32_t>(u, v) * 1e-3);
       const Eigen::Vector3d vehicle_m = to_vehicle.apply(camera_m);
+      double height_m = 0;
+      bool evaluated = false;
+      ASSERT_NE(test.classify(vehicle_m, &height_m, &evaluated), o3::CandidateTest::Class::outside) << u << ", " << v;
       inside.push_back(vehicle_m);
+      inside_heights_m.push_back(evaluated ? height_m : std::numeric_limits<double>::quiet_NaN());
       if (v >= 10) continue;
       o3::ObstaclePoint point;
       point.vehicle_m = vehicle_m.cast<float>();
@@ -290,10 +298,11 @@ TEST(AugmentedStixelsTask, TheLocalGroundMeasuresTheSignFromTheRoadUnderALiftedS
   }
   o3::LocalGround local_ground(grid, surface, 0.2, o3::LocalGroundParameters{});
   local_ground.mark_candidates(candidates);
-  for (const Eigen::Vector3d& point : inside) local_ground.add_point(point);
+  for (size_t k = 0; k < inside.size(); ++k) local_ground.add_point(inside[k], 0, inside_heights_m[k]);
   EXPECT_EQ(local_ground.apply(candidates), 3);  // the sign spans vehicle y 0.42 .. 1.2 m (left): three lateral cells at x 7.0
   EXPECT_EQ(on.work.scalar_ops, off.work.scalar_ops + local_ground.work().scalar_ops);
-  EXPECT_EQ(on.work.memory_bytes, off.work.memory_bytes + local_ground.work().memory_bytes + sizeof(Eigen::Vector3d) * inside.size());
+  EXPECT_EQ(on.work.memory_bytes,
+            off.work.memory_bytes + local_ground.work().memory_bytes + (sizeof(Eigen::Vector3d) + sizeof(double)) * inside.size());
 }
 
 TEST(AugmentedStixelsTask, SampleStepReadsEveryNthRowAndColumn) {

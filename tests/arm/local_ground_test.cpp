@@ -1,8 +1,9 @@
 // arm::obstacles3d::LocalGround (arm/obstacles3d/local_ground.h) on hand-placed points over a flat
 // surface of known height: candidates over a surface that stands 0.12 m above the ground points seen
 // around them are measured from those points; a surface under the seen ground, too few inliers, and
-// points under the band (a ditch) leave them alone; the point order does not matter; the counted
-// work grows with the points evaluated; bad parameters are refused by name.
+// points under the band (a ditch) leave them alone; neither the point order, nor the points' dealing
+// to shares, nor heights given by the caller instead of evaluated changes the result; the counted work grows with the points evaluated; bad parameters are refused
+// by name.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -61,13 +62,14 @@ struct Outcome {
   ArmWork work;
 };
 
+// The points are dealt to `shares` gathers in turn.
 Outcome run(const terrain::BsplineSurface& surface, const std::vector<o3::ObstaclePoint>& candidates,
-            const std::vector<Eigen::Vector3d>& points, const o3::LocalGroundParameters& parameters = {}) {
+            const std::vector<Eigen::Vector3d>& points, const o3::LocalGroundParameters& parameters = {}, int shares = 1) {
   const terrain::TerrainGridSpec spec;
-  o3::LocalGround local_ground(spec, surface, 0.2, parameters);
+  o3::LocalGround local_ground(spec, surface, 0.2, parameters, shares);
   Outcome outcome{candidates, 0, {}};
   local_ground.mark_candidates(outcome.candidates);
-  for (const Eigen::Vector3d& point : points) local_ground.add_point(point);
+  for (size_t k = 0; k < points.size(); ++k) local_ground.add_point(points[k], static_cast<int>(k % static_cast<size_t>(shares)));
   for (const o3::ObstaclePoint& candidate : candidates) local_ground.add_point(candidate.vehicle_m.cast<double>());  // above the band
   outcome.cells = local_ground.apply(outcome.candidates);
   outcome.work = local_ground.work();
@@ -148,6 +150,27 @@ TEST(LocalGround, ThePointOrderDoesNotMatterAndTheWorkIsCounted) {
   const Outcome shuffled = run(surface, candidates, points);
   EXPECT_EQ(shuffled.candidates[0].height_above_ground_m, in_order.candidates[0].height_above_ground_m);
   EXPECT_EQ(shuffled.work.scalar_ops, in_order.work.scalar_ops);
+  // Nor how the points are dealt to shares (the gathers a caller runs on threads).
+  for (int shares : {2, 3, 7}) {
+    const Outcome dealt = run(surface, candidates, points, {}, shares);
+    EXPECT_EQ(dealt.cells, in_order.cells) << shares;
+    EXPECT_EQ(dealt.candidates[0].height_above_ground_m, in_order.candidates[0].height_above_ground_m) << shares;
+    EXPECT_EQ(dealt.work.scalar_ops, in_order.work.scalar_ops) << shares;
+    EXPECT_EQ(dealt.work.memory_bytes, in_order.work.memory_bytes) << shares;
+  }
+  // Nor whether the caller gives the points' heights above the surface (the classification has them
+  // for the points its bound does not decide): the same result, without the evaluations' work.
+  {
+    o3::LocalGround given(spec, surface, 0.2, o3::LocalGroundParameters{});
+    std::vector<o3::ObstaclePoint> measured = candidates;
+    given.mark_candidates(measured);
+    for (const Eigen::Vector3d& point : points) given.add_point(point, 0, point.z() - surface.height_m(point.x(), point.y()));
+    EXPECT_EQ(given.apply(measured), in_order.cells);
+    EXPECT_EQ(measured[0].height_above_ground_m, in_order.candidates[0].height_above_ground_m);
+    const uint64_t evaluation_ops = terrain::surface_evaluation_ops(3, 3);
+    // in_order also evaluated S at the candidate itself (run() adds the candidates as points)
+    EXPECT_EQ(given.work().scalar_ops + (points.size() + 1) * evaluation_ops + 4, in_order.work.scalar_ops);
+  }
   // Points outside every window cost their cell test only; those inside, a surface evaluation each.
   std::vector<Eigen::Vector3d> more = points;
   more.emplace_back(5.0, -8.0, 0.0);
@@ -177,6 +200,14 @@ TEST(LocalGround, RefusesParametersOutOfRangeByName) {
   parameters = {};
   parameters.min_points = 0;
   EXPECT_EQ(message(parameters), "min_points: expected a count in [1, 100000], got 0");
+  const terrain::TerrainGridSpec spec;
+  const terrain::BsplineSurface surface = flat_surface(spec, 0.0);
+  try {
+    o3::LocalGround local_ground(spec, surface, 0.2, o3::LocalGroundParameters{}, 0);
+    ADD_FAILURE() << "0 shares accepted";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()), "shares: expected a count in [1, 1024], got 0");
+  }
 }
 
 }  // namespace
