@@ -1,6 +1,7 @@
 #include "arm/obstacles3d/obstacle_candidates.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -88,6 +89,8 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   parameters.occluder.validate();
   parameters.far_side.validate();
   parameters.local_ground.validate();
+  parameters.grid.validate();
+  const int forward_cells = parameters.grid.forward_cells(), lateral_cells = parameters.grid.lateral_cells();
   CandidatePoints result;
   // The image split into contiguous bands of rows, one per thread: each band's points are built on
   // its own thread, then the points are classified in equal shares, one per thread; every sequential
@@ -98,6 +101,9 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     std::vector<Eigen::Vector3d> vehicle_points;
     std::vector<uint8_t> over_occluder;  // per point, with grid.occlusion_upper_bounds
     std::vector<uint8_t> far_side;  // per point, with the far-side test on
+    // Per point, its 2.5D grid cell (TerrainGridSpec::cell_of, found here on the band's thread for
+    // the grid's sums and the local ground); forward -1: outside the area.
+    std::vector<std::array<int32_t, 2>> cells;
   };
   // One classification worker's share of the points: its candidates and its count outside the area.
   struct Share {
@@ -156,6 +162,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     const size_t capacity = static_cast<size_t>(end_row - first_row) * static_cast<size_t>(disparity_q4.width());
     out.points.reserve(capacity);
     out.vehicle_points.reserve(capacity);
+    out.cells.reserve(capacity);
     const std::vector<uint8_t> far_side_flags =
         far_side_test ? pixels_on_far_side(disparity_q4, invalid_disparity_q4, parameters.far_side, first_row, end_row) : std::vector<uint8_t>{};
     for (int v = first_row; v < end_row; ++v) {
@@ -185,6 +192,9 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
         }
         out.points.push_back(point);
         out.vehicle_points.push_back(vehicle);
+        int forward_cell = -1, lateral_cell = -1;
+        if (!parameters.grid.cell_of(vehicle.x(), vehicle.y(), forward_cells, lateral_cells, &forward_cell, &lateral_cell)) forward_cell = -1;
+        out.cells.push_back({forward_cell, lateral_cell});
         if (occlusion) out.over_occluder.push_back(over_occluder[static_cast<size_t>(v) * disparity_q4.width() + u]);
         if (far_side_test) out.far_side.push_back(far_side_flags[static_cast<size_t>(v - first_row) * disparity_q4.width() + u]);
       }
@@ -198,7 +208,8 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   terrain::HeightGridAccumulator accumulator(parameters.grid);
   for (const Band& band : bands) {
     for (size_t k = 0; k < band.vehicle_points.size(); ++k) {
-      accumulator.add_point(band.vehicle_points[k], occlusion && band.over_occluder[k] != 0);
+      // A cell of -1 is rejected as add_point would reject the point.
+      accumulator.add_to_cell(band.cells[k][0], band.cells[k][1], band.vehicle_points[k].z(), occlusion && band.over_occluder[k] != 0);
     }
   }
   result.measured_grid = accumulator.finish();
@@ -267,7 +278,8 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     ground.mark_candidates(result.points);
     run_bands([&](int worker) {
       for_each_point_of_share(worker, [&](const Band& band, size_t i, size_t global) {
-        ground.add_point(band.vehicle_points[i], worker, evaluated_height_m[global]);
+        ground.add_point_in_cell(band.vehicle_points[i], band.cells[i][0] >= 0, band.cells[i][0], band.cells[i][1], worker,
+                                 evaluated_height_m[global]);
       });
     });
     result.local_ground_cells = ground.apply(result.points);

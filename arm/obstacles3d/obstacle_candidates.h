@@ -142,8 +142,8 @@ DisparityParameters obstacles3d_near_guard_disparity_parameters();
 // `camera` holds the points arm::triangulate made from the disparity map with `view` (its focal
 // length and principal point also say where the image ends); `grey` (u8) and the colour view, when
 // given, are the left image the disparity map belongs to. Throws std::invalid_argument when the
-// planes' sizes disagree, view.focal_px is not positive or obstacle_height_m, threads, occluder or
-// far_side is out of range.
+// planes' sizes disagree, view.focal_px is not positive or obstacle_height_m, threads, occluder,
+// far_side, local_ground or the grid is out of range.
 CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t invalid_disparity_q4, const CameraPoints& camera,
                                             const TriangulationParameters& view, const Plane& grey, const ColourView& colour,
                                             const CameraToVehicle& to_vehicle, const CandidateParameters& parameters);

@@ -188,6 +188,19 @@ TEST(ObstacleCandidates, RefusesAThreadCountOutOfRange) {
   }
 }
 
+// The grid is checked before any point is built: its cells are found with the points.
+TEST(ObstacleCandidates, RefusesAGridWithoutCells) {
+  const Frame frame = make_frame();
+  o3::CandidateParameters parameters;
+  parameters.grid.cell_m = 0;
+  try {
+    o3::extract_obstacle_candidates(frame.disparity, kInvalidQ4, frame.camera, kView, frame.grey, o3::ColourView{}, frame.to_vehicle, parameters);
+    ADD_FAILURE() << "accepted cell_m = 0";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()), "cell_m: expected > 0, got 0");
+  }
+}
+
 // With the occlusion-aware sampling (grid.occlusion_upper_bounds): a far sign (d = 2 px, Z = 30 m,
 // rows 20-39) seen right above the box (d = 6 px from row 40): its bottom rows lie over the box, so
 // the sign's cells at 30 m, which hold nothing under the sign, are marked as upper bounds; no road
