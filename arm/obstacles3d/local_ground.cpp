@@ -51,16 +51,16 @@ void LocalGround::mark_candidates(const std::vector<ObstaclePoint>& candidates) 
 }
 
 void LocalGround::add_point(const Eigen::Vector3d& vehicle_m, int share, double height_above_m) {
-  int i = 0, j = 0;
-  const bool in_area = spec_.cell_of(vehicle_m.x(), vehicle_m.y(), forward_cells_, lateral_cells_, &i, &j);
-  add_point_in_cell(vehicle_m, in_area, i, j, share, height_above_m);
+  int i = -1, j = -1;
+  if (!spec_.cell_of(vehicle_m.x(), vehicle_m.y(), forward_cells_, lateral_cells_, &i, &j)) i = -1;
+  add_point_in_cell(vehicle_m, i, j, share, height_above_m);
 }
 
-void LocalGround::add_point_in_cell(const Eigen::Vector3d& vehicle_m, bool in_area, int i, int j, int share, double height_above_m) {
+void LocalGround::add_point_in_cell(const Eigen::Vector3d& vehicle_m, int i, int j, int share, double height_above_m) {
   Share& state = shares_.at(static_cast<size_t>(share));
   ArmWork& work = state.work;
   work.scalar_ops += 4;
-  if (!in_area || !in_window_[index(i, j)]) return;
+  if (i < 0 || !in_window_[index(i, j)]) return;
   if (!surface_.contains(vehicle_m.x(), vehicle_m.y())) return;
   double above_m = height_above_m;
   if (std::isnan(above_m)) {

@@ -68,9 +68,8 @@ class LocalGround {
   // cannot decide), which saves the evaluation and its counted work; NaN: evaluated here.
   void add_point(const Eigen::Vector3d& vehicle_m, int share = 0, double height_above_m = std::numeric_limits<double>::quiet_NaN());
   // The same for a point whose cell the caller has found (TerrainGridSpec::cell_of of its x and y;
-  // false: outside the area), which saves finding it again; the same result and counted work.
-  void add_point_in_cell(const Eigen::Vector3d& vehicle_m, bool in_area, int forward_cell, int lateral_cell, int share,
-                         double height_above_m);
+  // forward_cell -1: outside the area), which saves finding it again; the same result and counted work.
+  void add_point_in_cell(const Eigen::Vector3d& vehicle_m, int forward_cell, int lateral_cell, int share, double height_above_m);
   // 3. The candidates of step 1 measured from their cell's local ground where it lies under the
   // surface; returns how many cells were. Call once.
   int apply(std::vector<ObstaclePoint>& candidates);

@@ -192,9 +192,9 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
         }
         out.points.push_back(point);
         out.vehicle_points.push_back(vehicle);
-        int forward_cell = -1, lateral_cell = -1;
-        if (!parameters.grid.cell_of(vehicle.x(), vehicle.y(), forward_cells, lateral_cells, &forward_cell, &lateral_cell)) forward_cell = -1;
-        out.cells.push_back({forward_cell, lateral_cell});
+        std::array<int32_t, 2> cell = {-1, -1};
+        if (!parameters.grid.cell_of(vehicle.x(), vehicle.y(), forward_cells, lateral_cells, &cell[0], &cell[1])) cell = {-1, -1};
+        out.cells.push_back(cell);
         if (occlusion) out.over_occluder.push_back(over_occluder[static_cast<size_t>(v) * disparity_q4.width() + u]);
         if (far_side_test) out.far_side.push_back(far_side_flags[static_cast<size_t>(v - first_row) * disparity_q4.width() + u]);
       }
@@ -278,8 +278,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     ground.mark_candidates(result.points);
     run_bands([&](int worker) {
       for_each_point_of_share(worker, [&](const Band& band, size_t i, size_t global) {
-        ground.add_point_in_cell(band.vehicle_points[i], band.cells[i][0] >= 0, band.cells[i][0], band.cells[i][1], worker,
-                                 evaluated_height_m[global]);
+        ground.add_point_in_cell(band.vehicle_points[i], band.cells[i][0], band.cells[i][1], worker, evaluated_height_m[global]);
       });
     });
     result.local_ground_cells = ground.apply(result.points);

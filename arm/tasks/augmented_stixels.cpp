@@ -72,8 +72,8 @@
 //                  terrain task counts them) + 4 (kTerrainHeaderWords + n0 n1) (the record)
 //                  + sizeof(ObstaclePoint) N (the candidates written) + with local_ground, LocalGround's
 //                  and 32 I (the points over the surface and their evaluated heights kept for its
-//                  pass) + the stixels' own counted
-//                  bytes + 4 kStixelWords (1 + T) + 4 kObstacle3dWords (1 + O).
+//                  pass) + the stixels' own counted bytes + 4 kStixelWords (1 + T) + 4 kObstacle3dWords
+//                  (1 + O).
 #include <algorithm>
 #include <cmath>
 #include <cstring>

@@ -2,11 +2,12 @@
 // surface of known height: candidates over a surface that stands 0.12 m above the ground points seen
 // around them are measured from those points; a surface under the seen ground, too few inliers, and
 // points under the band (a ditch) leave them alone; neither the point order, nor the points' dealing
-// to shares, nor heights given by the caller instead of evaluated changes the result; the counted work grows with the points evaluated; bad parameters are refused
-// by name.
+// to shares, nor heights given by the caller instead of evaluated changes the result; the counted
+// work grows with the points evaluated; bad parameters are refused by name.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -170,6 +171,22 @@ TEST(LocalGround, ThePointOrderDoesNotMatterAndTheWorkIsCounted) {
     const uint64_t evaluation_ops = terrain::surface_evaluation_ops(3, 3);
     // in_order also evaluated S at the candidate itself (run() adds the candidates as points)
     EXPECT_EQ(given.work().scalar_ops + (points.size() + 1) * evaluation_ops + 4, in_order.work.scalar_ops);
+  }
+  // Nor whether the caller gives the points' cells; a point outside the area (cell -1) costs its 4.
+  {
+    o3::LocalGround given(spec, surface, 0.2, o3::LocalGroundParameters{});
+    std::vector<o3::ObstaclePoint> measured = candidates;
+    given.mark_candidates(measured);
+    for (const Eigen::Vector3d& point : points) {
+      int i = -1, j = -1;
+      ASSERT_TRUE(spec.cell_of(point.x(), point.y(), &i, &j));
+      given.add_point_in_cell(point, i, j, 0, std::numeric_limits<double>::quiet_NaN());
+    }
+    const uint64_t ops_inside = given.work().scalar_ops;
+    given.add_point_in_cell(Eigen::Vector3d(28.6, 0.3, 0.0), -1, -1, 0, std::numeric_limits<double>::quiet_NaN());
+    EXPECT_EQ(given.work().scalar_ops, ops_inside + 4);
+    EXPECT_EQ(given.apply(measured), in_order.cells);
+    EXPECT_EQ(measured[0].height_above_ground_m, in_order.candidates[0].height_above_ground_m);
   }
   // Points outside every window cost their cell test only; those inside, a surface evaluation each.
   std::vector<Eigen::Vector3d> more = points;
