@@ -662,8 +662,8 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     score_frame(tracks.obstacles, frame_truth, error_model, settings, true, kMethodNames[4], log, tallies[4]);
     pipeline_s += seconds_since(started);
   }
-  std::printf("%-9s seed %u: %d frames rendered in %.1f s (%.2f s a frame), processed and scored in %.1f s (%.2f s a frame), wall clock\n",
-              scene.c_str(), seed, settings.frames, render_s, render_s / settings.frames, pipeline_s, pipeline_s / settings.frames);
+  std::printf("%-9s seed %u: %d frames %s in %.1f s (%.2f s a frame), processed and scored in %.1f s (%.2f s a frame), wall clock\n",
+              scene.c_str(), seed, settings.frames, settings.frame_cache.empty() ? "rendered" : "rendered or read from the cache", render_s, render_s / settings.frames, pipeline_s, pipeline_s / settings.frames);
   if (!settings.frame_cache.empty()) {
     std::printf("%-9s seed %u: %d of %d frames read from --frame-cache %s (key %016llx), the others rendered and written there\n", scene.c_str(),
                 seed, cached_frames, settings.frames, settings.frame_cache.c_str(), static_cast<unsigned long long>(cache_key));

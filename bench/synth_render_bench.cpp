@@ -4,9 +4,9 @@
 //
 // For each preset (640 x 480, the presets' own settings: 2 x 2 samples per pixel, grey + no colour)
 // and each thread count (1 and 2): one warm-up frame, then `repetitions` renders of the same frame,
-// median and minimum wall time in ms. Also prints a 64-bit FNV-1a digest of the frame's left, right,
-// disparity and object-id images, so an old and a new build can be checked for the same bits (the
-// digest must not depend on the thread count; the program exits 1 if it does).
+// median and minimum wall time in ms. Also prints the frame's 64-bit FNV-1a digest
+// (io::sequence_frame_digest: its images, pose and truth), so an old and a new build can be checked for
+// the same bits (the digest must not depend on the thread count; the program exits 1 if it does).
 //
 // Usage: synth_render_bench [--repetitions N] [--frame K] [--seed S] [--presets urban,mining,...]
 //                           [--threads 1,2]
@@ -22,28 +22,12 @@
 
 #include <opencv2/core.hpp>
 
+#include "io/sequence_frame_cache.h"
 #include "io/stereo_sequence.h"
 
 namespace {
 
 using namespace lpstereo;
-
-uint64_t digest(const cv::Mat& image, uint64_t hash) {
-  for (int v = 0; v < image.rows; ++v) {
-    const uint8_t* row = image.ptr<uint8_t>(v);
-    const size_t bytes = static_cast<size_t>(image.cols) * image.elemSize();
-    for (size_t i = 0; i < bytes; ++i) hash = (hash ^ row[i]) * 0x100000001B3ull;
-  }
-  return hash;
-}
-
-uint64_t frame_digest(const io::StereoSequenceFrame& frame) {
-  uint64_t hash = 0xCBF29CE484222325ull;
-  for (const cv::Mat* image : {&frame.scene.left, &frame.scene.right, &frame.scene.disparity_px, &frame.scene.object_ids}) {
-    hash = digest(*image, hash);
-  }
-  return hash;
-}
 
 std::vector<std::string> split(const std::string& text) {
   std::vector<std::string> parts;
@@ -76,20 +60,20 @@ int main(int argc, char** argv) {
   std::printf("synth_render_bench: io::render_sequence_frame, presets at their own settings (640 x 480), frame %d, seed %u, "
               "median of %d after 1 warm-up, wall ms per frame\n",
               frame, seed, repetitions);
-  std::printf("%-9s %7s %12s %10s  %s\n", "preset", "threads", "median_ms", "min_ms", "digest (left, right, disparity, ids)");
+  std::printf("%-9s %7s %12s %10s  %s\n", "preset", "threads", "median_ms", "min_ms", "digest (io::sequence_frame_digest)");
   bool consistent = true;
   for (const std::string& name : presets) {
     uint64_t first_digest = 0;
     for (size_t c = 0; c < thread_counts.size(); ++c) {
       io::StereoSequenceOptions options = io::preset_stereo_sequence(name, seed);
       options.base.threads = thread_counts[c];
-      uint64_t hash = frame_digest(io::render_sequence_frame(options, frame));  // warm-up
+      uint64_t hash = io::sequence_frame_digest(io::render_sequence_frame(options, frame));  // warm-up
       std::vector<double> ms;
       for (int r = 0; r < repetitions; ++r) {
         const auto start = std::chrono::steady_clock::now();
         const io::StereoSequenceFrame rendered = io::render_sequence_frame(options, frame);
         ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-        hash = frame_digest(rendered);
+        hash = io::sequence_frame_digest(rendered);
       }
       std::sort(ms.begin(), ms.end());
       if (c == 0) first_digest = hash;

@@ -1,6 +1,7 @@
 // The disk cache of rendered sequence frames: key, file format and atomic writes in sequence_frame_cache.h.
 #include "io/sequence_frame_cache.h"
 
+#include <array>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -55,13 +56,11 @@ void add_truth(Fnv& fnv, const SynthObjectTruth& truth) {
   fnv.add_value(truth.visible_pixels);
 }
 
-const cv::Mat* images_of(const StereoSynthScene& scene, int index) {
-  const cv::Mat* images[6] = {&scene.left, &scene.right, &scene.left_colour, &scene.right_colour, &scene.disparity_px, &scene.object_ids};
-  return images[index];
-}
-cv::Mat* images_of(StereoSynthScene& scene, int index) {
-  cv::Mat* images[6] = {&scene.left, &scene.right, &scene.left_colour, &scene.right_colour, &scene.disparity_px, &scene.object_ids};
-  return images[index];
+// The six images in file order (left, right, left_colour, right_colour, disparity_px, object_ids), as
+// pointers to const or mutable Mats after the scene's constness.
+template <class Scene>
+auto images_of(Scene& scene) {
+  return std::array{&scene.left, &scene.right, &scene.left_colour, &scene.right_colour, &scene.disparity_px, &scene.object_ids};
 }
 
 class Reader {
@@ -79,21 +78,36 @@ class Reader {
 
 }  // namespace
 
-uint64_t sequence_cache_key(const StereoSequenceOptions& options, const StereoSequenceFrame& first_frame) {
-  Fnv fnv;
-  fnv.add(kMagic, sizeof(kMagic));
-  for (int i = 0; i < 6; ++i) fnv.add_image(*images_of(first_frame.scene, i));
-  fnv.add_value(first_frame.scene.focal_px);
-  for (const auto& row : first_frame.pose.rotation) {
+namespace {
+
+// The frame's digest into `fnv`: every image, focal_px, the pose, every object's truth.
+void add_frame(Fnv& fnv, const StereoSequenceFrame& frame) {
+  for (const cv::Mat* image : images_of(frame.scene)) fnv.add_image(*image);
+  fnv.add_value(frame.scene.focal_px);
+  for (const auto& row : frame.pose.rotation) {
     for (const double value : row) fnv.add_value(value);
   }
-  for (const double value : first_frame.pose.centre_m) fnv.add_value(value);
-  for (const SynthObjectTruth& truth : first_frame.scene.objects) add_truth(fnv, truth);
-  for (const SequenceObjectTruth& object : first_frame.objects) {
+  for (const double value : frame.pose.centre_m) fnv.add_value(value);
+  for (const SynthObjectTruth& truth : frame.scene.objects) add_truth(fnv, truth);
+  for (const SequenceObjectTruth& object : frame.objects) {
     add_truth(fnv, object.truth);
     for (const double value : object.velocity_mps) fnv.add_value(value);
     fnv.add_value(object.moving);
   }
+}
+
+}  // namespace
+
+uint64_t sequence_frame_digest(const StereoSequenceFrame& frame) {
+  Fnv fnv;
+  add_frame(fnv, frame);
+  return fnv.hash;
+}
+
+uint64_t sequence_cache_key(const StereoSequenceOptions& options, const StereoSequenceFrame& first_frame) {
+  Fnv fnv;
+  fnv.add(kMagic, sizeof(kMagic));
+  add_frame(fnv, first_frame);
   fnv.add_value(options.camera_speed_mps);
   fnv.add_value(options.yaw_rate_rad_s);
   fnv.add_value(options.fps);
@@ -129,11 +143,11 @@ CachedFrame read_cached_sequence_frame(const std::string& path, uint64_t key, in
   if (!reader.value(file_key) || file_key != key) return damaged("another sequence's key");
   if (!reader.value(file_frame) || file_frame != frame) return damaged("expected frame " + std::to_string(frame) + ", got " + std::to_string(file_frame));
   StereoSequenceFrame loaded;
-  for (int i = 0; i < 6; ++i) {
+  for (cv::Mat* image_pointer : images_of(loaded.scene)) {
     int32_t rows = 0, cols = 0, type = 0;
     if (!reader.value(rows) || !reader.value(cols) || !reader.value(type)) return damaged("truncated image header");
     if (rows < 0 || cols < 0 || rows > 100000 || cols > 100000) return damaged("image size out of range");
-    cv::Mat& image = *images_of(loaded.scene, i);
+    cv::Mat& image = *image_pointer;
     if (rows == 0) continue;
     image.create(rows, cols, type);
     for (int y = 0; y < rows; ++y) {
@@ -169,8 +183,8 @@ void write_cached_sequence_frame(const std::string& path, uint64_t key, int fram
     bytes(&key, sizeof(key));
     const int32_t frame_index = frame;
     bytes(&frame_index, sizeof(frame_index));
-    for (int i = 0; i < 6; ++i) {
-      const cv::Mat& image = *images_of(rendered.scene, i);
+    for (const cv::Mat* image_pointer : images_of(rendered.scene)) {
+      const cv::Mat& image = *image_pointer;
       const int32_t header[3] = {image.empty() ? 0 : image.rows, image.empty() ? 0 : image.cols, image.type()};
       bytes(header, sizeof(header));
       if (image.empty()) continue;

@@ -31,6 +31,11 @@
 
 namespace lpstereo::io {
 
+// FNV-1a (64 bit) over the frame's bits: the six images, focal_px, the pose, every object's truth
+// (what the key takes from frame 0; bench/synth_render_bench prints it to show that a change of the
+// renderer kept the bits).
+uint64_t sequence_frame_digest(const StereoSequenceFrame& frame);
+
 uint64_t sequence_cache_key(const StereoSequenceOptions& options, const StereoSequenceFrame& first_frame);
 
 std::string sequence_frame_cache_path(const std::string& directory, uint64_t key, int frame);

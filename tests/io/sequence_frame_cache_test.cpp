@@ -1,5 +1,6 @@
 // io/sequence_frame_cache: a frame written and read back is the rendered frame bit for bit (every
-// image, the pose, every object's truth, the calibration given); missing and damaged files (truncated,
+// image, the pose, every object's truth, the calibration given; the frame digest agrees and sees a
+// one-bit change); missing and damaged files (truncated,
 // another key, another frame, another format) are told apart and never loaded; the key follows frame 0
 // and the options that move only the later frames; a file that cannot be written throws naming it and
 // leaves nothing under its name.
@@ -91,6 +92,16 @@ TEST(SequenceFrameCache, AFrameReadBackIsTheRenderedFrameBitForBit) {
   EXPECT_EQ(read.scene.calibration.baseline_m(), rendered.scene.calibration.baseline_m());
   // The moving pedestrian really moved between frame 0 and frame 2, so frame 2 is not frame 0 again.
   EXPECT_FALSE(same_bits(read.scene.left, first.scene.left));
+  // The digest sees the same bits, and a change in any one of them.
+  EXPECT_EQ(io::sequence_frame_digest(read), io::sequence_frame_digest(rendered));
+  EXPECT_NE(io::sequence_frame_digest(read), io::sequence_frame_digest(first));
+  io::StereoSequenceFrame changed = read;
+  changed.scene.object_ids = read.scene.object_ids.clone();
+  changed.scene.object_ids.at<uint16_t>(5, 7) ^= 1;
+  EXPECT_NE(io::sequence_frame_digest(changed), io::sequence_frame_digest(read));
+  changed = read;
+  changed.objects[1].velocity_mps[0] += 0.5;
+  EXPECT_NE(io::sequence_frame_digest(changed), io::sequence_frame_digest(read));
 }
 
 TEST(SequenceFrameCache, DamagedFilesAreToldApartAndNeverLoaded) {
