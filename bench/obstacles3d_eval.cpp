@@ -75,7 +75,7 @@
 //        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
 //        [--frame-cache DIR] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--all-visible] [--count-low] [--score-hidden-edges] [--vertical-gap-m G]
 //        [--hole-membrane H] [--obstacle-refit-m H] [--local-ground on|off] [--local-ground-reach N]
-//        [--innovation-gate-chi2 X] [--accel-sigma A] [--moving-consistency N]
+//        [--innovation-gate-chi2 X] [--moving-disparity-bias PX] [--accel-sigma A] [--moving-consistency N]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 //        [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] [--ground-below-view upper-bounds|samples]
 //        [--num-disparities N] [--multires-far F] [--discontinuity-radius R] [--discontinuity-jump J]
@@ -176,7 +176,7 @@ struct Settings {
   // the scoring.
   o3::CandidateParameters candidates;
   // The voxel tracker's moving decision, robust update and process noise (--innovation-gate-chi2,
-  // --moving-consistency, --accel-sigma): the defaults of ObstacleTrackingParameters unless given.
+  // --moving-consistency, --moving-disparity-bias, --accel-sigma): the defaults of ObstacleTrackingParameters unless given.
   o3::ObstacleTrackingParameters tracking;
   // The disparity engine: the command's (o3::obstacles3d_disparity_defaults: 64 px, one
   // full-resolution pass) unless --num-disparities or --multires-far is given (--num-disparities 128
@@ -780,6 +780,8 @@ int main(int argc, char** argv) {
       settings.surface_path = argv[++i];
     } else if (arg == "--innovation-gate-chi2" && has_value) {
       settings.tracking.innovation_gate_chi2 = std::atof(argv[++i]);
+    } else if (arg == "--moving-disparity-bias" && has_value) {
+      settings.tracking.moving_disparity_bias_px = std::atof(argv[++i]);
     } else if (arg == "--accel-sigma" && has_value) {
       settings.tracking.accel_sigma_mps2 = std::atof(argv[++i]);
     } else if (arg == "--moving-consistency" && has_value) {
@@ -824,7 +826,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
-                   "[--count-low] [--score-hidden-edges] [--frame-cache DIR] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--hole-membrane H] [--obstacle-refit-m H] [--local-ground on|off] [--local-ground-reach N] [--innovation-gate-chi2 X] [--accel-sigma A] "
+                   "[--count-low] [--score-hidden-edges] [--frame-cache DIR] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--hole-membrane H] [--obstacle-refit-m H] [--local-ground on|off] [--local-ground-reach N] [--innovation-gate-chi2 X] [--moving-disparity-bias PX] [--accel-sigma A] "
                    "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
                    "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] "
                    "[--ground-below-view upper-bounds|samples] [--num-disparities N] [--multires-far F]\n",
@@ -912,9 +914,10 @@ int main(int argc, char** argv) {
                 settings.discontinuity.radius_px, settings.discontinuity.jump_px);
   }
   std::printf("voxel tracker: process noise %.2f m/s^2, innovation gate chi-square %.2f (0: off), moving from %.2f m/s with chi-square %.2f "
-              "after %d update(s), %d consistent vote(s)\n",
+              "after %d update(s), %d consistent vote(s), the range drift of a %.2f px disparity bias in the test (0: off)\n",
               settings.tracking.accel_sigma_mps2, settings.tracking.innovation_gate_chi2, settings.tracking.moving_speed_mps,
-              settings.tracking.moving_significance_chi2, settings.tracking.moving_min_updates, settings.tracking.moving_consistency_frames);
+              settings.tracking.moving_significance_chi2, settings.tracking.moving_min_updates, settings.tracking.moving_consistency_frames,
+              settings.tracking.moving_disparity_bias_px);
   std::printf("disparity: [%d, %d) px, %s\n", settings.disparity.min_disparity,
               settings.disparity.min_disparity + settings.disparity.num_disparities, arm::settings_text(settings.disparity).c_str());
 

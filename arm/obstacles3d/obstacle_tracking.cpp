@@ -89,6 +89,8 @@ void validate_tracking_parameters(const ObstacleTrackingParameters& p) {
                     p.adoption_pixel_gap_px);
   require_parameter(p.adoption_margin_m >= 0 && p.adoption_margin_m <= 100, "adoption_margin_m", "[0, 100] m", p.adoption_margin_m);
   require_parameter(p.innovation_gate_chi2 >= 0 && p.innovation_gate_chi2 <= 1000, "innovation_gate_chi2", "[0, 1000]", p.innovation_gate_chi2);
+  require_parameter(p.moving_disparity_bias_px >= 0 && p.moving_disparity_bias_px <= 10, "moving_disparity_bias_px", "[0, 10] px",
+                    p.moving_disparity_bias_px);
   validate_fragment_merge_parameters(p.fragment_merge);
   require_parameter(p.moving_significance_chi2 >= 0 && p.moving_significance_chi2 <= 1000, "moving_significance_chi2", "[0, 1000]",
           p.moving_significance_chi2);
@@ -151,6 +153,14 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
   const Eigen::Matrix3d world_from_camera = world_from_current.linear() * camera_from_vehicle_.transpose();
   const Eigen::Matrix3d camera_from_world = world_from_camera.transpose();
   const uint64_t previous_tracks = tracks_.size();
+  // The vehicle's ground velocity from the last two poses (zero on the first frame).
+  const Eigen::Vector3d vehicle_position_world_m = world_from_current.translation();
+  const Eigen::Vector3d vehicle_velocity_world_mps =
+      has_previous_pose_ ? Eigen::Vector3d((vehicle_position_world_m - previous_vehicle_position_world_m_) / p.frame_period_s) : Eigen::Vector3d::Zero();
+  previous_vehicle_position_world_m_ = vehicle_position_world_m;
+  has_previous_pose_ = true;
+  const double focal_baseline = p.stereo_error.focal_px * p.stereo_error.baseline_m;
+  uint64_t drift_terms = 0;
 
   for (Track3d& track : tracks_) {
     track.filter.predict(p.frame_period_s, p.accel_sigma_mps2);
@@ -218,7 +228,18 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
     }
     if (track.updates >= p.moving_min_updates && !cluster.truncated) {
       const Eigen::Vector2d velocity = track.filter.velocity_mps().head<2>();
-      const Eigen::Matrix2d velocity_covariance = track.filter.covariance().block<2, 2>(3, 3);
+      Eigen::Matrix2d velocity_covariance = track.filter.covariance().block<2, 2>(3, 3);
+      if (p.moving_disparity_bias_px > 0 && focal_baseline > 0) {  // the range drift of a disparity bias (header)
+        ++drift_terms;
+        const Eigen::Vector2d line_of_sight = (track.filter.position_m() - vehicle_position_world_m).head<2>();
+        if (line_of_sight.norm() > 1e-6) {
+          const Eigen::Vector2d along = line_of_sight.normalized();
+          const double range_rate_mps = std::abs(vehicle_velocity_world_mps.head<2>().dot(along));
+          const double depth_m = std::max(cluster.obstacle.position_m.z(), 0.1);
+          const double drift_mps = 2 * p.moving_disparity_bias_px * depth_m * range_rate_mps / focal_baseline;
+          velocity_covariance += drift_mps * drift_mps * along * along.transpose();
+        }
+      }
       const bool fast = velocity.norm() > p.moving_speed_mps &&
                         velocity.dot(velocity_covariance.inverse() * velocity) > p.moving_significance_chi2;
       track.moving_votes = fast ? track.moving_votes + 1 : 0;
@@ -303,7 +324,7 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
                  n = static_cast<uint64_t>(result_.new_tracks), o = result_.obstacles.size();
   const uint64_t log_g = g > 1 ? static_cast<uint64_t>(std::bit_width(g - 1)) : 0;
   const uint64_t gate_tests = parameters_.innovation_gate_chi2 > 0 ? u : 0;
-  result_.work.scalar_ops = 16 + 150 * t + 60 * c + 15 * far_edge_clusters + 40 * t * c + 4 * g * log_g + 4 * g + 45 * gate_tests + 400 * u +
+  result_.work.scalar_ops = 16 + 150 * t + 60 * c + 15 * far_edge_clusters + 40 * t * c + 4 * g * log_g + 4 * g + 45 * gate_tests + 400 * u + 25 * drift_terms +
                             60 * n + 30 * o + 8 * t + 20 * adoption_tests;
   result_.work.memory_bytes = sizeof(Track3d) * 2 * (t + n) + sizeof(VoxelCluster) * c;
   result_.work.scalar_ops += fragments.work.scalar_ops;

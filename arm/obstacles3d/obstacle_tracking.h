@@ -67,6 +67,20 @@
 // keeps a young track's uncertain velocity from voting; chi-square, 2 degrees of freedom), else
 // "static". The track turns moving after moving_consistency_frames consecutive moving votes and back
 // to static after as many consecutive static votes (a hysteresis when > 1).
+// The range drift of a disparity bias (moving_disparity_bias_px = k > 0, with the stereo model's f B):
+// a bias of k px puts a point at Z_m = f B / (f B / Z + k), short of its true range Z by about
+// k Z^2 / (f B) along its ray, and while the range changes at Zdot the error changes at about
+// 2 k Z Zdot / (f B) (the derivative). A static object approached at speed s therefore seems to
+// move along the line of sight at up to that rate, which no noise term of the filter describes: the
+// bias is systematic from frame to frame, so the filter learns it as velocity. Near the candidates'
+// far edge k is large by selection (the points that stereo pulled inside the area are those with
+// too much disparity, up to ~1.5 px; docs/obstacles3d-voxels.md, "Country seed 2"), and the cluster
+// recedes at several m/s as the camera closes in (country seed 1: a static bin at 28 m read 5-6 m/s,
+// flagged moving in 10 frames). The test therefore adds (2 k Z |v_vehicle . u| / (f B))^2 u u^T to
+// P_vh, u the horizontal unit vector from the vehicle to the track, Z the cluster's camera depth and
+// v_vehicle the vehicle's ground velocity from the last two poses (zero without ego-motion): a speed
+// along the line of sight must stand out from the drift, one across it (a pedestrian crossing) is
+// tested as before. The filter itself is untouched.
 // Votes start at the second update (moving_min_updates = 2: a velocity exists once two positions were
 // seen; the chi-square test keeps a young track's poorly known velocity from voting), so that a moving
 // track can be reported moving from its first reported frame (after 3 acceptance frames).
@@ -112,7 +126,8 @@
 //   scalar_ops   = 16 + 150 T (F P F^T + Q on 6x6 with F's block structure, F s) + 60 C (R: rotation
 //                  and stereo terms) + 15 E (the far-edge term's outer product, E clusters at the candidates' far edge) + 40 T C (distance: innovation 6, norms 12, colour 16, gate 6)
 //                  + 4 G ceil(log2 G) + 4 G (sort, greedy pass) + 45 U_g (the gate's NIS, U_g = U with innovation_gate_chi2 > 0, else 0) + 400 U (3x3 innovation inverse, 6x3
-//                  gain, Joseph form on 6x6, votes and their 2x2 significance test) + 60 N (track start) + 30 O (velocity rotation, output)
+//                  gain, Joseph form on 6x6, votes and their 2x2 significance test) + 25 D (the range drift's term, D = votes with
+//                  moving_disparity_bias_px > 0 and a stereo model) + 60 N (track start) + 30 O (velocity rotation, output)
 //                  + 8 T (queue moves) + 20 A (fragment adoption: A = young reported tracks times the tracks after the
 //                  update, each a queue test, a box test and a distance) + the fragment merge's (voxel_clustering.h, on the
 //                  input clusters);
@@ -183,6 +198,12 @@ struct ObstacleTrackingParameters {
   int moving_min_updates = 2;           // a track votes from its moving_min_updates-th association on, [2, 1000]
   int moving_consistency_frames = 1;    // [1, 1000]
   double moving_significance_chi2 = 3.0;  // chi-square, 2 degrees of freedom, 0.78; [0, 1000]
+  // The range drift of a disparity bias (header, "Moving versus static"): k px of bias moves a static
+  // object's measured range by about k Z^2 / (f B), and by 2 k Z Zdot / (f B) per second while its
+  // range changes at Zdot; that drift, along the line of sight, is added to the velocity's covariance
+  // in the significance test (needs stereo_error's focal_px and baseline_m). 0: off; [0, 10] px. 1 px:
+  // docs/obstacles3d-voxels.md, "The range drift of a disparity bias", has the figures.
+  double moving_disparity_bias_px = 1.0;
   int adoption_updates = 8;             // fragment adoption (header): young below, parents at or above; 0: off; [0, 1000]
   int adoption_pixel_gap_px = 0;        // empty pixels allowed between the image boxes (0: overlapping or adjacent), [0, 1000]
   double adoption_margin_m = 0.5;       // ground distance beyond the half key-box diagonals, [0, 100]
@@ -251,6 +272,8 @@ class ObstacleTracker3d {
   std::vector<Track3d> tracks_;
   TrackingResult result_;
   int next_id_ = 1;
+  Eigen::Vector3d previous_vehicle_position_world_m_ = Eigen::Vector3d::Zero();
+  bool has_previous_pose_ = false;
 };
 
 }  // namespace lpstereo::arm::obstacles3d
