@@ -75,7 +75,8 @@
 //        [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S]
 //        [--frame-cache DIR] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--all-visible] [--count-low] [--score-hidden-edges] [--vertical-gap-m G]
 //        [--hole-membrane H] [--obstacle-refit-m H] [--local-ground on|off] [--local-ground-reach N]
-//        [--innovation-gate-chi2 X] [--moving-disparity-bias PX] [--accel-sigma A] [--moving-consistency N]
+//        [--innovation-gate-chi2 X] [--moving-disparity-bias PX] [--moving-significance-chi2 X] [--accel-sigma A]
+//        [--moving-consistency N]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 //        [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] [--ground-below-view upper-bounds|samples]
 //        [--num-disparities N] [--multires-far F] [--discontinuity-radius R] [--discontinuity-jump J]
@@ -176,7 +177,7 @@ struct Settings {
   // the scoring.
   o3::CandidateParameters candidates;
   // The voxel tracker's moving decision, robust update and process noise (--innovation-gate-chi2,
-  // --moving-consistency, --moving-disparity-bias, --accel-sigma): the defaults of ObstacleTrackingParameters unless given.
+  // --moving-consistency, --moving-disparity-bias, --moving-significance-chi2, --accel-sigma): the defaults of ObstacleTrackingParameters unless given.
   o3::ObstacleTrackingParameters tracking;
   // The disparity engine: the command's (o3::obstacles3d_disparity_defaults: 64 px, one
   // full-resolution pass) unless --num-disparities or --multires-far is given (--num-disparities 128
@@ -780,6 +781,8 @@ int main(int argc, char** argv) {
       settings.surface_path = argv[++i];
     } else if (arg == "--innovation-gate-chi2" && has_value) {
       settings.tracking.innovation_gate_chi2 = std::atof(argv[++i]);
+    } else if (arg == "--moving-significance-chi2" && has_value) {
+      settings.tracking.moving_significance_chi2 = std::atof(argv[++i]);
     } else if (arg == "--moving-disparity-bias" && has_value) {
       settings.tracking.moving_disparity_bias_px = std::atof(argv[++i]);
     } else if (arg == "--accel-sigma" && has_value) {
@@ -826,7 +829,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
-                   "[--count-low] [--score-hidden-edges] [--frame-cache DIR] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--hole-membrane H] [--obstacle-refit-m H] [--local-ground on|off] [--local-ground-reach N] [--innovation-gate-chi2 X] [--moving-disparity-bias PX] [--accel-sigma A] "
+                   "[--count-low] [--score-hidden-edges] [--frame-cache DIR] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--hole-membrane H] [--obstacle-refit-m H] [--local-ground on|off] [--local-ground-reach N] [--innovation-gate-chi2 X] [--moving-disparity-bias PX] [--moving-significance-chi2 X] [--accel-sigma A] "
                    "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
                    "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] "
                    "[--ground-below-view upper-bounds|samples] [--num-disparities N] [--multires-far F]\n",
