@@ -17,6 +17,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -46,6 +47,14 @@ struct StereoErrorModel {
   double pixel_sigma_px = 0.5;
   double depth_sigma_m(double depth_m) const { return depth_m * depth_m * disparity_sigma_px / (focal_px * baseline_m); }
   double lateral_sigma_m(double depth_m) const { return depth_m * pixel_sigma_px / focal_px; }
+  // A bias of bias_px (not an error drawn anew each frame) puts a point short of its range Z by
+  // about bias_px Z^2 / (f B); while the range changes at range_rate_mps that error changes at
+  // 2 bias_px Z |range rate| / (f B), the rate a static point seems to move along its ray
+  // (obstacle_tracking.h, "The range drift of a disparity bias").
+  double range_drift_mps(double depth_m, double range_rate_mps, double bias_px) const {
+    return 2 * bias_px * depth_m * std::abs(range_rate_mps) / (focal_px * baseline_m);
+  }
+  bool defined() const { return focal_px > 0 && baseline_m > 0; }  // false: no stereo terms
 };
 
 struct EgoMotion {

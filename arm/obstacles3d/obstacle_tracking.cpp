@@ -110,12 +110,19 @@ ObstacleTracker3d::ObstacleTracker3d(const ObstacleTrackingParameters& parameter
   camera_from_vehicle_ = CameraToVehicle(parameters.camera_mount).rotation().transpose();
 }
 
+namespace {
+
+// A cluster's camera depth for the stereo terms, kept off zero (a cluster at the camera's plane).
+double cluster_depth_m(const VoxelCluster& cluster) { return std::max(cluster.obstacle.position_m.z(), 0.1); }
+
+}  // namespace
+
 Eigen::Matrix3d ObstacleTracker3d::measurement_covariance(const VoxelCluster& cluster, const Eigen::Matrix3d& world_from_camera) const {
   const double centroid_variance = parameters_.centroid_sigma_m * parameters_.centroid_sigma_m;
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity() * centroid_variance;
   const StereoErrorModel& stereo = parameters_.stereo_error;
-  if (stereo.focal_px > 0 && stereo.baseline_m > 0) {
-    const double depth_m = std::max(cluster.obstacle.position_m.z(), 0.1);
+  if (stereo.defined()) {
+    const double depth_m = cluster_depth_m(cluster);
     const double lateral = stereo.lateral_sigma_m(depth_m), depth = stereo.depth_sigma_m(depth_m);
     const Eigen::Vector3d camera_variances(lateral * lateral, lateral * lateral, depth * depth);
     covariance += world_from_camera * camera_variances.asDiagonal() * world_from_camera.transpose();
@@ -159,7 +166,6 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
       has_previous_pose_ ? Eigen::Vector3d((vehicle_position_world_m - previous_vehicle_position_world_m_) / p.frame_period_s) : Eigen::Vector3d::Zero();
   previous_vehicle_position_world_m_ = vehicle_position_world_m;
   has_previous_pose_ = true;
-  const double focal_baseline = p.stereo_error.focal_px * p.stereo_error.baseline_m;
   uint64_t drift_terms = 0;
 
   for (Track3d& track : tracks_) {
@@ -229,14 +235,13 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
     if (track.updates >= p.moving_min_updates && !cluster.truncated) {
       const Eigen::Vector2d velocity = track.filter.velocity_mps().head<2>();
       Eigen::Matrix2d velocity_covariance = track.filter.covariance().block<2, 2>(3, 3);
-      if (p.moving_disparity_bias_px > 0 && focal_baseline > 0) {  // the range drift of a disparity bias (header)
+      if (p.moving_disparity_bias_px > 0 && p.stereo_error.defined()) {  // the range drift of a disparity bias (header)
         ++drift_terms;
         const Eigen::Vector2d line_of_sight = (track.filter.position_m() - vehicle_position_world_m).head<2>();
         if (line_of_sight.norm() > 1e-6) {
           const Eigen::Vector2d along = line_of_sight.normalized();
-          const double range_rate_mps = std::abs(vehicle_velocity_world_mps.head<2>().dot(along));
-          const double depth_m = std::max(cluster.obstacle.position_m.z(), 0.1);
-          const double drift_mps = 2 * p.moving_disparity_bias_px * depth_m * range_rate_mps / focal_baseline;
+          const double drift_mps = p.stereo_error.range_drift_mps(cluster_depth_m(cluster), vehicle_velocity_world_mps.head<2>().dot(along),
+                                                                  p.moving_disparity_bias_px);
           velocity_covariance += drift_mps * drift_mps * along * along.transpose();
         }
       }

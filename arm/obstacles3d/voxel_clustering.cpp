@@ -306,7 +306,7 @@ FragmentMergeResult merge_stereo_fragments(const std::vector<VoxelCluster>& clus
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return clusters[static_cast<size_t>(a)].voxels.size() > clusters[static_cast<size_t>(b)].voxels.size(); });
   std::vector<int> host_of(clusters.size(), -1);
   std::vector<int> hosts;
-  const bool enabled = parameters.enabled && stereo.focal_px > 0 && stereo.baseline_m > 0;
+  const bool enabled = parameters.enabled && stereo.defined();
   for (const int i : order) {
     const VoxelCluster& cluster = clusters[static_cast<size_t>(i)];
     for (const int h : hosts) {
