@@ -142,6 +142,7 @@
 #include "arm/terrain/terrain_model.h"
 #include "arm/terrain_points.h"
 #include "eval/obstacles3d_scoring.h"
+#include "bench/number_argument.h"
 #include "io/image_io.h"
 #include "io/sequence_frame_cache.h"
 #include "io/stereo_sequence.h"
@@ -150,6 +151,7 @@
 namespace {
 
 using namespace lpstereo;
+using bench::number_argument;
 namespace o3 = arm::obstacles3d;
 
 constexpr int kMethods = 5;
@@ -743,15 +745,15 @@ int main(int argc, char** argv) {
       return has_value && (std::strcmp(argv[i + 1], first) == 0 || std::strcmp(argv[i + 1], second) == 0);
     };
     if (arg == "--frames" && has_value) {
-      settings.frames = std::atoi(argv[++i]);
+      settings.frames = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--seeds" && has_value) {
-      settings.seeds = std::atoi(argv[++i]);
+      settings.seeds = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--scenes" && has_value) {
       settings.scenes = split_list(argv[++i]);
     } else if (arg == "--min-pixels" && has_value) {
-      settings.min_pixels = std::atoll(argv[++i]);
+      settings.min_pixels = static_cast<long long>(number_argument(i, argc, argv));
     } else if (arg == "--range-m" && has_value) {
-      settings.range_m = std::atof(argv[++i]);
+      settings.range_m = number_argument(i, argc, argv);
     } else if (arg == "--ego-motion" && has_value) {
       const std::string source = argv[++i];
       if (source != "vo" && source != "truth") {
@@ -768,9 +770,9 @@ int main(int argc, char** argv) {
     } else if (arg == "--grey") {
       settings.colour = false;
     } else if (arg == "--threads" && has_value) {
-      settings.threads = std::atoi(argv[++i]);
+      settings.threads = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--first-seed" && has_value) {
-      settings.first_seed = std::atoi(argv[++i]);
+      settings.first_seed = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--misses" && has_value) {
       settings.misses_path = argv[++i];
     } else if (arg == "--frame-cache" && has_value) {
@@ -780,51 +782,51 @@ int main(int argc, char** argv) {
     } else if (arg == "--surface-errors" && has_value) {
       settings.surface_path = argv[++i];
     } else if (arg == "--innovation-gate-chi2" && has_value) {
-      settings.tracking.innovation_gate_chi2 = std::atof(argv[++i]);
+      settings.tracking.innovation_gate_chi2 = number_argument(i, argc, argv);
     } else if (arg == "--moving-significance-chi2" && has_value) {
-      settings.tracking.moving_significance_chi2 = std::atof(argv[++i]);
+      settings.tracking.moving_significance_chi2 = number_argument(i, argc, argv);
     } else if (arg == "--moving-disparity-bias" && has_value) {
-      settings.tracking.moving_disparity_bias_px = std::atof(argv[++i]);
+      settings.tracking.moving_disparity_bias_px = number_argument(i, argc, argv);
     } else if (arg == "--accel-sigma" && has_value) {
-      settings.tracking.accel_sigma_mps2 = std::atof(argv[++i]);
+      settings.tracking.accel_sigma_mps2 = number_argument(i, argc, argv);
     } else if (arg == "--moving-consistency" && has_value) {
-      settings.tracking.moving_consistency_frames = std::atoi(argv[++i]);
+      settings.tracking.moving_consistency_frames = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--discontinuity-radius" && has_value) {
-      settings.discontinuity.radius_px = std::atoi(argv[++i]);
+      settings.discontinuity.radius_px = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--discontinuity-jump" && has_value) {
-      settings.discontinuity.jump_px = std::atof(argv[++i]);
+      settings.discontinuity.jump_px = number_argument(i, argc, argv);
     } else if (arg == "--vertical-gap-m" && has_value) {
-      settings.candidates.grid.vertical_gap_m = std::atof(argv[++i]);
+      settings.candidates.grid.vertical_gap_m = number_argument(i, argc, argv);
     } else if (arg == "--hole-membrane" && has_value) {
-      settings.candidates.fit.hole_membrane = std::atof(argv[++i]);
+      settings.candidates.fit.hole_membrane = number_argument(i, argc, argv);
     } else if (arg == "--local-ground" && next_is_one_of("on", "off")) {
       settings.candidates.local_ground_reference = std::string(argv[++i]) == "on";
     } else if (arg == "--local-ground-reach" && has_value) {
-      settings.candidates.local_ground.reach_cells = std::atoi(argv[++i]);
+      settings.candidates.local_ground.reach_cells = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--obstacle-refit-m" && has_value) {
-      settings.candidates.fit.obstacle_refit_height_m = std::atof(argv[++i]);
+      settings.candidates.fit.obstacle_refit_height_m = number_argument(i, argc, argv);
     } else if (arg == "--occlusion-upper-bounds" && next_is_one_of("on", "off")) {
       settings.candidates.grid.occlusion_upper_bounds = std::string(argv[++i]) == "on";
     } else if (arg == "--ground-below-view" && next_is_one_of("upper-bounds", "samples")) {
       settings.candidates.ground_below_view_upper_bounds = std::string(argv[++i]) == "upper-bounds";
     } else if (arg == "--occluder-rows" && has_value) {
-      settings.candidates.occluder.rows_below_px = std::atoi(argv[++i]);
+      settings.candidates.occluder.rows_below_px = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--far-side-rows" && has_value) {
-      settings.candidates.far_side.rows_above_px = std::atoi(argv[++i]);
+      settings.candidates.far_side.rows_above_px = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--far-side-columns" && has_value) {
-      settings.candidates.far_side.columns_beside_px = std::atoi(argv[++i]);
+      settings.candidates.far_side.columns_beside_px = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--far-side-jump" && has_value) {
-      settings.candidates.far_side.jump_px = std::atof(argv[++i]);
+      settings.candidates.far_side.jump_px = number_argument(i, argc, argv);
     } else if (arg == "--occluder-jump" && has_value) {
-      settings.candidates.occluder.jump_px = std::atof(argv[++i]);
+      settings.candidates.occluder.jump_px = number_argument(i, argc, argv);
     } else if (arg == "--num-disparities" && has_value) {
-      settings.disparity.num_disparities = std::atoi(argv[++i]);
+      settings.disparity.num_disparities = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--multires-far" && has_value) {
-      const int far_disparities = std::atoi(argv[++i]);
+      const int far_disparities = static_cast<int>(number_argument(i, argc, argv));
       settings.disparity.multires = far_disparities != 0;
       if (far_disparities != 0) settings.disparity.multires_far_disparities = far_disparities;
     } else if (arg == "--upper-bound-tolerance-m" && has_value) {
-      settings.candidates.fit.upper_bound_tolerance_m = std::atof(argv[++i]);
+      settings.candidates.fit.upper_bound_tolerance_m = number_argument(i, argc, argv);
     } else {
       std::fprintf(stderr,
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "

@@ -75,11 +75,13 @@
 #include "arm/terrain/terrain_model.h"
 #include "io/image_io.h"
 #include "io/stereo_synth.h"
+#include "bench/number_argument.h"
 #include "kernels/disparity_to_points.h"
 
 namespace {
 
 using namespace lpstereo;
+using bench::number_argument;
 namespace terrain = arm::terrain;
 
 struct SceneKind {
@@ -539,20 +541,6 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
     }
   }
   return result;
-}
-
-double number_argument(int& i, int argc, char** argv) {
-  if (i + 1 >= argc) {
-    std::fprintf(stderr, "%s: expected a value\n", argv[i]);
-    std::exit(2);
-  }
-  char* end = nullptr;
-  const double value = std::strtod(argv[++i], &end);
-  if (end == argv[i] || *end != 0) {
-    std::fprintf(stderr, "%s: expected a number, got '%s'\n", argv[i - 1], argv[i]);
-    std::exit(2);
-  }
-  return value;
 }
 
 }  // namespace
