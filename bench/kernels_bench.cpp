@@ -20,8 +20,12 @@
 //                                  copy of a train with up to 40 bits flipped (or random), against N
 //                                  trains, N = 512 and 2048; the best distances are checked equal
 //                                  before timing; rate = query x train pairs per second
+//   sgm_8path_forward, sgm_8path_backward_sums, sgm_sums_select
+//                                  (no OpenCV counterpart: disparity_bench compares whole matchers)
+//                                  the host's three SGM passes alone, 64 or 128 disparities (see
+//                                  sgm_sizes below)
 //
-// Sizes 1920x1080 and 3840x1728; throughput in megapixels of output per second of CPU time: the
+// Sizes 1920x1080 and 3840x1728 (the SGM passes: their own); throughput in megapixels of output per second of CPU time: the
 // rate counter "Mpx" (the console prints it with an SI prefix, "Mpx=2.5k/s" = 2500 megapixels/s).
 // CPU time, not wall time, because everything runs on the calling thread (so the two are equal on
 // an idle machine) and CPU time stays meaningful on a shared CI or developer machine.
@@ -36,6 +40,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cstring>
 #include <random>
 #include <map>
@@ -392,6 +397,87 @@ void BM_opencv_BFMatcher_knn2_ratio(benchmark::State& state) {
   set_pairs_per_second(state, count);
 }
 
+// The three passes of the host's 8-path SGM schedule (arm/disparity_engine.h, SgmSchedule::
+// side_by_side), each alone on one thread: sgm_8path_forward and sgm_8path_backward_sums (each
+// writes its u16 sums volume, W x H x D) and sgm_sums_select (reads both, selects with the engine's
+// defaults: uniqueness 5 %, sub-pixel, LR check 2 px). Census 5x5 of the frame's texture and of the
+// same texture shifted by kSgmShiftPx. Sizes: 640x480 with 64 disparities (the obstacle chain's),
+// 1242x375 with 128 (KITTI's), and 256x128 with 64, whose two 4 MB volumes stay in the caches (the
+// passes' arithmetic without the DRAM traffic). Megapixels of disparity a second, as the others.
+constexpr int kSgmShiftPx = 17;
+
+struct SgmFrame {
+  Plane left_census, right_census;
+  Plane forward_sums, backward_sums, disparity;
+  nlohmann::json path_params, select_params;
+};
+
+SgmFrame& sgm_frame(int width, int height, int disparities) {
+  static std::map<std::tuple<int, int, int>, SgmFrame> frames;
+  auto found = frames.find({width, height, disparities});
+  if (found != frames.end()) return found->second;
+  SgmFrame& built = frames[{width, height, disparities}];
+  const Frame& input = frame(width, height);
+  Plane shifted(width, height, {ElementType::u8, 0});
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) shifted.at<uint8_t>(x, y) = input.image.at<uint8_t>(y, std::min(width - 1, x + kSgmShiftPx));
+  }
+  const KernelDescriptor& census = kernel_named("census5x5");
+  built.left_census = Plane(width, height, census.ports[1].format);
+  built.right_census = Plane(width, height, census.ports[1].format);
+  census.reference({input.image_plane.view()}, {built.left_census.view()}, nullptr, BorderMode::replicate, 0);
+  census.reference({shifted.view()}, {built.right_census.view()}, nullptr, BorderMode::replicate, 0);
+  built.path_params = {{"min_disparity", 0}, {"num_disparities", disparities}, {"p1", 5}, {"p2", 45}};
+  built.select_params = built.path_params;
+  built.select_params["uniqueness_percent"] = 5;
+  built.select_params["subpixel"] = 1;
+  built.select_params["lr_max_diff"] = 2;
+  built.forward_sums = Plane(width * disparities, height, {ElementType::u16, 0});
+  built.backward_sums = Plane(width * disparities, height, {ElementType::u16, 0});
+  built.disparity = Plane(width, height, {ElementType::s16, 4});
+  return built;
+}
+
+// One SGM pass on the frame. The path passes write their sums into the frame's volumes, which the
+// selection reads: it is registered after both, and Google Benchmark runs them in that order.
+void run_sgm_pass(benchmark::State& state, const std::string& name) {
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const int disparities = static_cast<int>(state.range(2));
+  SgmFrame& sgm = sgm_frame(width, height, disparities);
+  const KernelDescriptor& kernel = kernel_named(name);
+  const bool select = name == "sgm_sums_select";
+  std::vector<PlaneShape> shapes;
+  std::vector<PlaneView> inputs;
+  if (select) {
+    shapes = {{sgm.forward_sums.width(), height}, {sgm.backward_sums.width(), height}};
+    inputs = {sgm.forward_sums.view(), sgm.backward_sums.view()};
+  } else {
+    shapes = {{width, height}, {width, height}};
+    inputs = {sgm.left_census.view(), sgm.right_census.view()};
+  }
+  const PreparedKernel prepared = kernel.prepare(select ? sgm.select_params : sgm.path_params, shapes);
+  Plane& output = select ? sgm.disparity : name == "sgm_8path_forward" ? sgm.forward_sums : sgm.backward_sums;
+  const VectorNodeBinding binding{&kernel, prepared.params.get(), BorderMode::replicate, 0, inputs, {output.view()},
+                                  prepared.input_halos};
+  time_vector_node(state, binding, output, width, height);
+}
+
+void BM_sgm_8path_forward(benchmark::State& state) { run_sgm_pass(state, "sgm_8path_forward"); }
+void BM_sgm_8path_backward_sums(benchmark::State& state) { run_sgm_pass(state, "sgm_8path_backward_sums"); }
+void BM_sgm_sums_select(benchmark::State& state) { run_sgm_pass(state, "sgm_sums_select"); }
+
+void sgm_sizes(benchmark::internal::Benchmark* benchmark) {
+  benchmark->ArgNames({"width", "height", "disparities"})
+      ->Args({640, 480, 64})
+      ->Args({1242, 375, 128})
+      ->Args({256, 128, 64})
+      ->Unit(benchmark::kMillisecond)
+      ->MinWarmUpTime(kWarmUpSeconds)
+      ->Repetitions(kRepetitions)
+      ->ReportAggregatesOnly(true);
+}
+
 void descriptor_counts(benchmark::internal::Benchmark* benchmark) {
   benchmark->ArgNames({"descriptors"})
       ->Arg(512)
@@ -425,6 +511,9 @@ BENCHMARK(BM_disparity_to_points)->Apply(sizes);
 BENCHMARK(BM_opencv_reprojectImageTo3D)->Apply(sizes);
 BENCHMARK(BM_point_cell_binning)->Apply(sizes);
 BENCHMARK(BM_opencv_transform_points)->Apply(sizes);
+BENCHMARK(BM_sgm_8path_forward)->Apply(sgm_sizes);
+BENCHMARK(BM_sgm_8path_backward_sums)->Apply(sgm_sizes);
+BENCHMARK(BM_sgm_sums_select)->Apply(sgm_sizes);
 BENCHMARK(BM_hamming_match)->Apply(descriptor_counts);
 BENCHMARK(BM_opencv_BFMatcher_knn2_ratio)->Apply(descriptor_counts);
 
@@ -442,7 +531,9 @@ int main(int argc, char** argv) {
                                          "cv::getNumThreads() = " + std::to_string(cv::getNumThreads()) + ")");
   benchmark::AddCustomContext("opencv", CV_VERSION);
   benchmark::AddCustomContext("sizes", "1920x1080 and 3840x1728 u8 (textured noise); remap map: synthetic "
-                                       "rectification (dag/remap_table.h defaults)");
+                                       "rectification (dag/remap_table.h defaults); SGM passes: 640x480 with 64 "
+                                       "disparities, 1242x375 with 128, 256x128 with 64, census 5x5, P1 5, P2 45, "
+                                       "the right view shifted " + std::to_string(lpstereo::kSgmShiftPx) + " px");
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

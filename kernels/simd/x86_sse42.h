@@ -27,6 +27,8 @@
 #include <cstring>
 #include <type_traits>
 
+#include "kernels/simd/x86_lane0.h"
+
 namespace lpstereo::simd {
 
 struct Sse42 {
@@ -59,9 +61,13 @@ struct Sse42 {
   static Vec<Lane> load(const Lane* source) {
     return {_mm_loadu_si128(reinterpret_cast<const __m128i*>(source))};
   }
-  // Emulated: copies exactly lane_count lanes into a zeroed buffer, then loads it.
+  // Emulated: copies exactly lane_count lanes into a zeroed buffer, then loads it. One lane is a
+  // scalar load and a move into lane 0 instead: the store buffer forwards a scalar load from a
+  // pending wider store, while the buffer's vector load after small stores waits for them to reach
+  // the cache (the SGM's sub-pixel reads, kernels/sgm_core.h; see x86_avx512.h).
   template <class Lane>
   static Vec<Lane> load_partial(const Lane* source, int lane_count) {
+    if (lane_count == 1) return {scalar_to_lane0(*source)};
     alignas(16) uint8_t buffer[kBytes] = {};
     if (lane_count > 0) std::memcpy(buffer, source, sizeof(Lane) * static_cast<size_t>(lane_count));
     return {_mm_load_si128(reinterpret_cast<const __m128i*>(buffer))};
@@ -70,9 +76,13 @@ struct Sse42 {
   static void store(Lane* destination, const Vec<Lane>& value) {
     _mm_storeu_si128(reinterpret_cast<__m128i*>(destination), value.v);
   }
-  // Emulated: stores to a buffer, then copies exactly lane_count lanes out.
+  // Emulated: stores to a buffer, then copies exactly lane_count lanes out; one lane is a scalar store.
   template <class Lane>
   static void store_partial(Lane* destination, const Vec<Lane>& value, int lane_count) {
+    if (lane_count == 1) {
+      *destination = lane0_to_scalar<Lane>(value.v);
+      return;
+    }
     alignas(16) uint8_t buffer[kBytes];
     _mm_store_si128(reinterpret_cast<__m128i*>(buffer), value.v);
     if (lane_count > 0) std::memcpy(destination, buffer, sizeof(Lane) * static_cast<size_t>(lane_count));
@@ -307,6 +317,7 @@ struct Sse42 {
   template <class From> static VU64 as_u64(const Vec<From>& a) { return {a.v}; }
 
  private:
+  LPSTEREO_X86_LANE0_HELPERS
   // Unsigned a > b as a lane mask: flip the sign bits, then compare signed.
   template <class Lane>
   static __m128i greater(__m128i a, __m128i b) {

@@ -1,0 +1,22 @@
+// One lane between a scalar and lane 0 of a 128-bit register, for the x86 back ends' one-lane
+// load_partial / store_partial (kernels/simd/x86_sse42.h, x86_avx2.h, x86_avx512.h).
+//
+// A macro, expanded inside each back end's struct, not a shared inline function: every function of
+// a back end must be compiled at that back end's ISA level and belong to it alone, so that the
+// linker cannot keep the copy built with -mavx512* for the SSE4.2 or AVX2 level (the back ends'
+// headers say the same of their own functions).
+#pragma once
+
+// scalar_to_lane0: the lane's bits, zero-extended, in lane 0 (the other lanes 0).
+// lane0_to_scalar: lane 0's bits as the lane type.
+#define LPSTEREO_X86_LANE0_HELPERS                                                                      \
+  template <class Lane>                                                                                 \
+  static __m128i scalar_to_lane0(Lane value) {                                                          \
+    if constexpr (sizeof(Lane) == 8) return _mm_cvtsi64_si128(static_cast<long long>(value));          \
+    else return _mm_cvtsi32_si128(static_cast<int>(static_cast<std::make_unsigned_t<Lane>>(value)));  \
+  }                                                                                                     \
+  template <class Lane>                                                                                 \
+  static Lane lane0_to_scalar(__m128i value) {                                                          \
+    if constexpr (sizeof(Lane) == 8) return static_cast<Lane>(_mm_cvtsi128_si64(value));               \
+    else return static_cast<Lane>(_mm_cvtsi128_si32(value));                                            \
+  }
