@@ -69,7 +69,7 @@ void add_matcher(GraphSpec& spec, const DisparityParameters& parameters, int min
   selection["uniqueness_percent"] = parameters.uniqueness_percent;
   selection["subpixel"] = parameters.subpixel ? 1 : 0;
   selection["lr_max_diff"] = parameters.lr_max_diff;
-  if (parameters.parallel_path_passes) {
+  if (parameters.schedule != SgmSchedule::sequential) {
     // Two passes of paths side by side, each writing its path sums, then the selection.
     const bool four = parameters.paths == 4;
     const std::string first_kernel = four ? "sgm_4path_row_pair_sums" : "sgm_8path_forward";
@@ -274,8 +274,15 @@ DisparityEngine::DisparityEngine(int width, int height, const DisparityParameter
                                 std::to_string(parameters.min_disparity + parameters.num_disparities) +
                                 " exceeds the image width " + std::to_string(width));
   }
-  graph_ = make_verified_graph(graph_spec(parameters), width, height, memory);
-  runner_ = std::make_unique<FrameRunner>(*graph_, worker_threads, backend);
+  // SgmSchedule::automatic: one worker cannot run two path passes side by side, so it runs the
+  // chip's schedule, the same bits with one W x H x D volume fewer (8 paths) or none (4 paths).
+  const int workers = resolved_worker_threads(worker_threads);
+  DisparityParameters graph_parameters = parameters;
+  if (parameters.schedule == SgmSchedule::automatic) {
+    graph_parameters.schedule = workers == 1 ? SgmSchedule::sequential : SgmSchedule::side_by_side;
+  }
+  graph_ = make_verified_graph(graph_spec(graph_parameters), width, height, memory);
+  runner_ = std::make_unique<FrameRunner>(*graph_, workers, backend);
 }
 
 DisparityEngine::~DisparityEngine() = default;

@@ -73,6 +73,10 @@ struct FrameRunner::Pool {
   std::vector<std::thread> threads;
 };
 
+int resolved_worker_threads(int worker_threads) {
+  return worker_threads > 0 ? worker_threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
 FrameRunner::FrameRunner(const Graph& graph, int worker_threads, KernelBackend backend)
     : graph_(graph), backend_(backend), plan_(plan_frame(graph)) {
   const std::vector<BufferInfo>& buffers = graph.buffers();
@@ -87,7 +91,7 @@ FrameRunner::FrameRunner(const Graph& graph, int worker_threads, KernelBackend b
   arm_work_.assign(graph.nodes().size(), ArmWork{});
   node_state_.resize(graph.nodes().size());
   for (size_t n = 0; n < graph.nodes().size(); ++n) node_state_[n].assign(row_state_bytes(graph.nodes()[n], buffers), 0);
-  if (worker_threads <= 0) worker_threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  worker_threads = resolved_worker_threads(worker_threads);
   pool_ = std::make_unique<Pool>();
   for (int t = 0; t < worker_threads; ++t) {
     pool_->threads.emplace_back([this] {

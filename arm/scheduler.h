@@ -42,6 +42,10 @@ class FrameInputError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// The worker threads a FrameRunner built with `worker_threads` starts: the value itself when
+// positive, else one per hardware thread (at least 1).
+int resolved_worker_threads(int worker_threads);
+
 // Runs a verified graph natively, frame after frame. Buffers are allocated once; delayed buffers
 // have two slots that alternate each frame.
 class FrameRunner {

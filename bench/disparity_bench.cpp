@@ -95,15 +95,14 @@ void set_counters(benchmark::State& state, int width, int height, std::chrono::s
   state.counters["MDE/s"] = Counter(static_cast<double>(width) * height * kDisparities * 1e-6, Counter::kIsIterationInvariantRate);
 }
 
-void run_lpstereo(benchmark::State& state, int paths) {
+// Times the engine with `parameters` (0 to 128 disparities set here) on `worker_threads` threads.
+void time_engine(benchmark::State& state, arm::DisparityParameters parameters, int worker_threads) {
   const int width = static_cast<int>(state.range(0));
   const int height = static_cast<int>(state.range(1));
   const Pair& pair = pair_of_size(width, height);
-  arm::DisparityParameters parameters;
   parameters.min_disparity = 0;
   parameters.num_disparities = kDisparities;
-  parameters.paths = paths;
-  arm::DisparityEngine engine(width, height, parameters, {}, kThreads);
+  arm::DisparityEngine engine(width, height, parameters, {}, worker_threads);
   const auto start = std::chrono::steady_clock::now();
   for (auto _ : state) {
     const Plane& disparity = engine.compute(pair.left, pair.right);
@@ -113,8 +112,28 @@ void run_lpstereo(benchmark::State& state, int paths) {
   set_counters(state, width, height, std::chrono::steady_clock::now() - start);
 }
 
+void run_lpstereo(benchmark::State& state, int paths) {
+  arm::DisparityParameters parameters;
+  parameters.paths = paths;
+  time_engine(state, parameters, kThreads);
+}
+
 void BM_lpstereo_4path(benchmark::State& state) { run_lpstereo(state, 4); }
 void BM_lpstereo_8path(benchmark::State& state) { run_lpstereo(state, 8); }
+
+// The engine on ONE worker thread (what `--threads 1` and a pipeline stage of one thread run) in
+// each of its two SGM schedules, the same bits (arm/disparity_engine.h, SgmSchedule, whose automatic
+// choice for one worker this measures):
+// side_by_side:1 the path passes that each write their sums, then sgm_sums_select (8 paths: two
+// W x H x D u16 volumes written and read back; 4 paths: the same with two pair passes);
+// side_by_side:0 SgmSchedule::sequential, the chip's (8 paths: sgm_8path_forward, then
+// sgm_8path_backward fused with the selection, one volume; 4 paths: sgm_4path, one pass, no volume).
+void BM_lpstereo_one_worker(benchmark::State& state) {
+  arm::DisparityParameters parameters;
+  parameters.paths = static_cast<int>(state.range(2));
+  parameters.schedule = state.range(3) != 0 ? arm::SgmSchedule::side_by_side : arm::SgmSchedule::sequential;
+  time_engine(state, parameters, 1);
+}
 
 void run_opencv(benchmark::State& state, io::SgbmMode mode) {
   const int width = static_cast<int>(state.range(0));
@@ -148,6 +167,16 @@ void sizes(benchmark::internal::Benchmark* benchmark) {
 
 BENCHMARK(BM_lpstereo_4path)->Apply(sizes);
 BENCHMARK(BM_lpstereo_8path)->Apply(sizes);
+BENCHMARK(BM_lpstereo_one_worker)
+    ->ArgNames({"width", "height", "paths", "side_by_side"})
+    ->ArgsProduct({{640}, {480}, {8, 4}, {1, 0}})
+    ->Args({1242, 375, 8, 1})
+    ->Args({1242, 375, 8, 0})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinWarmUpTime(kWarmUpSeconds)
+    ->Repetitions(kRepetitions)
+    ->ReportAggregatesOnly(true);
 BENCHMARK(BM_opencv_MODE_SGBM)->Apply(sizes);
 BENCHMARK(BM_opencv_MODE_SGBM_3WAY)->Apply(sizes);
 BENCHMARK(BM_opencv_MODE_HH)->Apply(sizes);

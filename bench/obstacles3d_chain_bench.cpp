@@ -33,7 +33,8 @@
 // way the chip overlaps its vector engine with its ARM cores): one thread computes disparity and
 // points of frame n + 1 while the other runs terrain, stixels and traversability of frame n (that
 // stage single-threaded). Throughput = frames / wall time of the whole pass (median over passes);
-// each stage on one thread (its own disparity engine with one worker); the results digest must
+// each stage on one thread (its own disparity engine with one worker, which runs its SGM in the
+// sequential schedule: arm::SgmSchedule::automatic with one worker); the results digest must
 // equal the sequential one (checked: exit 1 otherwise). Printed beside it, not counted for the
 // line: the same pipeline with the disparity engine on 2 workers, 3 threads on the 2 cores (the
 // engine leaves a core idle in its single-threaded speckle filter, and stage 2 fills it).
@@ -368,7 +369,8 @@ int run(int argc, char** argv) {
               total_cpu_median_ms, 1000.0 / total_cpu_median_ms, 2000.0 / total_cpu_median_ms);
   const double pipelined_fps = 1000.0 / two_threads.frame_ms;
   const bool same_results = two_threads.same_results && three_threads.same_results;
-  std::printf("  pipelined (disparity + points of frame n+1 beside the rest of frame n), one thread per stage: %.2f ms per frame, %.1f fps "
+  std::printf("  pipelined (disparity + points of frame n+1 beside the rest of frame n), one thread per stage (SGM sequential, "
+              "its one-worker schedule): %.2f ms per frame, %.1f fps "
               "(median of %d passes); results digest %s the sequential one\n",
               two_threads.frame_ms, pipelined_fps, settings.passes, two_threads.same_results ? "equals" : "DIFFERS FROM");
   std::printf("  the same with the disparity engine on 2 workers (3 threads on the 2 cores; not the line's 2 threads): %.2f ms per frame, "

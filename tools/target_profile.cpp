@@ -18,7 +18,7 @@ host_sim::ProfileReport profile_engine_on_target(const arm::DisparityParameters&
                                                  const std::map<std::string, const Plane*>& inputs,
                                                  const host_sim::ProfileOptions& options) {
   arm::DisparityParameters chip = parameters;
-  chip.parallel_path_passes = false;
+  chip.schedule = arm::SgmSchedule::sequential;
   const Graph graph = verified_for_target(arm::DisparityEngine::graph_spec(chip), target, width, height);
   return host_sim::profile_graph(graph, target, inputs, options);
 }

@@ -18,7 +18,7 @@ namespace lpstereo::tools {
 Graph verified_for_target(const GraphSpec& spec, const host_sim::Target& target, int width, int height, bool check_sram = true);
 
 // The engine's graph profiled on a target in the chip's schedule: the single row-streaming SGM
-// passes (parallel_path_passes = false), which give the same bits as the host's two-passes-side-by-
+// passes (arm::SgmSchedule::sequential), which give the same bits as the host's two-passes-side-by-
 // side schedule but keep fewer W x H x D volumes in DRAM. Verified against the target's memory.
 host_sim::ProfileReport profile_engine_on_target(const arm::DisparityParameters& parameters, int width, int height,
                                                  const host_sim::Target& target,

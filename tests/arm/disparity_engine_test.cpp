@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "arm/disparity_engine.h"
 #include "io/synthetic_scene.h"
@@ -362,6 +363,40 @@ TEST(DisparityEngine, RightViewAgreesWithTheTruthAndTheLeftMapWarpedToTheRightVi
   }
 }
 
+// One worker cannot run the path passes side by side: the engine runs the chip's schedule (8 paths:
+// forward, then backward fused with the selection; 4 paths: sgm_4path), and gives the same bits.
+TEST(DisparityEngine, OneWorkerRunsTheChipsScheduleWithTheSameBits) {
+  const io::SyntheticStereoScene stereo = scene();
+  const int width = stereo.left.width(), height = stereo.left.height();
+  auto kernels_of = [](const arm::DisparityEngine& engine) {
+    std::vector<std::string> names;
+    for (const auto& node : engine.graph().nodes()) names.push_back(node.spec.kernel);
+    return names;
+  };
+  auto holds = [](const std::vector<std::string>& names, const std::string& kernel) {
+    return std::find(names.begin(), names.end(), kernel) != names.end();
+  };
+  for (int paths : {8, 4}) {
+    arm::DisparityParameters parameters;
+    parameters.num_disparities = 32;
+    parameters.paths = paths;
+    arm::DisparityEngine two_workers(width, height, parameters, {}, 2);
+    arm::DisparityEngine one_worker(width, height, parameters, {}, 1);
+    const std::vector<std::string> side_by_side = kernels_of(two_workers), single = kernels_of(one_worker);
+    EXPECT_TRUE(holds(side_by_side, "sgm_sums_select")) << paths << " paths";
+    EXPECT_FALSE(holds(single, "sgm_sums_select")) << paths << " paths";
+    EXPECT_TRUE(holds(single, paths == 8 ? "sgm_8path_backward" : "sgm_4path")) << paths << " paths";
+    EXPECT_EQ(one_worker.parameters().schedule, arm::SgmSchedule::automatic) << "the parameters are kept as given";
+    const Plane expected = two_workers.compute(stereo.left, stereo.right).clone();
+    const Plane& actual = one_worker.compute(stereo.left, stereo.right);
+    int64_t different = 0;
+    for (int y = 0; y < height; ++y) {
+      for (int x = 0; x < width; ++x) different += expected.at<int16_t>(x, y) != actual.at<int16_t>(x, y) ? 1 : 0;
+    }
+    EXPECT_EQ(different, 0) << paths << " paths";
+  }
+}
+
 TEST(DisparityEngine, BuildsTheGraphOfItsParameters) {
   arm::DisparityParameters parameters;
   const GraphSpec defaults = arm::DisparityEngine::graph_spec(parameters);
@@ -384,19 +419,19 @@ TEST(DisparityEngine, BuildsTheGraphOfItsParameters) {
   EXPECT_EQ(four_parallel.nodes[4].kernel, "sgm_sums_select");
   EXPECT_EQ(four_parallel.nodes[4].inputs.at("second_sums").buffer, "column_pair_sums");
   EXPECT_EQ(four_parallel.nodes[4].outputs.at("disparity"), "disparity");
-  parameters.parallel_path_passes = false;
+  parameters.schedule = arm::SgmSchedule::sequential;
   const GraphSpec four = arm::DisparityEngine::graph_spec(parameters);
   ASSERT_EQ(four.nodes.size(), 3u);
   EXPECT_EQ(four.nodes.back().kernel, "sgm_4path");
   EXPECT_EQ(four.nodes.back().outputs.at("disparity"), "disparity");
-  parameters.parallel_path_passes = true;
+  parameters.schedule = arm::SgmSchedule::side_by_side;
   parameters.speckle_max_size_px = 100;
   EXPECT_EQ(arm::DisparityEngine::graph_spec(parameters).nodes.back().task, "speckle_filter");
   parameters.paths = 8;
   parameters.census_width = 9;
   parameters.median = true;
   parameters.speckle_max_size_px = 0;
-  parameters.parallel_path_passes = false;
+  parameters.schedule = arm::SgmSchedule::sequential;
   const GraphSpec eight = arm::DisparityEngine::graph_spec(parameters);
   ASSERT_EQ(eight.nodes.size(), 5u);
   EXPECT_EQ(eight.nodes[0].kernel, "census9x7");

@@ -290,7 +290,7 @@ TEST(Golden, DisparityPipelineGivesItsGoldenBitsOnEveryBackEnd) {
   pipelines[0].label = "engine defaults";
   pipelines[0].golden = 0x10f3737f44ee57beull;
   pipelines[2].label = "engine defaults, 8-path backward pass fused with the selection";
-  pipelines[2].parameters.parallel_path_passes = false;
+  pipelines[2].parameters.schedule = arm::SgmSchedule::sequential;
   pipelines[2].golden = pipelines[0].golden;  // a schedule: the same bits
   pipelines[1].label = "4-path SGM alone";
   pipelines[1].parameters.paths = 4;
@@ -300,7 +300,7 @@ TEST(Golden, DisparityPipelineGivesItsGoldenBitsOnEveryBackEnd) {
   pipelines[1].golden = 0x35f7256dcdd1de53ull;
   pipelines[3] = pipelines[1];
   pipelines[3].label = "4-path SGM alone, one row-streaming pass (sgm_4path)";
-  pipelines[3].parameters.parallel_path_passes = false;
+  pipelines[3].parameters.schedule = arm::SgmSchedule::sequential;
   for (Pipeline& pipeline : pipelines) {
     pipeline.parameters.num_disparities = 32;
     std::optional<Plane> scalar;
