@@ -97,7 +97,9 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   // step (the 2.5D grid's sums, the candidates' order) takes the points in row order, so the result
   // is the single-threaded one bit for bit whatever the scheduling.
   struct Band {
-    std::vector<ObstaclePoint> points;
+    // Per point, its pixel; the ObstaclePoint is built only for the candidates (make_point), a few
+    // per cent of the points: the rest need only their vehicle coordinates and cell.
+    std::vector<std::array<uint16_t, 2>> pixels;
     std::vector<Eigen::Vector3d> vehicle_points;
     std::vector<uint8_t> over_occluder;  // per point, with grid.occlusion_upper_bounds
     std::vector<uint8_t> far_side;  // per point, with the far-side test on
@@ -155,42 +157,47 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   // says why); each band flags its own rows.
   const bool far_side_test = parameters.far_side.enabled();
   const int red_channel = colour.blue_first ? 2 : 0, blue_channel = colour.blue_first ? 0 : 2;
+  // The camera point of a pixel with a point (x_mm != kNoPointMm), in metres.
+  const auto camera_m_at = [&](int u, int v) {
+    return Eigen::Vector3f(static_cast<float>(camera.x_mm.row<const int32_t>(v)[u]) * 1e-3f,
+                           static_cast<float>(camera.y_mm.row<const int32_t>(v)[u]) * 1e-3f,
+                           static_cast<float>(camera.z_mm.row<const int32_t>(v)[u]) * 1e-3f);
+  };
+  // The point of pixel (u, v), whose vehicle coordinates the band computed.
+  const auto make_point = [&](const std::array<uint16_t, 2>& pixel, const Eigen::Vector3d& vehicle) {
+    const int u = pixel[0], v = pixel[1];
+    ObstaclePoint point;
+    point.camera_m = camera_m_at(u, v);
+    point.vehicle_m = vehicle.cast<float>();
+    point.disparity_px = static_cast<float>(disparity_q4.row<const int16_t>(v)[u]) / 16.0f;
+    point.u_px = pixel[0];
+    point.v_px = pixel[1];
+    if (colour.pixels != nullptr) {
+      const uint8_t* colour_pixel = colour.pixels + static_cast<size_t>(v) * colour.row_stride_bytes + 3 * static_cast<size_t>(u);
+      point.rgb = {colour_pixel[red_channel], colour_pixel[1], colour_pixel[blue_channel]};
+    } else {
+      const uint8_t grey_value = grey.row<const uint8_t>(v)[u];
+      point.rgb = {grey_value, grey_value, grey_value};
+    }
+    return point;
+  };
   run_bands([&](int band) {
     Band& out = bands[static_cast<size_t>(band)];
     int first_row = 0, end_row = 0;
     band_rows(band, &first_row, &end_row);
     const size_t capacity = static_cast<size_t>(end_row - first_row) * static_cast<size_t>(disparity_q4.width());
-    out.points.reserve(capacity);
+    out.pixels.reserve(capacity);
     out.vehicle_points.reserve(capacity);
     out.cells.reserve(capacity);
     const std::vector<uint8_t> far_side_flags =
         far_side_test ? pixels_on_far_side(disparity_q4, invalid_disparity_q4, parameters.far_side, first_row, end_row) : std::vector<uint8_t>{};
     for (int v = first_row; v < end_row; ++v) {
-      const uint8_t* colour_row = colour.pixels == nullptr ? nullptr : colour.pixels + static_cast<size_t>(v) * colour.row_stride_bytes;
       const int32_t* x_row = camera.x_mm.row<const int32_t>(v);
-      const int32_t* y_row = camera.y_mm.row<const int32_t>(v);
-      const int32_t* z_row = camera.z_mm.row<const int32_t>(v);
       const int16_t* disparity_row = disparity_q4.row<const int16_t>(v);
-      const uint8_t* grey_row = grey.row<const uint8_t>(v);
       for (int u = 0; u < disparity_q4.width(); ++u) {
-        const int32_t x_mm = x_row[u];
-        const int16_t d_q4 = disparity_row[u];
-        if (x_mm == kernels::kNoPointMm || !has_disparity(d_q4)) continue;
-        ObstaclePoint point;
-        point.camera_m = Eigen::Vector3f(static_cast<float>(x_mm) * 1e-3f, static_cast<float>(y_row[u]) * 1e-3f,
-                                         static_cast<float>(z_row[u]) * 1e-3f);
-        const Eigen::Vector3d vehicle = to_vehicle.apply(point.camera_m.cast<double>());
-        point.vehicle_m = vehicle.cast<float>();
-        point.disparity_px = static_cast<float>(d_q4) / 16.0f;
-        point.u_px = static_cast<uint16_t>(u);
-        point.v_px = static_cast<uint16_t>(v);
-        if (colour_row != nullptr) {
-          const uint8_t* pixel = colour_row + 3 * static_cast<size_t>(u);
-          point.rgb = {pixel[red_channel], pixel[1], pixel[blue_channel]};
-        } else {
-          point.rgb = {grey_row[u], grey_row[u], grey_row[u]};
-        }
-        out.points.push_back(point);
+        if (x_row[u] == kernels::kNoPointMm || !has_disparity(disparity_row[u])) continue;
+        const Eigen::Vector3d vehicle = to_vehicle.apply(camera_m_at(u, v).cast<double>());
+        out.pixels.push_back({static_cast<uint16_t>(u), static_cast<uint16_t>(v)});
         out.vehicle_points.push_back(vehicle);
         std::array<int32_t, 2> cell = {-1, -1};
         if (!parameters.grid.cell_of(vehicle.x(), vehicle.y(), forward_cells, lateral_cells, &cell[0], &cell[1])) cell = {-1, -1};
@@ -200,7 +207,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
       }
     }
   });
-  for (const Band& band : bands) result.cloud_points += static_cast<int64_t>(band.points.size());
+  for (const Band& band : bands) result.cloud_points += static_cast<int64_t>(band.pixels.size());
   if (result.cloud_points == 0) {
     result.note = "empty cloud (no valid disparity)";
     return result;
@@ -227,7 +234,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   // points [N w / T, N (w + 1) / T) of the bands' concatenation, in row order), and the shares'
   // candidates are joined in worker order: the candidates' order is the single-threaded one.
   std::vector<size_t> points_before_band(bands.size() + 1, 0);
-  for (size_t b = 0; b < bands.size(); ++b) points_before_band[b + 1] = points_before_band[b] + bands[b].points.size();
+  for (size_t b = 0; b < bands.size(); ++b) points_before_band[b + 1] = points_before_band[b] + bands[b].pixels.size();
   const size_t point_count = points_before_band.back();
   // Calls visit(band, i, k) for the points k in [N w / T, N (w + 1) / T) of the bands'
   // concatenation (i: the index in its band).
@@ -257,7 +264,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
       } else if (point_class == CandidateTest::Class::candidate && far_side_test && band.far_side[i] != 0) {
         ++share.far_side;
       } else if (point_class == CandidateTest::Class::candidate) {
-        share.candidates.push_back(band.points[i]);
+        share.candidates.push_back(make_point(band.pixels[i], band.vehicle_points[i]));
         share.candidates.back().height_above_ground_m = static_cast<float>(height_above_m);
       }
     });
