@@ -72,7 +72,7 @@ struct Avx2 {
   // the cache (the SGM's sub-pixel reads, kernels/sgm_core.h; see x86_avx512.h).
   template <class Lane>
   static Vec<Lane> load_partial(const Lane* source, int lane_count) {
-    if (lane_count == 1) return {_mm256_zextsi128_si256(scalar_to_lane0(*source))};
+    if (lane_count == 1) return {_mm256_zextsi128_si256(load_lane0(source))};
     alignas(32) uint8_t buffer[kBytes] = {};
     if (lane_count > 0) std::memcpy(buffer, source, sizeof(Lane) * static_cast<size_t>(lane_count));
     return {_mm256_load_si256(reinterpret_cast<const __m256i*>(buffer))};
@@ -85,7 +85,7 @@ struct Avx2 {
   template <class Lane>
   static void store_partial(Lane* destination, const Vec<Lane>& value, int lane_count) {
     if (lane_count == 1) {
-      *destination = lane0_to_scalar<Lane>(_mm256_castsi256_si128(value.v));
+      store_lane0(destination, _mm256_castsi256_si128(value.v));
       return;
     }
     alignas(32) uint8_t buffer[kBytes];

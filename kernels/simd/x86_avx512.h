@@ -73,7 +73,7 @@ struct Avx512 {
   // with masked loads and 8.1 ms with these (kernels_bench, 640x480, 64 disparities). Same lanes.
   template <class Lane>
   static Vec<Lane> load_partial(const Lane* source, int lane_count) {
-    if (lane_count == 1) return {_mm512_zextsi128_si512(scalar_to_lane0(*source))};
+    if (lane_count == 1) return {_mm512_zextsi128_si512(load_lane0(source))};
     const uint64_t mask = lanes_below(lane_count);
     if constexpr (sizeof(Lane) == 1) return {_mm512_maskz_loadu_epi8(static_cast<__mmask64>(mask), source)};
     else if constexpr (sizeof(Lane) == 2) return {_mm512_maskz_loadu_epi16(static_cast<__mmask32>(mask), source)};
@@ -87,7 +87,7 @@ struct Avx512 {
   template <class Lane>
   static void store_partial(Lane* destination, const Vec<Lane>& value, int lane_count) {
     if (lane_count == 1) {  // a scalar store of lane 0 (see load_partial)
-      *destination = lane0_to_scalar<Lane>(_mm512_castsi512_si128(value.v));
+      store_lane0(destination, _mm512_castsi512_si128(value.v));
       return;
     }
     const uint64_t mask = lanes_below(lane_count);

@@ -1,4 +1,4 @@
-// One lane between a scalar and lane 0 of a 128-bit register, for the x86 back ends' one-lane
+// One lane between memory and lane 0 of a 128-bit register, for the x86 back ends' one-lane
 // load_partial / store_partial (kernels/simd/x86_sse42.h, x86_avx2.h, x86_avx512.h).
 //
 // A macro, expanded inside each back end's struct, not a shared inline function: every function of
@@ -7,16 +7,23 @@
 // headers say the same of their own functions).
 #pragma once
 
-// scalar_to_lane0: the lane's bits, zero-extended, in lane 0 (the other lanes 0).
-// lane0_to_scalar: lane 0's bits as the lane type.
+#include <cstring>
+
+// load_lane0: the lane at `source` (any alignment, as the contract allows), zero-extended, in lane 0
+// (the other lanes 0). store_lane0: lane 0's bits to `destination` (any alignment). memcpy of one
+// lane is a single scalar load or store.
 #define LPSTEREO_X86_LANE0_HELPERS                                                                      \
   template <class Lane>                                                                                 \
-  static __m128i scalar_to_lane0(Lane value) {                                                          \
+  static __m128i load_lane0(const Lane* source) {                                                       \
+    std::make_unsigned_t<Lane> value;                                                                   \
+    std::memcpy(&value, source, sizeof value);                                                          \
     if constexpr (sizeof(Lane) == 8) return _mm_cvtsi64_si128(static_cast<long long>(value));          \
-    else return _mm_cvtsi32_si128(static_cast<int>(static_cast<std::make_unsigned_t<Lane>>(value)));  \
+    else return _mm_cvtsi32_si128(static_cast<int>(value));                                             \
   }                                                                                                     \
   template <class Lane>                                                                                 \
-  static Lane lane0_to_scalar(__m128i value) {                                                          \
-    if constexpr (sizeof(Lane) == 8) return static_cast<Lane>(_mm_cvtsi128_si64(value));               \
-    else return static_cast<Lane>(_mm_cvtsi128_si32(value));                                            \
+  static void store_lane0(Lane* destination, __m128i vector) {                                          \
+    Lane value;                                                                                         \
+    if constexpr (sizeof(Lane) == 8) value = static_cast<Lane>(_mm_cvtsi128_si64(vector));              \
+    else value = static_cast<Lane>(_mm_cvtsi128_si32(vector));                                          \
+    std::memcpy(destination, &value, sizeof value);                                                     \
   }

@@ -67,7 +67,7 @@ struct Sse42 {
   // the cache (the SGM's sub-pixel reads, kernels/sgm_core.h; see x86_avx512.h).
   template <class Lane>
   static Vec<Lane> load_partial(const Lane* source, int lane_count) {
-    if (lane_count == 1) return {scalar_to_lane0(*source)};
+    if (lane_count == 1) return {load_lane0(source)};
     alignas(16) uint8_t buffer[kBytes] = {};
     if (lane_count > 0) std::memcpy(buffer, source, sizeof(Lane) * static_cast<size_t>(lane_count));
     return {_mm_load_si128(reinterpret_cast<const __m128i*>(buffer))};
@@ -80,7 +80,7 @@ struct Sse42 {
   template <class Lane>
   static void store_partial(Lane* destination, const Vec<Lane>& value, int lane_count) {
     if (lane_count == 1) {
-      *destination = lane0_to_scalar<Lane>(value.v);
+      store_lane0(destination, value.v);
       return;
     }
     alignas(16) uint8_t buffer[kBytes];
