@@ -69,8 +69,8 @@ struct Avx512 {
   // One lane (lane_count == 1) is a scalar load and a move into lane 0, not a masked load: the store
   // buffer forwards a scalar load from a pending vector store that holds its bytes, but not a masked
   // load, which waits for the store to reach the cache. The SGM's sub-pixel step reads S(best +- 1)
-  // this way right after storing the pixel's sums (kernels/sgm_core.h); sgm_sums_select took 9.8 ms
-  // with masked loads and 8.1 ms with these (kernels_bench, 640x480, 64 disparities). Same lanes.
+  // this way right after storing the pixel's sums (kernels/sgm_core.h); sgm_sums_select with its
+  // volumes in cache takes about a fifth less time with these (docs/evaluation.md). Same lanes.
   template <class Lane>
   static Vec<Lane> load_partial(const Lane* source, int lane_count) {
     if (lane_count == 1) return {_mm512_zextsi128_si512(load_lane0(source))};
