@@ -157,17 +157,16 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   // says why); each band flags its own rows.
   const bool far_side_test = parameters.far_side.enabled();
   const int red_channel = colour.blue_first ? 2 : 0, blue_channel = colour.blue_first ? 0 : 2;
-  // The camera point of a pixel with a point (x_mm != kNoPointMm), in metres.
-  const auto camera_m_at = [&](int u, int v) {
-    return Eigen::Vector3f(static_cast<float>(camera.x_mm.row<const int32_t>(v)[u]) * 1e-3f,
-                           static_cast<float>(camera.y_mm.row<const int32_t>(v)[u]) * 1e-3f,
-                           static_cast<float>(camera.z_mm.row<const int32_t>(v)[u]) * 1e-3f);
+  // A camera point in metres from the triangulation's millimetres (x_mm != kNoPointMm).
+  const auto camera_m_of = [](int32_t x_mm, int32_t y_mm, int32_t z_mm) {
+    return Eigen::Vector3f(static_cast<float>(x_mm) * 1e-3f, static_cast<float>(y_mm) * 1e-3f, static_cast<float>(z_mm) * 1e-3f);
   };
   // The point of pixel (u, v), whose vehicle coordinates the band computed.
   const auto make_point = [&](const std::array<uint16_t, 2>& pixel, const Eigen::Vector3d& vehicle) {
     const int u = pixel[0], v = pixel[1];
     ObstaclePoint point;
-    point.camera_m = camera_m_at(u, v);
+    point.camera_m = camera_m_of(camera.x_mm.row<const int32_t>(v)[u], camera.y_mm.row<const int32_t>(v)[u],
+                                 camera.z_mm.row<const int32_t>(v)[u]);
     point.vehicle_m = vehicle.cast<float>();
     point.disparity_px = static_cast<float>(disparity_q4.row<const int16_t>(v)[u]) / 16.0f;
     point.u_px = pixel[0];
@@ -193,10 +192,12 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
         far_side_test ? pixels_on_far_side(disparity_q4, invalid_disparity_q4, parameters.far_side, first_row, end_row) : std::vector<uint8_t>{};
     for (int v = first_row; v < end_row; ++v) {
       const int32_t* x_row = camera.x_mm.row<const int32_t>(v);
+      const int32_t* y_row = camera.y_mm.row<const int32_t>(v);
+      const int32_t* z_row = camera.z_mm.row<const int32_t>(v);
       const int16_t* disparity_row = disparity_q4.row<const int16_t>(v);
       for (int u = 0; u < disparity_q4.width(); ++u) {
         if (x_row[u] == kernels::kNoPointMm || !has_disparity(disparity_row[u])) continue;
-        const Eigen::Vector3d vehicle = to_vehicle.apply(camera_m_at(u, v).cast<double>());
+        const Eigen::Vector3d vehicle = to_vehicle.apply(camera_m_of(x_row[u], y_row[u], z_row[u]).cast<double>());
         out.pixels.push_back({static_cast<uint16_t>(u), static_cast<uint16_t>(v)});
         out.vehicle_points.push_back(vehicle);
         std::array<int32_t, 2> cell = {-1, -1};
