@@ -6,8 +6,8 @@
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
-#include <thread>
 
+#include "arm/fork_join.h"
 #include "kernels/disparity_to_points.h"
 
 namespace lpstereo::arm::obstacles3d {
@@ -96,7 +96,8 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   // its own thread, then the points are classified in equal shares, one per thread; every sequential
   // step (the 2.5D grid's sums, the candidates' order) takes the points in row order, so the result
   // is the single-threaded one bit for bit whatever the scheduling.
-  struct Band {
+  // alignas(64), as Share: each band's vectors grow from its own thread (fork_join.h).
+  struct alignas(64) Band {
     // Per point, its pixel; the ObstaclePoint is built only for the candidates (make_point), a few
     // per cent of the points: the rest need only their vehicle coordinates and cell.
     std::vector<std::array<uint16_t, 2>> pixels;
@@ -108,7 +109,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     std::vector<std::array<int32_t, 2>> cells;
   };
   // One classification worker's share of the points: its candidates and its count outside the area.
-  struct Share {
+  struct alignas(64) Share {  // counted per point from its own thread: a cache line of its own
     std::vector<ObstaclePoint> candidates;
     int64_t outside_area = 0;
     int64_t far_side = 0;
@@ -144,12 +145,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
     *first_row = band_first_row[static_cast<size_t>(band)];
     *end_row = band_first_row[static_cast<size_t>(band) + 1];
   };
-  const auto run_bands = [&](const auto& work) {
-    std::vector<std::thread> workers;
-    for (int band = 1; band < band_count; ++band) workers.emplace_back(work, band);
-    work(0);
-    for (std::thread& worker : workers) worker.join();
-  };
+  const auto run_bands = [&](const auto& work) { fork_join(band_count, work); };
   const bool occlusion = parameters.grid.occlusion_upper_bounds;
   const std::vector<uint8_t> over_occluder =
       occlusion ? pixels_over_occluder(disparity_q4, invalid_disparity_q4, parameters.occluder) : std::vector<uint8_t>{};

@@ -7,8 +7,9 @@
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
-#include <thread>
 #include <utility>
+
+#include "arm/fork_join.h"
 
 namespace lpstereo::arm::obstacles3d {
 namespace {
@@ -372,8 +373,11 @@ void OccupancyGrid::update(const std::vector<ObstaclePoint>& points, const EgoMo
   statistics_.ego_motion_used = ego_motion.available;
   if (ego_motion.available) compensate_ego_motion(ego_motion);
 
-  // This frame's evidence, the points split into contiguous chunks over the threads (each with its
-  // own evidence matrix, summed in chunk order: the result does not depend on scheduling).
+  // This frame's evidence, the points dealt over the threads in blocks of kPointsPerBlock, block b to
+  // thread b mod threads (fork_join.h; each with its own evidence matrix, summed in thread order: the
+  // result does not depend on scheduling). Dealt, not cut in halves: a point's window grows with its range, and
+  // a frame's points come in image rows, far objects first, so of two halves the first held most of
+  // the work (bench/obstacles3d_bench, polar, candidates: 2 threads took as long as one).
   point_cells_.assign(points.size(), -1);
   point_row_means_.resize(points.size());
   point_row_sigmas_.resize(points.size());
@@ -385,35 +389,33 @@ void OccupancyGrid::update(const std::vector<ObstaclePoint>& points, const EgoMo
   auto accumulate = [&](int chunk) {
     GridMatrix& evidence = partial[static_cast<size_t>(chunk)];
     evidence = GridMatrix::Zero(rows_, columns_);
-    const size_t begin = points.size() * static_cast<size_t>(chunk) / static_cast<size_t>(thread_count);
-    const size_t end = points.size() * static_cast<size_t>(chunk + 1) / static_cast<size_t>(thread_count);
-    for (size_t i = begin; i < end; ++i) {
+    ArmWork work;  // counters in locals until the end (fork_join.h)
+    int64_t used_here = 0, clipped_here = 0, rejected_here = 0;
+    constexpr size_t kPointsPerBlock = 256;
+    for_each_dealt(points.size(), kPointsPerBlock, chunk, thread_count, [&](size_t i) {
       const ObstaclePoint& point = points[i];
       if (!point.camera_m.allFinite() || !(point.disparity_px > 0) || !(point.camera_m.z() > 0)) {
-        ++rejected[static_cast<size_t>(chunk)];
-        continue;
+        ++rejected_here;
+        return;
       }
       const GridGaussian gaussian = measurement_gaussian(point);
       int row = 0, column = 0;
       if (!cell_of(gaussian.mean(0), gaussian.mean(1), &row, &column)) {
-        ++clipped[static_cast<size_t>(chunk)];
-        continue;
+        ++clipped_here;
+        return;
       }
       point_cells_[i] = row * columns_ + column;
       point_row_means_[i] = gaussian.mean(1);
       point_row_sigmas_[i] = std::sqrt(gaussian.covariance(1, 1));
-      ++used[static_cast<size_t>(chunk)];
-      add_likelihood(gaussian, evidence, &partial_work[static_cast<size_t>(chunk)]);
-    }
+      ++used_here;
+      add_likelihood(gaussian, evidence, &work);
+    });
+    partial_work[static_cast<size_t>(chunk)] = work;
+    used[static_cast<size_t>(chunk)] = used_here;
+    clipped[static_cast<size_t>(chunk)] = clipped_here;
+    rejected[static_cast<size_t>(chunk)] = rejected_here;
   };
-  if (thread_count == 1) {
-    accumulate(0);
-  } else {
-    std::vector<std::thread> workers;
-    for (int chunk = 1; chunk < thread_count; ++chunk) workers.emplace_back(accumulate, chunk);
-    accumulate(0);
-    for (std::thread& worker : workers) worker.join();
-  }
+  fork_join(thread_count, accumulate);
   evidence_ = partial[0];
   for (int chunk = 1; chunk < thread_count; ++chunk) evidence_ += partial[static_cast<size_t>(chunk)];
   for (int chunk = 0; chunk < thread_count; ++chunk) {

@@ -10,7 +10,8 @@
 // two objects 6 m apart on one bearing at 25-31 m (one cluster of occupied cells) are two obstacles;
 // points smeared along their rays metres behind a board do not stretch its obstacle;
 // clipping and rejection counted and reported; empty cloud and missing ego-motion reported; bad
-// parameters throw naming the parameter; the counted work's per-cell closed form; 2 threads agree;
+// parameters throw naming the parameter; the counted work's per-cell closed form; 2 threads agree
+// (the points dealt in blocks);
 // the image-column gap split on hand-made columns, two objects at one depth with 4 empty image
 // columns between them are two obstacles (one with the split off), and a wide object with 2 empty
 // columns stays one; the range-peak split cuts a receding surface's far end from a nearer object
