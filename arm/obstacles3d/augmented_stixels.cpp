@@ -83,7 +83,7 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
     return lower_percentile_m - q / (0.5 - q) * (median_m - lower_percentile_m) +
            parameters_.lower_edge_fattening_px * range_sum_m / count / parameters_.grid.error_model.focal_px;
   };
-  grid_.update(points, ego_motion);
+  grid_.update(points, ego_motion, GridDescription::occupancy_only);  // the stixels describe the obstacles
   work_ = grid_.work();
   stixels_.clear();
   obstacles_.clear();

@@ -11,7 +11,8 @@
 //     any 2D grid cell) spans ground to top and calls that space occupied.
 //
 // Steps, per frame:
-//   1. the polar grid's update (occupancy_grid.h: likelihoods, log-odds, ego-motion);
+//   1. the polar grid's update (occupancy_grid.h: likelihoods, log-odds, ego-motion), occupancy only
+//      (GridDescription::occupancy_only: the grid's own clusters and obstacles are not described);
 //   2. binning: each point whose mean lies in a cell (the grid's point_cells()) is counted per cell,
 //      then placed by a counting sort (the points split into contiguous chunks over `threads`, chunk
 //      order kept, so the order of a stixel's points never depends on scheduling);

@@ -366,7 +366,7 @@ void OccupancyGrid::compensate_ego_motion(const EgoMotion& ego_motion) {
   work_.memory_bytes += 8 * cells;
 }
 
-void OccupancyGrid::update(const std::vector<ObstaclePoint>& points, const EgoMotion& ego_motion) {
+void OccupancyGrid::update(const std::vector<ObstaclePoint>& points, const EgoMotion& ego_motion, GridDescription description) {
   work_ = ArmWork{};
   statistics_ = OccupancyGridStatistics{};
   statistics_.points_in = static_cast<int64_t>(points.size());
@@ -446,7 +446,12 @@ void OccupancyGrid::update(const std::vector<ObstaclePoint>& points, const EgoMo
   work_.scalar_ops += kOpsPerCellUpdate * cells;
   work_.memory_bytes += 12 * cells;
 
-  cluster_and_describe(points);
+  if (description == GridDescription::clusters_and_obstacles) {
+    cluster_and_describe(points);
+  } else {
+    clusters_.clear();
+    obstacles_.clear();
+  }
 
   std::ostringstream status;
   status << grid_kind_name(parameters_.kind) << " grid " << columns_ << "x" << rows_ << ": ";
@@ -455,7 +460,10 @@ void OccupancyGrid::update(const std::vector<ObstaclePoint>& points, const EgoMo
   if (statistics_.points_clipped > 0) status << ", " << statistics_.points_clipped << " beyond the grid bounds (clipped)";
   if (statistics_.points_rejected > 0)
     status << ", " << statistics_.points_rejected << " rejected (non-finite or disparity <= 0)";
-  status << "; " << clusters_.size() << " clusters, " << obstacles_.size() << " obstacles";
+  if (description == GridDescription::clusters_and_obstacles)
+    status << "; " << clusters_.size() << " clusters, " << obstacles_.size() << " obstacles";
+  else
+    status << "; occupancy only (no clusters described)";
   if (statistics_.clusters_without_points > 0)
     status << " (" << statistics_.clusters_without_points << " held by memory only)";
   status << (ego_motion.available ? "; ego-motion compensated" : "; static camera assumed (no ego-motion)");

@@ -11,7 +11,7 @@
 // points smeared along their rays metres behind a board do not stretch its obstacle;
 // clipping and rejection counted and reported; empty cloud and missing ego-motion reported; bad
 // parameters throw naming the parameter; the counted work's per-cell closed form; 2 threads agree
-// (the points dealt in blocks);
+// (the points dealt in blocks); an occupancy-only update has the same log-odds, no clusters and less work;
 // the image-column gap split on hand-made columns, two objects at one depth with 4 empty image
 // columns between them are two obstacles (one with the split off), and a wide object with 2 empty
 // columns stays one; the range-peak split cuts a receding surface's far end from a nearer object
@@ -1065,6 +1065,26 @@ TEST(OccupancyGridThreads, TwoThreadsGiveTheSameGrid) {
   EXPECT_LT((one.evidence() - two.evidence()).cwiseAbs().maxCoeff(), 1e-3f * one.evidence().maxCoeff());
   EXPECT_EQ(one.obstacles().size(), two.obstacles().size());
   EXPECT_EQ(one.work().scalar_ops, two.work().scalar_ops);
+}
+
+TEST(OccupancyGridDescription, OccupancyOnlyHasTheSameLogOddsNoClustersAndLessWork) {
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -1.0, 1.0, 0.0, 1.0, 12.0);
+  add_patch(points, 2.0, 2.5, 0.0, 1.5, 20.0);
+  OccupancyGrid described(grid_parameters(GridKind::polar));
+  OccupancyGrid occupancy(grid_parameters(GridKind::polar));
+  for (int frame = 0; frame < 3; ++frame) {
+    described.update(points, EgoMotion{});
+    occupancy.update(points, EgoMotion{}, GridDescription::occupancy_only);
+  }
+  ASSERT_EQ(described.obstacles().size(), 2u) << described.status();
+  EXPECT_TRUE(occupancy.clusters().empty());
+  EXPECT_TRUE(occupancy.obstacles().empty());
+  EXPECT_EQ((described.log_odds() - occupancy.log_odds()).cwiseAbs().maxCoeff(), 0.0f);
+  EXPECT_EQ(occupancy.point_cells(), described.point_cells());
+  EXPECT_LT(occupancy.work().scalar_ops, described.work().scalar_ops);
+  EXPECT_NE(occupancy.status().find("occupancy only"), std::string::npos) << occupancy.status();
+  EXPECT_EQ(described.status().find("occupancy only"), std::string::npos) << described.status();
 }
 
 }  // namespace
