@@ -6,6 +6,9 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
+
+#include "arm/fork_join.h"
 
 namespace lpstereo::arm::obstacles3d {
 namespace {
@@ -30,6 +33,10 @@ bool heights_join(const AugmentedStixel& a, const AugmentedStixel& b, double gap
 // row's height at the cell's range, Z / f; added to each span so that a part on one row has a
 // finite density); returns it when that ratio is below max_ratio, else -1.
 constexpr double kSupportSplitMinRows = 3;
+
+// The per-cluster steps run on up to grid.threads threads, one per this many of the frame's stixel
+// points (a thread costs tens of microseconds to start; a few clusters are not worth it).
+constexpr size_t kStixelPointsPerThread = 4096;
 int support_split(const std::vector<std::pair<float, int>>& by_height, int begin, int end, double row_m, double max_ratio, int min_points) {
   double best_ratio = max_ratio;
   int best_cut = -1;
@@ -253,53 +260,65 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
   const size_t cluster_count = clusters.size();
   std::vector<float> cluster_lower(cluster_count), cluster_upper(cluster_count);
   std::vector<int> cluster_points(cluster_count, 0);
-  std::vector<std::pair<float, int>> lower_edges;  // (a member stixel's lower edge, its points)
-  std::vector<float> pooled_heights;
-  for (size_t index = 0; index < cluster_count; ++index) {
-    lower_edges.clear();
-    float upper = -std::numeric_limits<float>::infinity();
-    for (int member : clusters[index]) {
-      const AugmentedStixel& stixel = stixels_[static_cast<size_t>(member)];
-      lower_edges.emplace_back(stixel.min_height_m, stixel.point_count);
-      upper = std::max(upper, stixel.max_height_m);
-      cluster_points[index] += stixel.point_count;
-    }
-    std::sort(lower_edges.begin(), lower_edges.end());
-    const int tercile_points = cluster_points[index] / 3;
-    int points_below = 0;
-    size_t k = 0;
-    while (k + 1 < lower_edges.size() && points_below + lower_edges[k].second <= tercile_points) points_below += lower_edges[k++].second;
-    cluster_lower[index] = lower_edges[k].first;
-    cluster_upper[index] = upper;
-    // The edge itself from the pooled points of the member stixels whose own edge lies within
-    // max_lower_edge_step_m of that tercile (the chained pole's foot left out, as the tercile
-    // leaves it): the matcher gives a hanging board's bottom rows a disparity 0.1-0.25 px lower
-    // than the rest (mixed with the road under them), 0.2-0.5 m of range at 17 m, so they fall in
-    // farther range cells than the rows above, and most of the board's stixels hold no bottom row:
-    // their edges lay 0.9-1.16 m for a 0.9 m edge and the tercile at 1.01 m (floating seed 1 frame
-    // 3). Pooled, the rows are whole again.
-    pooled_heights.clear();
-    double range_sum = 0;
-    const float floor_m = cluster_lower[index] - static_cast<float>(parameters_.max_lower_edge_step_m);
-    for (int member : clusters[index]) {
-      const AugmentedStixel& stixel = stixels_[static_cast<size_t>(member)];
-      if (stixel.min_height_m < floor_m) continue;
-      for (int slot = stixel.first_point; slot < stixel.first_point + stixel.point_count; ++slot)
-        pooled_heights.push_back(points[static_cast<size_t>(point_indices_[static_cast<size_t>(slot)])].height_above_ground_m);
-      range_sum += static_cast<double>(stixel.mean_range_m) * stixel.point_count;
-    }
-    const size_t n = pooled_heights.size();
-    const size_t lower = static_cast<size_t>(std::floor(parameters_.lower_edge_fraction * static_cast<double>(n)));
-    const auto lower_slot = pooled_heights.begin() + static_cast<std::ptrdiff_t>(lower);
-    std::nth_element(pooled_heights.begin(), lower_slot, pooled_heights.end());
-    const float lower_percentile_m = *lower_slot;
-    const auto median_slot = pooled_heights.begin() + static_cast<std::ptrdiff_t>(n / 2);
-    if (median_slot > lower_slot) std::nth_element(lower_slot + 1, median_slot, pooled_heights.end());  // the rest are >= it
-    const float median_m = *median_slot;
-    cluster_lower[index] = static_cast<float>(std::min<double>(lower_edge_m(lower_percentile_m, median_m, range_sum, static_cast<double>(n)), upper));
-    work_.scalar_ops += 10 * static_cast<uint64_t>(n);
-    work_.memory_bytes += 8 * static_cast<uint64_t>(n);
-  }
+  // The clusters are dealt over the threads (one at a time: their sizes differ by orders of
+  // magnitude), each writing only its own clusters' entries: the result does not depend on them.
+  const int thread_count =
+      static_cast<int>(std::clamp<size_t>(point_indices_.size() / kStixelPointsPerThread, 1, static_cast<size_t>(parameters_.grid.threads)));
+  std::vector<ArmWork> share_work(static_cast<size_t>(thread_count));
+  fork_join(thread_count, [&](int share) {
+    std::vector<std::pair<float, int>> lower_edges;  // (a member stixel's lower edge, its points)
+    std::vector<float> pooled_heights;
+    ArmWork work;
+    for_each_dealt(cluster_count, 1, share, thread_count, [&](size_t index) {
+      lower_edges.clear();
+      float upper = -std::numeric_limits<float>::infinity();
+      int points_of_cluster = 0;
+      for (int member : clusters[index]) {
+        const AugmentedStixel& stixel = stixels_[static_cast<size_t>(member)];
+        lower_edges.emplace_back(stixel.min_height_m, stixel.point_count);
+        upper = std::max(upper, stixel.max_height_m);
+        points_of_cluster += stixel.point_count;
+      }
+      cluster_points[index] = points_of_cluster;
+      std::sort(lower_edges.begin(), lower_edges.end());
+      const int tercile_points = points_of_cluster / 3;
+      int points_below = 0;
+      size_t k = 0;
+      while (k + 1 < lower_edges.size() && points_below + lower_edges[k].second <= tercile_points) points_below += lower_edges[k++].second;
+      cluster_lower[index] = lower_edges[k].first;
+      cluster_upper[index] = upper;
+      // The edge itself from the pooled points of the member stixels whose own edge lies within
+      // max_lower_edge_step_m of that tercile (the chained pole's foot left out, as the tercile
+      // leaves it): the matcher gives a hanging board's bottom rows a disparity 0.1-0.25 px lower
+      // than the rest (mixed with the road under them), 0.2-0.5 m of range at 17 m, so they fall in
+      // farther range cells than the rows above, and most of the board's stixels hold no bottom row:
+      // their edges lay 0.9-1.16 m for a 0.9 m edge and the tercile at 1.01 m (floating seed 1 frame
+      // 3). Pooled, the rows are whole again.
+      pooled_heights.clear();
+      double range_sum = 0;
+      const float floor_m = cluster_lower[index] - static_cast<float>(parameters_.max_lower_edge_step_m);
+      for (int member : clusters[index]) {
+        const AugmentedStixel& stixel = stixels_[static_cast<size_t>(member)];
+        if (stixel.min_height_m < floor_m) continue;
+        for (int slot = stixel.first_point; slot < stixel.first_point + stixel.point_count; ++slot)
+          pooled_heights.push_back(points[static_cast<size_t>(point_indices_[static_cast<size_t>(slot)])].height_above_ground_m);
+        range_sum += static_cast<double>(stixel.mean_range_m) * stixel.point_count;
+      }
+      const size_t n = pooled_heights.size();
+      const size_t lower = static_cast<size_t>(std::floor(parameters_.lower_edge_fraction * static_cast<double>(n)));
+      const auto lower_slot = pooled_heights.begin() + static_cast<std::ptrdiff_t>(lower);
+      std::nth_element(pooled_heights.begin(), lower_slot, pooled_heights.end());
+      const float lower_percentile_m = *lower_slot;
+      const auto median_slot = pooled_heights.begin() + static_cast<std::ptrdiff_t>(n / 2);
+      if (median_slot > lower_slot) std::nth_element(lower_slot + 1, median_slot, pooled_heights.end());  // the rest are >= it
+      const float median_m = *median_slot;
+      cluster_lower[index] = static_cast<float>(std::min<double>(lower_edge_m(lower_percentile_m, median_m, range_sum, static_cast<double>(n)), upper));
+      work.scalar_ops += 10 * static_cast<uint64_t>(n);
+      work.memory_bytes += 8 * static_cast<uint64_t>(n);
+    });
+    share_work[static_cast<size_t>(share)] = work;
+  });
+  for (const ArmWork& work : share_work) work_ += work;
 
   // A fragment joins its host: a cluster next to a bigger one (more points) whose height interval
   // holds it (lower edge not below the host's, upper edge at most max_lower_edge_step_m above) is a
@@ -340,77 +359,104 @@ void AugmentedStixels::update(const std::vector<ObstaclePoint>& points, const Eg
     into.insert(into.end(), clusters[index].begin(), clusters[index].end());
   }
 
+  // Each kept cluster's obstacles, described on the threads (the clusters dealt one at a time, each
+  // description written to its own slot), then numbered in cluster order.
+  struct Description {
+    bool kept = false;
+    std::vector<Obstacle3d> obstacles;       // its parts' with enough points, in part order
+    std::vector<int> obstacle_of_part;       // index into obstacles, -1: none
+    std::vector<std::pair<int, int>> stixel_obstacle;  // a split cluster's: (member stixel, its part's obstacle)
+    ArmWork work;
+  };
+  std::vector<Description> descriptions(cluster_count);
+  fork_join(thread_count, [&](int share) {
+    std::vector<int> part_of_point;  // per point: its part in the cluster being split
+    for_each_dealt(cluster_count, 1, share, thread_count, [&](size_t index) {
+      if (root[index] != static_cast<int>(index)) return;
+      Description& description = descriptions[index];
+      ArmWork& work = description.work;
+      std::vector<int>& members = merged[index];
+      std::sort(members.begin(), members.end());
+      std::vector<int> obstacle_points;
+      for (int member : members) {
+        const AugmentedStixel& stixel = stixels_[static_cast<size_t>(member)];
+        obstacle_points.insert(obstacle_points.end(), point_indices_.begin() + stixel.first_point,
+                               point_indices_.begin() + stixel.first_point + stixel.point_count);
+      }
+      // Clusters smaller than min_cluster_stixels or with fewer than min_obstacle_points points
+      // (scattered terrain-fit outliers, mismatches) give no obstacle.
+      if (static_cast<int>(members.size()) < parameters_.min_cluster_stixels ||
+          static_cast<int>(obstacle_points.size()) < parameters_.min_obstacle_points)
+        return;
+      description.kept = true;
+      // The grids' four cuts (occupancy_grid.h, split_object). The image-column gap split: neighbouring cells
+      // join stixels whose points lie up to two 0.01 rad cells apart in the image; a run of at least
+      // grid.min_column_gap_px columns without a point between them makes two obstacles. Then the
+      // occlusion split (split_at_range_peak): a range peak over the image columns that both sides
+      // fall from by more than a window is a far surface's end beside a nearer object. Then the
+      // range-step split (split_at_range_step): such an end left at the part's edge. Then the
+      // concavity split (split_at_concavity): a dip of the disparity profile under its concave
+      // envelope is where two objects meet (one convex object's profile is concave). Each part
+      // keeps the cluster's height interval clamped to its own points' heights; a stixel belongs to
+      // the part holding most of its points.
+      const std::vector<std::vector<int>> parts = split_object(points, obstacle_points, parameters_.grid, &work);
+      description.obstacle_of_part.assign(parts.size(), -1);
+      for (size_t part = 0; part < parts.size(); ++part) {
+        if (static_cast<int>(parts[part].size()) < parameters_.min_obstacle_points) continue;
+        description.obstacle_of_part[part] = static_cast<int>(description.obstacles.size());
+        Obstacle3d obstacle = obstacle_from_points(points, parts[part], -1, &work);  // numbered below
+        obstacle.min_height_m = cluster_lower[index];  // trimmed, as the stixels'
+        obstacle.max_height_m = cluster_upper[index];
+        if (parts.size() > 1) {
+          // A part keeps the cluster's interval only as far as its own points reach: a fragment of a
+          // board's top rows that joined the board's pole and was then cut off at a column gap holds
+          // points at 1.6 m only, and with the pole's 0.2 m lower edge it took the free space under
+          // the board (floating seed 1 frame 24; the clamp measured in docs/obstacles3d.md).
+          float lowest_m = std::numeric_limits<float>::infinity(), highest_m = -lowest_m;
+          for (int point : parts[part]) {
+            lowest_m = std::min(lowest_m, points[static_cast<size_t>(point)].height_above_ground_m);
+            highest_m = std::max(highest_m, points[static_cast<size_t>(point)].height_above_ground_m);
+          }
+          obstacle.min_height_m = std::max<double>(obstacle.min_height_m, lowest_m);
+          obstacle.max_height_m = std::max(obstacle.min_height_m, std::min<double>(obstacle.max_height_m, highest_m));
+          work.scalar_ops += 2 * parts[part].size();
+        }
+        description.obstacles.push_back(std::move(obstacle));
+      }
+      if (parts.size() > 1) {
+        if (part_of_point.empty()) part_of_point.assign(points.size(), -1);  // only this cluster's entries are read
+        for (size_t part = 0; part < parts.size(); ++part)
+          for (int point : parts[part]) part_of_point[static_cast<size_t>(point)] = static_cast<int>(part);
+        std::vector<int> points_in_part(parts.size());
+        for (int member : members) {
+          const AugmentedStixel& stixel = stixels_[static_cast<size_t>(member)];
+          std::fill(points_in_part.begin(), points_in_part.end(), 0);
+          for (int k = stixel.first_point; k < stixel.first_point + stixel.point_count; ++k)
+            ++points_in_part[static_cast<size_t>(part_of_point[static_cast<size_t>(point_indices_[static_cast<size_t>(k)])])];
+          const size_t most = static_cast<size_t>(std::max_element(points_in_part.begin(), points_in_part.end()) - points_in_part.begin());
+          description.stixel_obstacle.emplace_back(member, description.obstacle_of_part[most]);
+        }
+      }
+      work.scalar_ops += 10 * obstacle_points.size();
+      work.memory_bytes += sizeof(ObstaclePoint) * obstacle_points.size();
+    });
+  });
   std::vector<int> obstacle_of_cluster(cluster_count, -1);
   // A stixel of a cluster split at a column gap: its part's obstacle (or -1); kNotSplit: its cluster's.
   constexpr int kNotSplit = -2;
   std::vector<int> stixel_obstacle(stixels_.size(), kNotSplit);
-  std::vector<int> part_of_point;  // per point: its part in the cluster being split
   for (size_t index = 0; index < cluster_count; ++index) {
-    if (root[index] != static_cast<int>(index)) continue;
-    std::vector<int>& members = merged[index];
-    std::sort(members.begin(), members.end());
-    std::vector<int> obstacle_points;
-    for (int member : members) {
-      const AugmentedStixel& stixel = stixels_[static_cast<size_t>(member)];
-      obstacle_points.insert(obstacle_points.end(), point_indices_.begin() + stixel.first_point,
-                             point_indices_.begin() + stixel.first_point + stixel.point_count);
+    Description& description = descriptions[index];
+    work_ += description.work;
+    if (!description.kept) continue;
+    const int first_id = static_cast<int>(obstacles_.size());
+    const auto id_of = [first_id](int local) { return local < 0 ? -1 : first_id + local; };
+    for (Obstacle3d& obstacle : description.obstacles) {
+      obstacle.id = static_cast<int>(obstacles_.size());
+      obstacles_.push_back(std::move(obstacle));
     }
-    // Clusters smaller than min_cluster_stixels or with fewer than min_obstacle_points points
-    // (scattered terrain-fit outliers, mismatches) give no obstacle.
-    if (static_cast<int>(members.size()) < parameters_.min_cluster_stixels || static_cast<int>(obstacle_points.size()) < parameters_.min_obstacle_points)
-      continue;
-    // The grids' four cuts (occupancy_grid.h, split_object). The image-column gap split: neighbouring cells
-    // join stixels whose points lie up to two 0.01 rad cells apart in the image; a run of at least
-    // grid.min_column_gap_px columns without a point between them makes two obstacles. Then the
-    // occlusion split (split_at_range_peak): a range peak over the image columns that both sides
-    // fall from by more than a window is a far surface's end beside a nearer object. Then the
-    // range-step split (split_at_range_step): such an end left at the part's edge. Then the
-    // concavity split (split_at_concavity): a dip of the disparity profile under its concave
-    // envelope is where two objects meet (one convex object's profile is concave). Each part
-    // keeps the cluster's height interval clamped to its own points' heights; a stixel belongs to
-    // the part holding most of its points.
-    const std::vector<std::vector<int>> parts = split_object(points, obstacle_points, parameters_.grid, &work_);
-    std::vector<int> obstacle_of_part(parts.size(), -1);
-    for (size_t part = 0; part < parts.size(); ++part) {
-      if (static_cast<int>(parts[part].size()) < parameters_.min_obstacle_points) continue;
-      obstacle_of_part[part] = static_cast<int>(obstacles_.size());
-      Obstacle3d obstacle = obstacle_from_points(points, parts[part], static_cast<int>(obstacles_.size()), &work_);
-      obstacle.min_height_m = cluster_lower[index];  // trimmed, as the stixels'
-      obstacle.max_height_m = cluster_upper[index];
-      if (parts.size() > 1) {
-        // A part keeps the cluster's interval only as far as its own points reach: a fragment of a
-        // board's top rows that joined the board's pole and was then cut off at a column gap holds
-        // points at 1.6 m only, and with the pole's 0.2 m lower edge it took the free space under
-        // the board (floating seed 1 frame 24; the clamp measured in docs/obstacles3d.md).
-        float lowest_m = std::numeric_limits<float>::infinity(), highest_m = -lowest_m;
-        for (int point : parts[part]) {
-          lowest_m = std::min(lowest_m, points[static_cast<size_t>(point)].height_above_ground_m);
-          highest_m = std::max(highest_m, points[static_cast<size_t>(point)].height_above_ground_m);
-        }
-        obstacle.min_height_m = std::max<double>(obstacle.min_height_m, lowest_m);
-        obstacle.max_height_m = std::max(obstacle.min_height_m, std::min<double>(obstacle.max_height_m, highest_m));
-        work_.scalar_ops += 2 * parts[part].size();
-      }
-      obstacles_.push_back(obstacle);
-    }
-    if (parts.size() == 1) {
-      obstacle_of_cluster[index] = obstacle_of_part[0];
-    } else {
-      if (part_of_point.empty()) part_of_point.assign(points.size(), -1);  // only this cluster's entries are read
-      for (size_t part = 0; part < parts.size(); ++part)
-        for (int point : parts[part]) part_of_point[static_cast<size_t>(point)] = static_cast<int>(part);
-      std::vector<int> points_in_part(parts.size());
-      for (int member : members) {
-        const AugmentedStixel& stixel = stixels_[static_cast<size_t>(member)];
-        std::fill(points_in_part.begin(), points_in_part.end(), 0);
-        for (int k = stixel.first_point; k < stixel.first_point + stixel.point_count; ++k)
-          ++points_in_part[static_cast<size_t>(part_of_point[static_cast<size_t>(point_indices_[static_cast<size_t>(k)])])];
-        const size_t most = static_cast<size_t>(std::max_element(points_in_part.begin(), points_in_part.end()) - points_in_part.begin());
-        stixel_obstacle[static_cast<size_t>(member)] = obstacle_of_part[most];
-      }
-    }
-    work_.scalar_ops += 10 * obstacle_points.size();
-    work_.memory_bytes += sizeof(ObstaclePoint) * obstacle_points.size();
+    if (description.obstacle_of_part.size() == 1) obstacle_of_cluster[index] = id_of(description.obstacle_of_part[0]);
+    for (const auto& [member, local] : description.stixel_obstacle) stixel_obstacle[static_cast<size_t>(member)] = id_of(local);
   }
   for (size_t i = 0; i < stixels_.size(); ++i) {
     if (stixel_obstacle[i] == kNotSplit)

@@ -96,6 +96,12 @@
 //      its Obstacle3d (occupancy_grid.h, obstacle_from_points) with the interval above as its
 //      min_height_m and max_height_m.
 //
+// Threads (grid.threads, one per 4096 stixel points at most): the grid's evidence (occupancy_grid.h),
+// and in step 4 the clusters' height intervals and their obstacles' descriptions (the splits and
+// boxes), the clusters dealt one at a time (arm/fork_join.h) and the obstacles numbered in cluster
+// order afterwards: the stixels and obstacles do not depend on the thread count (test
+// TwoThreadsGiveTheOneThreadStixelsAndObstacles). Binning, step 3 and the clustering are serial.
+//
 // Counted work (ArmWork): the grid's own (occupancy_grid.h), plus per point 8 ops + 8 bytes (count)
 // and 6 ops + 8 bytes (placement); per cell 4 ops + 4 bytes (prefix sum); per point of a stixel
 // cell 12 ops (the height sort, ~log2 of a cell's few dozen points, sums) + 16 bytes, and 8 ops for

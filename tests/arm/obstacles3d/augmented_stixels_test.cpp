@@ -17,7 +17,8 @@
 // gap split off), and a wide object with 2 empty columns stays one; a part split off a cluster keeps
 // only the heights its points reach (a board's top rows beside its pole); a pedestrian touching the far end
 // of a car's side (no empty column, no range peak) is its own obstacle with the concavity split and
-// not without it, and the car alone stays one.
+// not without it, and the car alone stays one; two threads give the one-thread stixels and obstacles
+// (the per-cluster steps dealt over the threads).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -571,6 +572,58 @@ TEST(AugmentedStixels, APedestrianTouchingACarSidesFarEndIsItsOwnObstacle) {
   testing::add_car_side_and_pedestrian(car, true, false);
   for (int frame = 0; frame < 3; ++frame) car_alone.update(car, EgoMotion{});
   EXPECT_EQ(car_alone.obstacles().size(), 1u) << car_alone.status();
+}
+
+TEST(AugmentedStixels, TwoThreadsGiveTheOneThreadStixelsAndObstacles) {
+  // Enough stixel points for two threads (a thread per 4096), several clusters, one of them split
+  // at a column gap (a car's rear and a pedestrian), a board on poles, a sign over a box.
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -0.8, 0.8, 1.0, 1.5, 10.0);
+  add_patch(points, -0.8, -0.74, 0.0, 1.0, 10.0);
+  add_patch(points, 0.74, 0.8, 0.0, 1.0, 10.0);
+  testing::add_pixel_columns(points, 420, 486, 0.2, 1.4, 15.0);
+  testing::add_pixel_columns(points, 491, 506, 0.2, 1.7, 15.0);
+  add_patch(points, -3.0, -2.0, 2.0, 2.6, 18.0);
+  add_patch(points, -3.0, -2.0, 0.0, 0.5, 18.0);
+  add_patch(points, 2.0, 4.0, 0.0, 1.0, 25.0, 0.02);
+  AugmentedStixelParameters parameters = stixel_parameters();
+  AugmentedStixels one(parameters);
+  parameters.grid.threads = 2;
+  AugmentedStixels two(parameters);
+  for (int frame = 0; frame < 3; ++frame) {
+    one.update(points, EgoMotion{});
+    two.update(points, EgoMotion{});
+  }
+  ASSERT_GT(one.point_indices().size(), 2u * 4096u);
+  ASSERT_GE(one.obstacles().size(), 6u) << one.status();
+  ASSERT_EQ(two.stixels().size(), one.stixels().size()) << two.status();
+  EXPECT_EQ(two.point_indices(), one.point_indices());
+  for (size_t i = 0; i < one.stixels().size(); ++i) {
+    const AugmentedStixel &a = one.stixels()[i], &b = two.stixels()[i];
+    EXPECT_EQ(b.angle_cell, a.angle_cell);
+    EXPECT_EQ(b.range_cell, a.range_cell);
+    EXPECT_EQ(b.first_point, a.first_point);
+    EXPECT_EQ(b.point_count, a.point_count);
+    EXPECT_EQ(b.min_height_m, a.min_height_m);
+    EXPECT_EQ(b.max_height_m, a.max_height_m);
+    EXPECT_EQ(b.mean_range_m, a.mean_range_m);
+    EXPECT_EQ(b.mean_rgb, a.mean_rgb);
+    EXPECT_EQ(b.cluster, a.cluster) << "stixel " << i;
+    // The grid's evidence is summed per thread, so its probabilities agree to rounding only.
+    EXPECT_NEAR(b.occupancy_probability, a.occupancy_probability, 1e-5);
+  }
+  ASSERT_EQ(two.obstacles().size(), one.obstacles().size());
+  for (size_t i = 0; i < one.obstacles().size(); ++i) {
+    const Obstacle3d &a = one.obstacles()[i], &b = two.obstacles()[i];
+    EXPECT_EQ(b.id, static_cast<int>(i));
+    EXPECT_EQ(b.bbox_px, a.bbox_px);
+    EXPECT_EQ(b.position_m, a.position_m);
+    EXPECT_EQ(b.size_m, a.size_m);
+    EXPECT_EQ(b.min_height_m, a.min_height_m);
+    EXPECT_EQ(b.max_height_m, a.max_height_m);
+  }
+  EXPECT_EQ(two.work().scalar_ops, one.work().scalar_ops);
+  EXPECT_EQ(two.work().memory_bytes, one.work().memory_bytes);
 }
 
 TEST(AugmentedStixels, StixelsCarryTheirPointsAndColours) {
