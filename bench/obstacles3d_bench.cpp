@@ -11,7 +11,8 @@
 // 0.5 s then 7 repetitions; read the _median rows: "Time" is wall clock, "CPU" the whole process's
 // CPU time (both threads) per frame, the figure to trust on a loaded machine (wall clock there waits
 // for the second thread to be scheduled; on an idle 2-core machine wall ~ CPU / 2 plus the join).
-// Stixels = polar grid update + stixels (the whole per-frame cost). Settings are printed first.
+// Stixels = polar grid update + stixels (the whole per-frame cost); StixelsDriving the same with an
+// ego-motion each frame (the grid's memory resampled). Settings are printed first.
 // Usage: obstacles3d_bench [Google Benchmark flags]
 #include <benchmark/benchmark.h>
 
@@ -45,6 +46,8 @@ constexpr int kRepetitions = 7;
 constexpr double kWarmUpSeconds = 0.5;
 constexpr double kStixelBudgetMs = 5.0;
 constexpr double kCandidateHeightM = 0.15;
+constexpr double kDrivingStepM = 0.5;                            // BM_StixelsDriving's ego-motion a frame
+constexpr double kDrivingYawRad = 0.3 * 3.14159265358979323846 / 180;
 
 struct Cloud {
   io::StereoSynthScene scene;
@@ -126,6 +129,28 @@ void BM_Stixels(benchmark::State& state) {
   state.counters["arm_Mops"] = static_cast<double>(stixels.work().scalar_ops) / 1e6;
 }
 BENCHMARK(BM_Stixels)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinWarmUpTime(kWarmUpSeconds)->Repetitions(kRepetitions);
+
+// The stixels of a driving camera: the same candidates with an ego-motion of 0.5 m forward and a
+// 0.3 deg yaw a frame (15 m/s at 30 fps, a gentle bend), so that the grid's memory is resampled into
+// each new frame (occupancy_grid.h, the ego-motion compensation), as in the chain and the command.
+void BM_StixelsDriving(benchmark::State& state) {
+  const std::vector<ObstaclePoint>& points = cloud().candidates;
+  EgoMotion motion;
+  motion.available = true;
+  motion.previous_from_current = Eigen::Translation3d(kDrivingStepM, 0, 0) * Eigen::AngleAxisd(kDrivingYawRad, Eigen::Vector3d::UnitZ());
+  AugmentedStixels stixels(stixel_parameters());
+  stixels.update(points, motion);
+  for (auto _ : state) {
+    stixels.update(points, motion);
+    benchmark::DoNotOptimize(stixels.stixels().data());
+  }
+  state.SetLabel("candidates, " + std::to_string(points.size()) + " points, driving");
+  state.counters["stixels"] = static_cast<double>(stixels.stixels().size());
+  state.counters["obstacles"] = static_cast<double>(stixels.obstacles().size());
+  state.counters["budget_ms"] = kStixelBudgetMs;
+  state.counters["arm_Mops"] = static_cast<double>(stixels.work().scalar_ops) / 1e6;
+}
+BENCHMARK(BM_StixelsDriving)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime()->MinWarmUpTime(kWarmUpSeconds)->Repetitions(kRepetitions);
 
 void BM_GridUpdate(benchmark::State& state) {
   const GridKind kind = static_cast<GridKind>(state.range(0));
