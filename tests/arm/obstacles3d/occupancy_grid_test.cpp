@@ -11,7 +11,7 @@
 // points smeared along their rays metres behind a board do not stretch its obstacle;
 // clipping and rejection counted and reported; empty cloud and missing ego-motion reported; bad
 // parameters throw naming the parameter; the counted work's per-cell closed form; 2 threads agree
-// (the points dealt in blocks); an occupancy-only update has the same log-odds, no clusters and less work;
+// (the points dealt in blocks), and so does the ego-motion resampling (rows dealt); an occupancy-only update has the same log-odds, no clusters and less work;
 // the image-column gap split on hand-made columns, two objects at one depth with 4 empty image
 // columns between them are two obstacles (one with the split off), and a wide object with 2 empty
 // columns stays one; the range-peak split cuts a receding surface's far end from a nearer object
@@ -1065,6 +1065,30 @@ TEST(OccupancyGridThreads, TwoThreadsGiveTheSameGrid) {
   EXPECT_LT((one.evidence() - two.evidence()).cwiseAbs().maxCoeff(), 1e-3f * one.evidence().maxCoeff());
   EXPECT_EQ(one.obstacles().size(), two.obstacles().size());
   EXPECT_EQ(one.work().scalar_ops, two.work().scalar_ops);
+}
+
+TEST(OccupancyGridThreads, EgoMotionResamplingGivesTheSameGridOnTwoThreads) {
+  // Fewer than 4096 points: the evidence is one thread's in both grids, so any difference would be
+  // the resampling's, whose rows are dealt over the threads.
+  std::vector<ObstaclePoint> points;
+  add_patch(points, -1.0, 1.0, 0.0, 0.5, 12.0, 0.02);
+  add_patch(points, 3.0, 4.0, 0.0, 1.0, 20.0, 0.05);
+  ASSERT_LT(points.size(), 4096u);
+  EgoMotion motion;
+  motion.available = true;
+  motion.previous_from_current = Eigen::Translation3d(0.5, 0.1, 0) * Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitZ());
+  for (GridKind kind : {GridKind::polar, GridKind::cartesian, GridKind::column_disparity}) {
+    OccupancyGridParameters parameters = grid_parameters(kind);
+    OccupancyGrid one(parameters);
+    parameters.threads = 2;
+    OccupancyGrid two(parameters);
+    for (int frame = 0; frame < 4; ++frame) {
+      one.update(frame < 2 ? points : std::vector<ObstaclePoint>{}, motion);
+      two.update(frame < 2 ? points : std::vector<ObstaclePoint>{}, motion);
+    }
+    EXPECT_GT(one.log_odds().maxCoeff(), 0.0f) << grid_kind_name(kind);  // the memory moved, not lost
+    EXPECT_EQ((one.log_odds() - two.log_odds()).cwiseAbs().maxCoeff(), 0.0f) << grid_kind_name(kind);
+  }
 }
 
 TEST(OccupancyGridDescription, OccupancyOnlyHasTheSameLogOddsNoClustersAndLessWork) {
