@@ -2,7 +2,7 @@
 # Each level: a name, the LPSTEREO_ISA_TU number, and its compiler flags.
 set(LPSTEREO_ISA_LEVELS "")
 if(CMAKE_SYSTEM_PROCESSOR MATCHES "^(x86_64|AMD64|amd64)$")
-  list(APPEND LPSTEREO_ISA_LEVELS sse42 avx2 avx512)
+  list(APPEND LPSTEREO_ISA_LEVELS sse42 avx2 avx512 avx512_icl)
   set(LPSTEREO_ISA_TU_sse42 1)
   set(LPSTEREO_ISA_TYPE_sse42 Sse42)
   set(LPSTEREO_ISA_FLAGS_sse42 -msse4.2 -mpopcnt)
@@ -19,6 +19,11 @@ if(CMAKE_SYSTEM_PROCESSOR MATCHES "^(x86_64|AMD64|amd64)$")
     # self-initialisation is reported as -Wuninitialized.
     list(APPEND LPSTEREO_ISA_FLAGS_avx512 -Wno-maybe-uninitialized -Wno-uninitialized)
   endif()
+  # AVX-512 of Ice Lake and later: the avx512 flags plus VPOPCNTDQ and BITALG (popcounts in one
+  # instruction; kernels/simd/x86_avx512.h compiles as the struct Avx512Icl here).
+  set(LPSTEREO_ISA_TU_avx512_icl 5)
+  set(LPSTEREO_ISA_TYPE_avx512_icl Avx512Icl)
+  set(LPSTEREO_ISA_FLAGS_avx512_icl ${LPSTEREO_ISA_FLAGS_avx512} -mavx512vpopcntdq -mavx512bitalg)
 elseif(CMAKE_SYSTEM_PROCESSOR MATCHES "^(aarch64|arm64)$")
   list(APPEND LPSTEREO_ISA_LEVELS neon)
   set(LPSTEREO_ISA_TU_neon 4)

@@ -239,6 +239,7 @@ struct KernelRegistrar {
   void name##_sse42(const ::lpstereo::TileArgs&);                                                \
   void name##_avx2(const ::lpstereo::TileArgs&);                                                 \
   void name##_avx512(const ::lpstereo::TileArgs&);                                               \
+  void name##_avx512_icl(const ::lpstereo::TileArgs&);                                           \
   void name##_neon(const ::lpstereo::TileArgs&);                                                 \
   }
 
@@ -257,6 +258,11 @@ struct KernelRegistrar {
 #else
 #define LPSTEREO_NATIVE_AVX512(name)
 #endif
+#if defined(LPSTEREO_HAVE_ISA_AVX512_ICL)
+#define LPSTEREO_NATIVE_AVX512_ICL(name) descriptor.native[int(::lpstereo::simd::Isa::avx512_icl)] = ::lpstereo::kernels::name##_avx512_icl;
+#else
+#define LPSTEREO_NATIVE_AVX512_ICL(name)
+#endif
 #if defined(LPSTEREO_HAVE_ISA_NEON)
 #define LPSTEREO_NATIVE_NEON(name) descriptor.native[int(::lpstereo::simd::Isa::neon)] = ::lpstereo::kernels::name##_neon;
 #else
@@ -266,4 +272,5 @@ struct KernelRegistrar {
 // Inside a function building `descriptor`: sets native[] for every level this build compiled.
 #define LPSTEREO_FILL_NATIVE_TABLE(name)                                            \
   descriptor.native[int(::lpstereo::simd::Isa::scalar)] = ::lpstereo::kernels::name##_scalar; \
-  LPSTEREO_NATIVE_SSE42(name) LPSTEREO_NATIVE_AVX2(name) LPSTEREO_NATIVE_AVX512(name) LPSTEREO_NATIVE_NEON(name)
+  LPSTEREO_NATIVE_SSE42(name) LPSTEREO_NATIVE_AVX2(name) LPSTEREO_NATIVE_AVX512(name) LPSTEREO_NATIVE_AVX512_ICL(name) \
+  LPSTEREO_NATIVE_NEON(name)

@@ -18,7 +18,7 @@ OpCounts*& current_op_counts() {
 
 namespace {
 
-constexpr std::array<std::string_view, kIsaCount> kIsaNames = {"scalar", "sse4.2", "avx2", "avx512", "neon"};
+constexpr std::array<std::string_view, kIsaCount> kIsaNames = {"scalar", "sse4.2", "avx2", "avx512", "avx512-icl", "neon"};
 
 bool compiled_in(Isa isa) {
   switch (isa) {
@@ -31,6 +31,9 @@ bool compiled_in(Isa isa) {
 #endif
 #if defined(LPSTEREO_HAVE_ISA_AVX512)
     case Isa::avx512: return true;
+#endif
+#if defined(LPSTEREO_HAVE_ISA_AVX512_ICL)
+    case Isa::avx512_icl: return true;
 #endif
 #if defined(LPSTEREO_HAVE_ISA_NEON)
     case Isa::neon: return true;
@@ -52,6 +55,8 @@ bool cpu_supports(Isa isa) {
       return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
              __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512dq") &&
              __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("popcnt");
+    case Isa::avx512_icl:
+      return cpu_supports(Isa::avx512) && __builtin_cpu_supports("avx512vpopcntdq") && __builtin_cpu_supports("avx512bitalg");
     default: return false;
   }
 #elif defined(__aarch64__)
@@ -76,7 +81,7 @@ Isa initial_isa() {
   if (const char* cap = std::getenv("LPSTEREO_ISA"); cap != nullptr && *cap != '\0') {
     Isa requested;
     if (!parse_isa(cap, requested)) {
-      std::fprintf(stderr, "lpstereo: LPSTEREO_ISA='%s' is not an ISA name (scalar, sse4.2, avx2, avx512, neon)\n", cap);
+      std::fprintf(stderr, "lpstereo: LPSTEREO_ISA='%s' is not an ISA name (scalar, sse4.2, avx2, avx512, avx512-icl, neon)\n", cap);
       std::exit(2);
     }
     // Cap: the best available level not above the requested one.

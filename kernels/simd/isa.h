@@ -10,13 +10,16 @@
 
 namespace lpstereo::simd {
 
-enum class Isa : int { scalar = 0, sse42, avx2, avx512, neon, count_ };
+// avx512_icl: AVX-512 with VPOPCNTDQ and BITALG (Ice Lake, Sapphire Rapids, Zen 4 and later): the
+// avx512 back end with single-instruction popcounts (kernels/simd/x86_avx512.h). The order is the
+// cap's (LPSTEREO_ISA caps at the best level not above it), so it sits between avx512 and neon.
+enum class Isa : int { scalar = 0, sse42, avx2, avx512, avx512_icl, neon, count_ };
 
 inline constexpr int kIsaCount = static_cast<int>(Isa::count_);
 
 std::string_view isa_name(Isa isa);
 
-// Parses an ISA name ("scalar", "sse4.2", "avx2", "avx512", "neon"); false if unknown.
+// Parses an ISA name ("scalar", "sse4.2", "avx2", "avx512", "avx512-icl", "neon"); false if unknown.
 bool parse_isa(std::string_view name, Isa& isa);
 
 // Levels compiled into this binary AND supported by this CPU, lowest first (scalar is always there).

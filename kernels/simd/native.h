@@ -2,7 +2,8 @@
 //
 // Every kernel source file is compiled once per instruction-set level (kernels/CMakeLists.txt):
 // LPSTEREO_ISA_TU is 0 for the baseline build (scalar fallback, descriptor, reference, counting,
-// registration) and 1..4 for the sse4.2 / avx2 / avx512 / neon builds, each with its -m flags.
+// registration) and 1..5 for the sse4.2 / avx2 / avx512 / neon / avx512-icl builds, each with its
+// -m flags.
 // `Native` is the back end for this unit; kIsa says which level it is; LPSTEREO_ISA_SUFFIX names the
 // per-level entry points (census5x5_avx2, ...).
 //
@@ -45,6 +46,14 @@ namespace lpstereo::simd {
 inline constexpr Isa kIsa = Isa::avx512;
 using Native = Avx512;
 }  // namespace lpstereo::simd
+#elif LPSTEREO_ISA_TU == 5
+#define LPSTEREO_ISA_SUFFIX avx512_icl
+#define LPSTEREO_AVX512_STRUCT Avx512Icl
+#include "kernels/simd/x86_avx512.h"
+namespace lpstereo::simd {
+inline constexpr Isa kIsa = Isa::avx512_icl;
+using Native = Avx512Icl;
+}  // namespace lpstereo::simd
 #elif LPSTEREO_ISA_TU == 4
 #define LPSTEREO_ISA_SUFFIX neon
 #include "kernels/simd/arm_neon.h"
@@ -53,5 +62,5 @@ inline constexpr Isa kIsa = Isa::neon;
 using Native = Neon;
 }  // namespace lpstereo::simd
 #else
-#error "LPSTEREO_ISA_TU must be 0..4"
+#error "LPSTEREO_ISA_TU must be 0..5"
 #endif

@@ -1,7 +1,10 @@
 // The Avx512 native back end of the simd layer: 512-bit vectors on x86-64 with AVX-512 F, BW, VL and
-// DQ (no VPOPCNTDQ, BITALG or VBMI: the run-time check in kernels/simd/isa.cpp does not ask for
-// them). Included only by the avx512 translation units (LPSTEREO_ISA_TU == 3, compiled with
-// -mavx512f -mavx512bw -mavx512vl -mavx512dq -mbmi2 -mpopcnt; see kernels/simd/native.h).
+// DQ. Included only by the avx512 translation units (LPSTEREO_ISA_TU == 3, compiled with
+// -mavx512f -mavx512bw -mavx512vl -mavx512dq -mbmi2 -mpopcnt; see kernels/simd/native.h), and by
+// the avx512-icl ones (LPSTEREO_ISA_TU == 5, the same flags plus -mavx512vpopcntdq -mavx512bitalg),
+// which define LPSTEREO_AVX512_STRUCT as Avx512Icl: the same struct under the level's own name (so
+// that no function compiled with VPOPCNTDQ can be merged into the avx512 level), whose popcount is
+// one instruction (vpopcntb, vpopcntd, vpopcntq) instead of the nibble table.
 //
 // The contract for every op is kernels/simd/emulated.h; tests/kernels/simd_ops_test.cpp compares each
 // op and lane type of this file with it lane by lane. Vector types are thin structs around __m512i so
@@ -16,8 +19,8 @@
 // follows the contract's whole-vector order.
 //
 // Ops built from several instructions (marked "emulated"): u8 shifts (16-bit shift + mask), absdiff
-// (two saturating subs), popcount (nibble table with vpshufb, then horizontal byte sums: VPOPCNTDQ /
-// BITALG are not assumed), narrow_sat_u16 (clamp negatives to 0 first: vpmovusdw is unsigned).
+// (two saturating subs), popcount on the avx512 level (nibble table with vpshufb, then horizontal
+// byte sums), narrow_sat_u16 (clamp negatives to 0 first: vpmovusdw is unsigned).
 // Scalar loops: gather_u8 / gather_u16 (vpgatherdd reads 4 bytes per lane, past the addressed
 // element).
 #pragma once
@@ -34,11 +37,20 @@
 
 #include "kernels/simd/x86_lane0.h"
 
+#ifndef LPSTEREO_AVX512_STRUCT
+#define LPSTEREO_AVX512_STRUCT Avx512
+#endif
+#if defined(__AVX512VPOPCNTDQ__) && defined(__AVX512BITALG__)
+#define LPSTEREO_AVX512_POPCOUNT_INSTRUCTIONS 1
+#else
+#define LPSTEREO_AVX512_POPCOUNT_INSTRUCTIONS 0
+#endif
+
 namespace lpstereo::simd {
 
-struct Avx512 {
+struct LPSTEREO_AVX512_STRUCT {
   static constexpr int kBytes = 64;
-  static constexpr const char* kName = "avx512";
+  static constexpr const char* kName = LPSTEREO_AVX512_POPCOUNT_INSTRUCTIONS ? "avx512-icl" : "avx512";
 
   template <class Lane>
   struct Vec {
@@ -286,10 +298,18 @@ struct Avx512 {
     return cmpgt(b, a);
   }
 
-  // Emulated: per-byte counts from a nibble table (vpshufb), summed per lane for u32 / u64.
+  // avx512-icl: one instruction per vector (BITALG vpopcntb, VPOPCNTDQ vpopcntd / vpopcntq). The
+  // census Hamming costs of the SGM passes are most of its uses: without them, a path pass took
+  // about a fifth less time (kernels_bench, 640x480, 64 disparities; docs/kernels.md).
+  // avx512, emulated: per-byte counts from a nibble table (vpshufb), summed per lane for u32 / u64.
   template <class Lane>
   static Vec<Lane> popcount(const Vec<Lane>& a) {
     static_assert(std::is_unsigned_v<Lane> && sizeof(Lane) != 2, "popcount exists for u8, u32 and u64 lanes");
+#if LPSTEREO_AVX512_POPCOUNT_INSTRUCTIONS
+    if constexpr (sizeof(Lane) == 1) return {_mm512_popcnt_epi8(a.v)};
+    else if constexpr (sizeof(Lane) == 4) return {_mm512_popcnt_epi32(a.v)};
+    else return {_mm512_popcnt_epi64(a.v)};
+#else
     const __m512i byte_counts = popcount_bytes(a.v);
     if constexpr (sizeof(Lane) == 1) {
       return {byte_counts};
@@ -299,6 +319,7 @@ struct Avx512 {
     } else {
       return {_mm512_sad_epu8(byte_counts, _mm512_setzero_si512())};
     }
+#endif
   }
 
   // ---- lane movement ----

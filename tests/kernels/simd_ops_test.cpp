@@ -41,6 +41,10 @@ int simd_ops_probe_avx2_bytes();
 void simd_ops_probe_avx512(const ProbeOp& op, const ProbeArgs& args);
 int simd_ops_probe_avx512_bytes();
 #endif
+#if defined(LPSTEREO_SIMD_PROBE_AVX512_ICL)
+void simd_ops_probe_avx512_icl(const ProbeOp& op, const ProbeArgs& args);
+int simd_ops_probe_avx512_icl_bytes();
+#endif
 #if defined(LPSTEREO_SIMD_PROBE_NEON)
 void simd_ops_probe_neon(const ProbeOp& op, const ProbeArgs& args);
 int simd_ops_probe_neon_bytes();
@@ -83,6 +87,10 @@ std::vector<NativeLevel> native_levels() {
 #endif
 #if defined(LPSTEREO_SIMD_PROBE_AVX512)
   compiled.push_back({simd::Isa::avx512, simd_probe::simd_ops_probe_avx512, simd_probe::simd_ops_probe_avx512_bytes()});
+#endif
+#if defined(LPSTEREO_SIMD_PROBE_AVX512_ICL)
+  compiled.push_back(
+      {simd::Isa::avx512_icl, simd_probe::simd_ops_probe_avx512_icl, simd_probe::simd_ops_probe_avx512_icl_bytes()});
 #endif
 #if defined(LPSTEREO_SIMD_PROBE_NEON)
   compiled.push_back({simd::Isa::neon, simd_probe::simd_ops_probe_neon, simd_probe::simd_ops_probe_neon_bytes()});
