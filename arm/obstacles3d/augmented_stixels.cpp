@@ -18,6 +18,10 @@ OccupancyGridParameters validated_grid(const AugmentedStixelParameters& paramete
   return parameters.grid;
 }
 
+// The per-cluster steps run on up to grid.threads threads, one per this many of the frame's stixel
+// points (a thread costs tens of microseconds to start; a few clusters are not worth it).
+constexpr size_t kStixelPointsPerThread = 4096;
+
 // Two height intervals [low, high] closer than gap (overlapping intervals are at distance 0) whose
 // lower edges differ by at most lower_edge_step (an obstacle has one height interval: a board and
 // the poles it hangs on are separate obstacles, so the board's keeps its free space under it).
@@ -33,10 +37,6 @@ bool heights_join(const AugmentedStixel& a, const AugmentedStixel& b, double gap
 // row's height at the cell's range, Z / f; added to each span so that a part on one row has a
 // finite density); returns it when that ratio is below max_ratio, else -1.
 constexpr double kSupportSplitMinRows = 3;
-
-// The per-cluster steps run on up to grid.threads threads, one per this many of the frame's stixel
-// points (a thread costs tens of microseconds to start; a few clusters are not worth it).
-constexpr size_t kStixelPointsPerThread = 4096;
 int support_split(const std::vector<std::pair<float, int>>& by_height, int begin, int end, double row_m, double max_ratio, int min_points) {
   double best_ratio = max_ratio;
   int best_cut = -1;

@@ -14,8 +14,8 @@
 //   1. the polar grid's update (occupancy_grid.h: likelihoods, log-odds, ego-motion), occupancy only
 //      (GridDescription::occupancy_only: the grid's own clusters and obstacles are not described);
 //   2. binning: each point whose mean lies in a cell (the grid's point_cells()) is counted per cell,
-//      then placed by a counting sort (the points split into contiguous chunks over `threads`, chunk
-//      order kept, so the order of a stixel's points never depends on scheduling);
+//      then placed by a counting sort in point order (one thread: the order of a stixel's points is
+//      the frame's);
 //   3. stixels: in each cell that is occupied in the grid (require_occupied_cell; otherwise any cell)
 //      or holds at least min_points_unoccupied points this frame (the grid's log-odds need a few
 //      frames for an object that just came into view: in obstacles3d_eval, 150 frames, seed 1,
@@ -96,11 +96,12 @@
 //      its Obstacle3d (occupancy_grid.h, obstacle_from_points) with the interval above as its
 //      min_height_m and max_height_m.
 //
-// Threads (grid.threads, one per 4096 stixel points at most): the grid's evidence (occupancy_grid.h),
-// and in step 4 the clusters' height intervals and their obstacles' descriptions (the splits and
-// boxes), the clusters dealt one at a time (arm/fork_join.h) and the obstacles numbered in cluster
-// order afterwards: the stixels and obstacles do not depend on the thread count (test
-// TwoThreadsGiveTheOneThreadStixelsAndObstacles). Binning, step 3 and the clustering are serial.
+// Threads (grid.threads): the grid's evidence and its ego-motion resampling (occupancy_grid.h), and,
+// one per 4096 stixel points at most, in step 4 the clusters' height intervals and their obstacles'
+// descriptions (the splits and boxes), the clusters dealt one at a time (arm/fork_join.h) and the
+// obstacles numbered in cluster order afterwards: the stixels and obstacles do not depend on the
+// thread count (test TwoThreadsGiveTheOneThreadStixelsAndObstacles). Binning, step 3 and the
+// clustering are serial.
 //
 // Counted work (ArmWork): the grid's own (occupancy_grid.h), plus per point 8 ops + 8 bytes (count)
 // and 6 ops + 8 bytes (placement); per cell 4 ops + 4 bytes (prefix sum); per point of a stixel

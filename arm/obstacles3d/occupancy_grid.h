@@ -223,7 +223,7 @@ struct OccupancyGridParameters {
   // ray) is where two objects meet. 0.5 px = 2 disparity_sigma_px, 8x the scatter of one column's
   // median about a planar face (0.06 px; bench/obstacles3d_eval, urban: a car's rear and side).
   double min_concavity_px = 0.5;
-  int threads = 1;                     // 1..16: the evidence's points dealt over this many threads (and the stixels' clusters)
+  int threads = 1;                     // 1..16: the evidence's points and the ego-motion resampling's rows dealt over this many threads (and the stixels' clusters)
   // V: the camera in the vehicle frame (arm::CameraToVehicle's rotation and translation). Default:
   // a level camera looking forward at the vehicle origin (arm::optical_to_body()).
   Eigen::Isometry3d vehicle_from_camera = level_camera();
