@@ -1,11 +1,14 @@
 // arm/fork_join.h: fork_join runs every share exactly once, share 0 on the calling thread and the
-// others each on a thread of its own; for_each_dealt visits every item exactly once over the shares,
-// in blocks dealt round robin, for item counts around the block size and share counts that do and
-// do not divide them.
+// others each on a thread of its own; the helper threads persist from call to call; a call made
+// while they serve another (a share that forks again, a second caller thread) still runs every
+// share; a share's exception reaches the caller and leaves the helpers usable; for_each_dealt
+// visits every item exactly once over the shares, in blocks dealt round robin, for item counts
+// around the block size and share counts that do and do not divide them.
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <mutex>
+#include <stdexcept>
 #include <set>
 #include <thread>
 #include <vector>
@@ -32,6 +35,62 @@ TEST(ForkJoin, RunsEveryShareOnceShareZeroOnTheCallingThread) {
     EXPECT_EQ(share_zero_thread, std::this_thread::get_id());
     EXPECT_EQ(threads.size(), static_cast<size_t>(shares));
   }
+}
+
+// Calls of this thread's shares so far: a helper that persists counts up, a new thread starts at 0.
+thread_local int shares_run_on_this_thread = 0;
+
+TEST(ForkJoin, HelperThreadsPersistFromCallToCall) {
+  std::vector<int> share_one_counts;
+  for (int call = 0; call < 4; ++call) {
+    int count = 0;
+    fork_join(2, [&](int share) {
+      ++shares_run_on_this_thread;
+      if (share == 1) count = shares_run_on_this_thread;
+    });
+    share_one_counts.push_back(count);
+  }
+  // Each call's share 1 ran on a thread that had run one more share than the call before.
+  for (size_t call = 1; call < share_one_counts.size(); ++call) EXPECT_EQ(share_one_counts[call], share_one_counts[call - 1] + 1);
+}
+
+TEST(ForkJoin, FewerSharesThanHelpersRunOnlyTheirShares) {
+  for (int thread_count : {5, 2, 4, 3}) {
+    std::vector<std::atomic<int>> calls(5);
+    fork_join(thread_count, [&](int share) { ++calls[static_cast<size_t>(share)]; });
+    for (int share = 0; share < 5; ++share) EXPECT_EQ(calls[static_cast<size_t>(share)], share < thread_count ? 1 : 0) << thread_count;
+  }
+}
+
+TEST(ForkJoin, ASharesOwnForkAndASecondCallerRunEveryShare) {
+  std::atomic<int> inner_calls{0};
+  fork_join(2, [&](int) { fork_join(3, [&](int) { ++inner_calls; }); });
+  EXPECT_EQ(inner_calls, 6);
+  std::atomic<int> calls{0};
+  std::vector<std::thread> callers;
+  for (int caller = 0; caller < 3; ++caller) {
+    callers.emplace_back([&] {
+      for (int repeat = 0; repeat < 50; ++repeat) fork_join(2, [&](int) { ++calls; });
+    });
+  }
+  for (std::thread& caller : callers) caller.join();
+  EXPECT_EQ(calls, 3 * 50 * 2);
+}
+
+TEST(ForkJoin, AShareExceptionReachesTheCallerAndTheHelpersGoOn) {
+  for (int failing_share : {0, 1}) {
+    std::atomic<int> calls{0};
+    EXPECT_THROW(fork_join(3,
+                           [&](int share) {
+                             ++calls;
+                             if (share == failing_share) throw std::runtime_error("share failed");
+                           }),
+                 std::runtime_error);
+    EXPECT_EQ(calls, 3) << "every share runs even when one throws";
+  }
+  std::atomic<int> calls{0};
+  fork_join(3, [&](int) { ++calls; });
+  EXPECT_EQ(calls, 3);
 }
 
 TEST(ForkJoin, DealtItemsAreVisitedOnceInRoundRobinBlocks) {
