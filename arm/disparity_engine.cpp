@@ -281,7 +281,13 @@ DisparityEngine::DisparityEngine(int width, int height, const DisparityParameter
   if (parameters.schedule == SgmSchedule::automatic) {
     graph_parameters.schedule = workers == 1 ? SgmSchedule::sequential : SgmSchedule::side_by_side;
   }
-  graph_ = make_verified_graph(graph_spec(graph_parameters), width, height, memory);
+  GraphSpec spec = graph_spec(graph_parameters);
+  // The speckle filter in bands on the workers: it is the graph's last node, so the other workers
+  // would wait for it (the same bits and counted work, arm/tasks/speckle_filter.cpp).
+  for (NodeSpec& node : spec.nodes) {
+    if (node.task == "speckle_filter") node.params["threads"] = workers;
+  }
+  graph_ = make_verified_graph(spec, width, height, memory);
   runner_ = std::make_unique<FrameRunner>(*graph_, workers, backend);
 }
 

@@ -121,8 +121,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
   // The bands' row boundaries balance the valid disparities (the points to build), not the rows: a
   // road scene has its sky, with no disparity, in the top rows, and equal row bands left one thread
   // with almost every point (measured on the urban sequence: 300 against 144 000 points).
-  std::vector<int> band_first_row(static_cast<size_t>(band_count) + 1, disparity_q4.height());
-  band_first_row[0] = 0;
+  std::vector<int> band_first_row = {0, disparity_q4.height()};
   if (band_count > 1) {
     std::vector<int64_t> valid_before_row(static_cast<size_t>(disparity_q4.height()) + 1, 0);
     for (int v = 0; v < disparity_q4.height(); ++v) {
@@ -131,15 +130,7 @@ CandidatePoints extract_obstacle_candidates(const Plane& disparity_q4, int16_t i
       for (int u = 0; u < disparity_q4.width(); ++u) valid += has_disparity(disparity_row[u]) ? 1 : 0;
       valid_before_row[static_cast<size_t>(v) + 1] = valid_before_row[static_cast<size_t>(v)] + valid;
     }
-    const int64_t total = valid_before_row.back();
-    for (int band = 1; band < band_count; ++band) {
-      const int64_t target = total * band / band_count;
-      // the first row whose points start at or after the band's share
-      band_first_row[static_cast<size_t>(band)] = static_cast<int>(
-          std::lower_bound(valid_before_row.begin(), valid_before_row.end(), target) - valid_before_row.begin());
-      band_first_row[static_cast<size_t>(band)] =
-          std::clamp(band_first_row[static_cast<size_t>(band)], band_first_row[static_cast<size_t>(band) - 1], disparity_q4.height());
-    }
+    band_first_row = balanced_row_bands(valid_before_row, band_count);
   }
   const auto band_rows = [&](int band, int* first_row, int* end_row) {
     *first_row = band_first_row[static_cast<size_t>(band)];

@@ -364,7 +364,8 @@ TEST(DisparityEngine, RightViewAgreesWithTheTruthAndTheLeftMapWarpedToTheRightVi
 }
 
 // One worker cannot run the path passes side by side: the engine runs the chip's schedule (8 paths:
-// forward, then backward fused with the selection; 4 paths: sgm_4path), and gives the same bits.
+// forward, then backward fused with the selection; 4 paths: sgm_4path), and gives the same bits
+// (the speckle filter on one band against two).
 TEST(DisparityEngine, OneWorkerRunsTheChipsScheduleWithTheSameBits) {
   const io::SyntheticStereoScene stereo = scene();
   const int width = stereo.left.width(), height = stereo.left.height();
@@ -387,6 +388,16 @@ TEST(DisparityEngine, OneWorkerRunsTheChipsScheduleWithTheSameBits) {
     EXPECT_FALSE(holds(single, "sgm_sums_select")) << paths << " paths";
     EXPECT_TRUE(holds(single, paths == 8 ? "sgm_8path_backward" : "sgm_4path")) << paths << " paths";
     EXPECT_EQ(one_worker.parameters().schedule, arm::SgmSchedule::automatic) << "the parameters are kept as given";
+    // The speckle filter runs in bands on the engine's workers (the same bits: compared below).
+    for (const auto* engine : {&two_workers, &one_worker}) {
+      int speckle_nodes = 0;
+      for (const auto& node : engine->graph().nodes()) {
+        if (node.spec.task != "speckle_filter") continue;
+        ++speckle_nodes;
+        EXPECT_EQ(node.spec.params.value("threads", 0), engine == &two_workers ? 2 : 1) << paths << " paths";
+      }
+      EXPECT_EQ(speckle_nodes, 1) << paths << " paths";
+    }
     const Plane expected = two_workers.compute(stereo.left, stereo.right).clone();
     const Plane& actual = one_worker.compute(stereo.left, stereo.right);
     int64_t different = 0;

@@ -1,6 +1,7 @@
 // ARM task speckle_filter: bit-exact agreement with cv::filterSpeckles (CV_16S) on random and
-// structured maps for several parameter sets, golden regions, and the counted ArmWork closed form
-// of arm/tasks/speckle_filter.cpp.
+// structured maps for several parameter sets, golden regions, the counted ArmWork closed form
+// of arm/tasks/speckle_filter.cpp, and its bands on 2, 3 and 8 threads giving the one-thread
+// bits and work (regions that cross the seams, both kept and removed).
 #include <gtest/gtest.h>
 
 #include <opencv2/calib3d.hpp>
@@ -182,6 +183,57 @@ TEST(SpeckleFilter, CountedWorkEqualsClosedForm) {
   EXPECT_EQ(run.work.memory_bytes, 5 * pixels + 2 * invalidated);
 }
 
+// A comb: teeth of 30 rows joined by a back along the bottom rows (one region of far more than
+// 100 pixels, whose teeth alone are speckles in any band that holds no part of the back), beside
+// speckles of 40-90 pixels cut by every seam, on a background of invalid pixels.
+Plane comb_map(int width, int height, int invalid_q4) {
+  Plane plane(width, height, {ElementType::s16, 4}, width * 2 + 6);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) plane.at<int16_t>(x, y) = static_cast<int16_t>(invalid_q4);
+  }
+  for (int x = 0; x < width / 2; ++x) {
+    for (int y = height - 3; y < height; ++y) plane.at<int16_t>(x, y) = 500;  // the back
+    if (x % 4 == 0) {
+      for (int y = height - 33; y < height - 3; ++y) plane.at<int16_t>(x, y) = static_cast<int16_t>(500 + (y % 2) * 8);  // a tooth
+    }
+  }
+  for (int x = width / 2 + 2; x + 3 < width; x += 5) {
+    const int rows = 10 + (x * 7) % 20;  // 40-116 pixels: speckles and not
+    for (int y = 0; y < rows; ++y) {
+      for (int dx = 0; dx < 4; ++dx) plane.at<int16_t>(x + dx, (y + x) % height) = static_cast<int16_t>(900 + y);
+    }
+  }
+  return plane;
+}
+
+TEST(SpeckleFilter, BandsOnThreadsGiveTheOneThreadBitsAndWork) {
+  std::vector<std::pair<std::string, Plane>> maps;
+  maps.emplace_back("comb 120x97", comb_map(120, 97, -16));
+  maps.emplace_back("comb 257x64", comb_map(257, 64, -16));
+  maps.emplace_back("structured 640x480", structured_map(640, 480, 9, -16));
+  maps.emplace_back("structured 631x97", structured_map(631, 97, 5, -16));
+  maps.emplace_back("random 211x97", random_map(211, 97, 3, 8, 10, 0.2, -16));
+  maps.emplace_back("random 64x200", random_map(64, 200, 4, 3, 16, 0.0, -16));
+  maps.emplace_back("one row", random_map(50, 1, 5, 3, 16, 0.2, -16));
+  for (const auto& [name, input] : maps) {
+    for (const Settings& settings : {Settings{-16, 100, 16}, Settings{-16, 20, 0}, Settings{-16, 5000, 16}}) {
+      nlohmann::json params = {{"invalid_q4", settings.invalid_q4}, {"max_speckle_size", settings.max_speckle_size},
+                               {"max_difference_q4", settings.max_difference_q4}};
+      const SpeckleRun one = run_speckle(input, params);
+      EXPECT_TRUE(testing::planes_equal(
+          opencv_speckle(input, settings.invalid_q4, settings.max_speckle_size, settings.max_difference_q4), one.output))
+          << name << " " << params.dump();
+      for (int threads : {2, 3, 8}) {
+        params["threads"] = threads;
+        const SpeckleRun banded = run_speckle(input, params);
+        EXPECT_TRUE(testing::planes_equal(one.output, banded.output)) << name << " " << params.dump();
+        EXPECT_EQ(banded.work.scalar_ops, one.work.scalar_ops) << name << " " << params.dump();
+        EXPECT_EQ(banded.work.memory_bytes, one.work.memory_bytes) << name << " " << params.dump();
+      }
+    }
+  }
+}
+
 TEST(SpeckleFilterMustFail, RefusesUnknownAndOutOfRangeParameters) {
   const ArmTaskDescriptor& task = speckle_task();
   EXPECT_THROW(task.prepare({{"speckle_range", 2}}, {{10, 10}}), KernelError);
@@ -191,6 +243,8 @@ TEST(SpeckleFilterMustFail, RefusesUnknownAndOutOfRangeParameters) {
   } catch (const KernelError& error) {
     EXPECT_STREQ(error.what(), "parameter 'max_difference_q4': expected an integer in [0, 65535], got -1");
   }
+  EXPECT_THROW(task.prepare({{"threads", 0}}, {{10, 10}}), KernelError);
+  EXPECT_THROW(task.prepare({{"threads", 65}}, {{10, 10}}), KernelError);
 }
 
 }  // namespace
