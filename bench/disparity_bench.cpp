@@ -9,9 +9,15 @@
 // Each benchmark warms up for 0.5 s (not timed), then runs 7 repetitions; read the _median rows.
 // Wall-clock time (UseRealTime), as both run on 2 threads. Counters per frame: ms, fps, and MDE/s
 // (million disparity evaluations per second = W * H * D / seconds / 1e6).
+// The speckle filter alone (the engine's last step, arm/tasks/speckle_filter.cpp) beside OpenCV's
+// cv::filterSpeckles with the same settings, on the engine's map before it (8 paths, the median on,
+// speckles off): BM_speckle_filter/threads:1 and :2 (the bands on the engine's workers) against
+// BM_opencv_filterSpeckles (one thread: OpenCV's is not parallel); each iteration copies the map
+// and filters the copy, as the engine's task does.
 // Usage: disparity_bench [--benchmark_filter=opencv] (Google Benchmark flags).
 #include <benchmark/benchmark.h>
 
+#include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/core/utility.hpp>
 
@@ -21,6 +27,7 @@
 #include <string>
 
 #include "arm/disparity_engine.h"
+#include "dag/arm_task.h"
 #include "io/image_io.h"
 #include "io/opencv_sgbm.h"
 #include "io/stereo_datasets.h"
@@ -165,6 +172,67 @@ void sizes(benchmark::internal::Benchmark* benchmark) {
       ->ReportAggregatesOnly(true);
 }
 
+// The engine's map before the speckle filter (the median on), for the speckle benchmarks.
+const Plane& unfiltered_map(int width, int height) {
+  static std::map<std::pair<int, int>, Plane> maps;
+  auto found = maps.find({width, height});
+  if (found == maps.end()) {
+    arm::DisparityParameters parameters;
+    parameters.num_disparities = kDisparities;
+    parameters.speckle_max_size_px = 0;
+    const Pair& pair = pair_of_size(width, height);
+    arm::DisparityEngine engine(width, height, parameters, {}, kThreads);
+    found = maps.emplace(std::make_pair(width, height), engine.compute(pair.left, pair.right).clone()).first;
+  }
+  return found->second;
+}
+
+// The engine's speckle settings, in the task's units.
+nlohmann::json speckle_params(int threads) {
+  const arm::DisparityParameters defaults;
+  return {{"max_speckle_size", defaults.speckle_max_size_px},
+          {"max_difference_q4", defaults.speckle_max_difference_px * 16},
+          {"invalid_q4", (defaults.min_disparity - 1) * 16},
+          {"threads", threads}};
+}
+
+void BM_speckle_filter(benchmark::State& state) {
+  const int width = static_cast<int>(state.range(0)), height = static_cast<int>(state.range(1));
+  const Plane& input = unfiltered_map(width, height);
+  const ArmTaskDescriptor* task = ArmTaskRegistry::instance().find("speckle_filter");
+  if (task == nullptr) {
+    state.SkipWithError("ARM task 'speckle_filter' is not registered");
+    return;
+  }
+  const PreparedKernel prepared = task->prepare(speckle_params(static_cast<int>(state.range(2))), {{width, height}});
+  Plane output(width, height, input.format());
+  ArmWork work;
+  ArmTaskArgs args{{&input}, {&output}, prepared.params.get(), &work};
+  const auto start = std::chrono::steady_clock::now();
+  for (auto _ : state) {
+    task->run(args);
+    benchmark::DoNotOptimize(output.row<int16_t>(0));
+    benchmark::ClobberMemory();
+  }
+  set_counters(state, width, height, std::chrono::steady_clock::now() - start);
+}
+
+void BM_opencv_filterSpeckles(benchmark::State& state) {
+  const int width = static_cast<int>(state.range(0)), height = static_cast<int>(state.range(1));
+  const cv::Mat input = io::plane_to_mat(unfiltered_map(width, height));
+  const nlohmann::json params = speckle_params(1);
+  cv::Mat output, buffer;
+  const auto start = std::chrono::steady_clock::now();
+  for (auto _ : state) {
+    input.copyTo(output);
+    cv::filterSpeckles(output, params["invalid_q4"].get<int>(), params["max_speckle_size"].get<int>(),
+                       params["max_difference_q4"].get<int>(), buffer);
+    benchmark::DoNotOptimize(output.data);
+    benchmark::ClobberMemory();
+  }
+  set_counters(state, width, height, std::chrono::steady_clock::now() - start);
+}
+
 BENCHMARK(BM_lpstereo_4path)->Apply(sizes);
 BENCHMARK(BM_lpstereo_8path)->Apply(sizes);
 BENCHMARK(BM_lpstereo_one_worker)
@@ -180,6 +248,17 @@ BENCHMARK(BM_lpstereo_one_worker)
 BENCHMARK(BM_opencv_MODE_SGBM)->Apply(sizes);
 BENCHMARK(BM_opencv_MODE_SGBM_3WAY)->Apply(sizes);
 BENCHMARK(BM_opencv_MODE_HH)->Apply(sizes);
+BENCHMARK(BM_speckle_filter)
+    ->ArgNames({"width", "height", "threads"})
+    ->ArgsProduct({{640}, {480}, {1, 2}})
+    ->Args({1242, 375, 1})
+    ->Args({1242, 375, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinWarmUpTime(kWarmUpSeconds)
+    ->Repetitions(kRepetitions)
+    ->ReportAggregatesOnly(true);
+BENCHMARK(BM_opencv_filterSpeckles)->Apply(sizes);
 
 }  // namespace
 }  // namespace lpstereo
