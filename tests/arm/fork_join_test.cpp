@@ -93,6 +93,32 @@ TEST(ForkJoin, AShareExceptionReachesTheCallerAndTheHelpersGoOn) {
   EXPECT_EQ(calls, 3);
 }
 
+// Rows' weights (per row) -> the prefix sums balanced_row_bands takes.
+std::vector<int64_t> weight_before_row(const std::vector<int64_t>& row_weights) {
+  std::vector<int64_t> before(row_weights.size() + 1, 0);
+  for (size_t row = 0; row < row_weights.size(); ++row) before[row + 1] = before[row] + row_weights[row];
+  return before;
+}
+
+TEST(BalancedRowBands, CutsWhereTheWeightReachesEachShare) {
+  // 10 rows, the weight in the bottom half (a road scene's sky on top): halves of the weight, not the rows.
+  const std::vector<int> two = balanced_row_bands(weight_before_row({0, 0, 0, 0, 0, 1, 1, 1, 1, 1}), 2);
+  EXPECT_EQ(two, (std::vector<int>{0, 7, 10}));  // the first band ends where 5 / 2 = 2 of the weight lies before the row
+  const std::vector<int> even = balanced_row_bands(weight_before_row(std::vector<int64_t>(12, 3)), 3);
+  EXPECT_EQ(even, (std::vector<int>{0, 4, 8, 12}));
+  // Every boundary in order, the first 0 and the last the row count, for any weights.
+  for (int bands : {1, 2, 3, 7}) {
+    for (const std::vector<int64_t>& weights :
+         {std::vector<int64_t>{}, std::vector<int64_t>(5, 0), std::vector<int64_t>{0, 0, 100, 0}, std::vector<int64_t>{1, 2, 3, 4, 5, 6}}) {
+      const std::vector<int> cut = balanced_row_bands(weight_before_row(weights), bands);
+      ASSERT_EQ(cut.size(), static_cast<size_t>(bands) + 1);
+      EXPECT_EQ(cut.front(), 0);
+      EXPECT_EQ(cut.back(), static_cast<int>(weights.size()));
+      for (size_t b = 1; b < cut.size(); ++b) EXPECT_LE(cut[b - 1], cut[b]);
+    }
+  }
+}
+
 TEST(ForkJoin, DealtItemsAreVisitedOnceInRoundRobinBlocks) {
   for (size_t items : {0u, 1u, 7u, 255u, 256u, 257u, 1000u}) {
     for (size_t block : {1u, 3u, 256u}) {
