@@ -7,8 +7,9 @@
 // most max_speckle_size pixels (OpenCV's `count <= maxSpeckleSize`) becomes invalid_q4, every other
 // pixel keeps its value. The regions are the connected components of that neighbour relation on the
 // input map, so the result does not depend on the visiting order: OpenCV labels them by a
-// depth-first wavefront from each unlabelled pixel in raster order, this task too, and both give the same bits (tests/arm/speckle_filter_test.cpp compares with
-// cv::filterSpeckles on random and structured maps and expects bit-exact agreement).
+// depth-first wavefront from each unlabelled pixel in raster order, this task too, and both give
+// the same bits (tests/arm/speckle_filter_test.cpp compares with cv::filterSpeckles on random and
+// structured maps and expects bit-exact agreement).
 //
 // Ports: "disparity" s16q4 in, "filtered" s16q4 out, same size. Parameters: max_speckle_size (px,
 // default 100), max_difference_q4 (default 16 = 1 px), invalid_q4 (default -16, min_disparity 0),
@@ -48,8 +49,9 @@
 namespace lpstereo::arm {
 namespace {
 
-// A pixel is kept as y << 16 | x (no division by the width per neighbour visit, which cost the
-// filter 2.8 times OpenCV's time on a 640x480 map): sides up to 65535 pixels.
+// A pixel is kept as y << 16 | x: no division by the width at every neighbour visit (one of the
+// reasons the filter took 2.3 times OpenCV's time at 640x480, docs/evaluation.md); sides up to
+// 65535 pixels.
 using PackedPixel = uint32_t;
 constexpr int kMaxSide = 65535;
 inline PackedPixel pack(int x, int y) { return static_cast<PackedPixel>(y) << 16 | static_cast<PackedPixel>(x); }
@@ -95,7 +97,7 @@ struct alignas(64) BandResult {
 
 // The first x' >= x of the row whose pixel is valid and not yet visited, width when none: the scan
 // of every pixel, out of line so that its loop keeps its few values in registers (inlined into the
-// flood fill it spilled them, a fifth of the filter's time).
+// flood fill, it kept x and the invalid value in memory).
 [[gnu::noinline]] int next_seed(const int16_t* row, const uint8_t* visited_row, int x, int width, int16_t invalid) {
   while (x < width && (row[x] == invalid || visited_row[x] != 0)) ++x;
   return x;
