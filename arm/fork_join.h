@@ -12,7 +12,7 @@
 // obstacle chain forks about seven times. A call made while the helpers serve another (a second
 // caller thread, or a share that forks again) starts threads of its own, as every call did before:
 // no call waits for another. An exception thrown by a share is rethrown to the caller after every
-// share has finished (the first one, by share order of finishing).
+// share has finished (when several throw, share 0's if it threw, else one of the others').
 #pragma once
 
 #include <cstddef>

@@ -137,7 +137,7 @@ void run(const ArmTaskArgs& args) {
   const size_t max_size = static_cast<size_t>(params.max_speckle_size);
   for (int y = 0; y < height; ++y) std::memcpy(output.row<int16_t>(y), input.row<int16_t>(y), static_cast<size_t>(width) * 2);
 
-  // The bands: at least 16 rows each, cut where the valid pixels (the work) reach equal shares.
+  // The bands: at most one per 16 rows, cut where the valid pixels (the work) reach equal shares.
   std::vector<int> band_first_row = {0, height};
   const int wanted_bands = std::max(1, std::min(params.threads, height / 16));
   if (wanted_bands > 1) {
