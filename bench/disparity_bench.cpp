@@ -33,6 +33,7 @@
 #include "io/stereo_datasets.h"
 #include "io/synthetic_scene.h"
 #include "kernels/simd/isa.h"
+#include "bench/heap_setting.h"
 
 namespace lpstereo {
 namespace {
@@ -264,6 +265,7 @@ BENCHMARK(BM_opencv_filterSpeckles)->Apply(sizes);
 }  // namespace lpstereo
 
 int main(int argc, char** argv) {
+  const std::string heap = lpstereo::bench::keep_freed_heap_memory_setting();
   cv::setNumThreads(lpstereo::kThreads);
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
@@ -280,6 +282,7 @@ int main(int argc, char** argv) {
   benchmark::AddCustomContext("opencv", lpstereo::io::sgbm_settings_text({}));
   benchmark::AddCustomContext("input 640x480", lpstereo::pair_of_size(640, 480).source);
   benchmark::AddCustomContext("input 1242x375", lpstereo::pair_of_size(1242, 375).source);
+  benchmark::AddCustomContext("heap", heap);
   benchmark::AddCustomContext("timing", "wall clock; 0.5 s warm-up, 7 repetitions, read the _median rows; "
                                         "MDE/s = W*H*D/seconds/1e6");
   benchmark::RunSpecifiedBenchmarks();

@@ -23,6 +23,7 @@
 #include "arm/localization/localizer.h"
 #include "io/image_io.h"
 #include "io/stereo_flight.h"
+#include "bench/heap_setting.h"
 
 namespace {
 
@@ -75,6 +76,7 @@ struct SeedResult {
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::printf("heap: %s\n", lpstereo::bench::keep_freed_heap_memory_setting().c_str());
   Options options;
   if (!parse(argc, argv, options)) {
     std::fprintf(stderr,

@@ -23,6 +23,7 @@
 #include "arm/obstacle_detector.h"
 #include "io/calibration.h"
 #include "io/stereo_datasets.h"
+#include "bench/heap_setting.h"
 
 namespace lpstereo {
 namespace {
@@ -120,6 +121,7 @@ BENCHMARK(BM_ObstacleStage_kitti_1242x375)
 }  // namespace lpstereo
 
 int main(int argc, char** argv) {
+  std::printf("heap: %s\n", lpstereo::bench::keep_freed_heap_memory_setting().c_str());
   const std::string kitti = lpstereo::io::shared_data_directory() + "/kitti2015";
   if (!std::filesystem::is_directory(kitti)) {
     std::fprintf(stderr, "obstacle_bench: %s not found (set LPSTEREO_SHARED_DATA)\n", kitti.c_str());

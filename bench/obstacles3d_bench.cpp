@@ -29,6 +29,7 @@
 #include "arm/obstacles3d/occupancy_grid.h"
 #include "io/obstacles3d_pictures.h"
 #include "io/stereo_synth.h"
+#include "bench/heap_setting.h"
 
 namespace lpstereo {
 namespace {
@@ -198,6 +199,7 @@ void write_figures(const std::string& folder) {
 }  // namespace lpstereo
 
 int main(int argc, char** argv) {
+  std::printf("heap: %s\n", lpstereo::bench::keep_freed_heap_memory_setting().c_str());
   using namespace lpstereo;
   const Cloud& c = cloud();
   std::printf("obstacles3d_bench: synthetic road scene %dx%d, hfov %.0f deg (f %.1f px), baseline %.2f m, camera %.1f m, "

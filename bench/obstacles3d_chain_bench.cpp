@@ -47,6 +47,9 @@
 //        docs/obstacles3d.md "The near guard"; off: the command's 64, the default)
 //        [--local-ground on|off] (the candidates measured from the terrain inliers around them,
 //        CandidateParameters::local_ground_reference; default the candidates')
+//        [--heap keep|default] (keep, the default: freed heap memory stays in the process, as in the
+//        lpstereo command, arm/heap_policy.h; default: the C library's own policy, under which each
+//        frame faults its freed blocks in again, to time what the policy saves)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -68,6 +71,7 @@
 #include "arm/terrain/terrain_model.h"
 #include "io/image_io.h"
 #include "io/stereo_sequence.h"
+#include "bench/heap_setting.h"
 
 namespace lpstereo {
 namespace {
@@ -93,6 +97,7 @@ struct Settings {
   bool ground_below_view_upper_bounds = true;  // the candidates' default
   bool near_guard = false;                     // --near-guard on: o3::obstacles3d_near_guard_disparity_parameters
   bool local_ground = o3::CandidateParameters{}.local_ground_reference;  // the candidates' default
+  bool keep_freed_heap_memory = true;  // --heap keep|default
 };
 
 struct RenderedFrame {
@@ -137,6 +142,9 @@ bool parse(int argc, char** argv, Settings& settings) {
     } else if (flag == "--local-ground") {
       if (std::strcmp(value, "on") != 0 && std::strcmp(value, "off") != 0) return false;
       settings.local_ground = std::strcmp(value, "on") == 0;
+    } else if (flag == "--heap") {
+      if (std::strcmp(value, "keep") != 0 && std::strcmp(value, "default") != 0) return false;
+      settings.keep_freed_heap_memory = std::strcmp(value, "keep") == 0;
     } else if (flag == "--ground-below-view") {
       if (std::strcmp(value, "upper-bounds") != 0 && std::strcmp(value, "samples") != 0) return false;
       settings.ground_below_view_upper_bounds = std::strcmp(value, "upper-bounds") == 0;
@@ -157,9 +165,13 @@ int run(int argc, char** argv) {
   Settings settings;
   if (!parse(argc, argv, settings)) {
     std::fprintf(stderr, "usage: obstacles3d_chain_bench [--scene urban|country|mining|floating] [--seed K] [--frames N >= 1] [--passes P >= 1] "
-                 "[--far-side R,C (rows, columns in [0, 64])] [--ground-below-view upper-bounds|samples] [--near-guard on|off] [--local-ground on|off]\n");
+                 "[--far-side R,C (rows, columns in [0, 64])] [--ground-below-view upper-bounds|samples] [--near-guard on|off] [--local-ground on|off] "
+                 "[--heap keep|default]\n");
     return 2;
   }
+  // Before anything allocates (and before the threads start): the process's heap policy.
+  const std::string heap = settings.keep_freed_heap_memory ? bench::keep_freed_heap_memory_setting()
+                                                           : "the C library's default (--heap default)";
   io::StereoSequenceOptions options = io::preset_stereo_sequence(settings.scene, settings.seed);
   options.frames = settings.frames;
   options.base.width = 640;
@@ -223,6 +235,7 @@ int run(int argc, char** argv) {
               candidate_parameters.local_ground_reference ? "on" : "off", candidate_parameters.threads);
   std::printf("  stixels: polar grid %d x %d cells, min_points %d, true ego-motion from the sequence's poses\n",
               stixel_parameters.grid.columns(), stixel_parameters.grid.rows(), stixel_parameters.min_points);
+  std::printf("  heap: %s\n", heap.c_str());
 
   std::vector<double> wall_ms[kStages], cpu_ms[kStages], total_wall_ms, total_cpu_ms;
   long long digest_candidates = 0, digest_stixels = 0, digest_obstacles = 0, digest_occupied = 0;

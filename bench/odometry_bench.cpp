@@ -32,6 +32,7 @@
 #include "io/image_io.h"
 #include "io/kitti_poses.h"
 #include "io/stereo_datasets.h"
+#include "bench/heap_setting.h"
 
 namespace lpstereo {
 namespace {
@@ -201,6 +202,7 @@ BENCHMARK(BM_StereoOdometry_kitti06_1226x370)
 }  // namespace lpstereo
 
 int main(int argc, char** argv) {
+  std::printf("heap: %s\n", lpstereo::bench::keep_freed_heap_memory_setting().c_str());
   const std::string directory = lpstereo::sequence_directory();
   if (!std::filesystem::is_directory(directory)) {
     std::fprintf(stderr, "odometry_bench: %s not found (set LPSTEREO_SHARED_DATA): skipped\n", directory.c_str());

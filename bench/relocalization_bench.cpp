@@ -34,6 +34,7 @@
 #include "kernels/brief_hamming.h"
 #include "io/image_io.h"
 #include "io/stereo_flight.h"
+#include "bench/heap_setting.h"
 
 namespace lpstereo {
 namespace {
@@ -325,6 +326,7 @@ BENCHMARK(BM_BruteForceMatching_1000Keyframes)->Unit(benchmark::kMillisecond)->U
 }  // namespace lpstereo
 
 int main(int argc, char** argv) {
+  std::printf("heap: %s\n", lpstereo::bench::keep_freed_heap_memory_setting().c_str());
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress visible when piped
   // --sectors-only (before the benchmark's own flags): part (a) alone, without the map.
   const bool sectors_only = argc >= 2 && std::string(argv[1]) == "--sectors-only";

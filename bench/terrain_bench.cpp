@@ -27,6 +27,7 @@
 
 #include "arm/terrain/terrain_model.h"
 #include "host_sim/target.h"
+#include "bench/heap_setting.h"
 
 namespace lpstereo {
 namespace {
@@ -138,6 +139,7 @@ void print_parameters(const TerrainFitParameters& p) {
 }
 
 int run() {
+  std::printf("heap: %s\n", bench::keep_freed_heap_memory_setting().c_str());
   bool pass = true;
   // (a) the deviation test.
   TerrainFitParameters coarse;

@@ -36,6 +36,7 @@
 #include "arm/point_cloud.h"
 #include "eval/obstacles3d_scoring.h"
 #include "io/stereo_synth.h"
+#include "bench/heap_setting.h"
 
 namespace lpstereo {
 namespace {
@@ -486,6 +487,7 @@ void moving_objects_check() {
 }  // namespace lpstereo
 
 int main(int argc, char** argv) {
+  std::printf("heap: %s\n", lpstereo::bench::keep_freed_heap_memory_setting().c_str());
   std::printf("voxels_bench: voxel map (%.2f m voxels) + colour flood-fill clustering + tracking, %d threads available "
               "(the chain is sequential), budget %.1f ms per frame at %dx%d\n",
               lpstereo::kVoxelSizeM, lpstereo::kThreads, lpstereo::kBudgetMs, lpstereo::kWidth, lpstereo::kHeight);

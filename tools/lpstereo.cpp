@@ -40,6 +40,7 @@
 #include <vector>
 
 #include "arm/disparity_engine.h"
+#include "arm/heap_policy.h"
 #include "arm/scheduler.h"
 #include "dag/atomic_file.h"
 #include "dag/graph.h"
@@ -514,6 +515,10 @@ int run_kernels() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Every sub-command that runs frames (disparity over a sequence, obstacles3d, odometry, run, ...)
+  // reuses what the last frame freed instead of faulting it in again: arm/heap_policy.h. Returns
+  // false, changing nothing, under a sanitizer's allocator.
+  lpstereo::arm::keep_freed_heap_memory();
   CLI::App app{"lpstereo: stereo perception for low-power vision SoCs, simulated on the host"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "lpstereo 0.1.0");
