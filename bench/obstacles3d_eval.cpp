@@ -147,6 +147,7 @@
 #include "io/sequence_frame_cache.h"
 #include "io/stereo_sequence.h"
 #include "kernels/disparity_to_points.h"
+#include "bench/heap_setting.h"
 
 namespace {
 
@@ -736,6 +737,7 @@ struct CsvOutput {
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::printf("heap: %s\n", lpstereo::bench::keep_freed_heap_memory_setting().c_str());
   Settings settings;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];

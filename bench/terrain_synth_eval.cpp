@@ -77,6 +77,7 @@
 #include "io/stereo_synth.h"
 #include "bench/number_argument.h"
 #include "kernels/disparity_to_points.h"
+#include "bench/heap_setting.h"
 
 namespace {
 
@@ -546,6 +547,7 @@ SceneResult evaluate(const io::StereoSynthOptions& options, const Settings& sett
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::printf("heap: %s\n", lpstereo::bench::keep_freed_heap_memory_setting().c_str());
   Settings settings;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
