@@ -4,9 +4,10 @@
 // A frame loop allocates and frees the same large blocks every frame: arm::triangulate's three
 // s32 planes (1.2 MB each at 640x480), the terrain's grids and point lists, the candidates' bands.
 // glibc's malloc maps a block of 128 KiB or more on its own and unmaps it when freed (the mmap
-// threshold; glibc raises it towards 32 MiB as such blocks are freed, but not past what is freed),
-// and it gives the top of the heap back above 128 KiB free (the trim threshold). So each frame
-// faults the same pages in again, one fault per 4 KiB page, each page zeroed by the kernel. On the
+// threshold; each such free raises it to that block's size, up to 32 MiB), and it gives the top of
+// a heap back to the kernel once more than the trim threshold lies free there (128 KiB, raised to
+// twice the mmap threshold with it): a frame's 3.7 MB of planes is more. So each frame faults the
+// same pages in again, one fault per 4 KiB page, each page zeroed by the kernel. On the
 // 2-core KVM guest of 2026-12-06 a fault cost about 10 us: allocating the three planes took
 // 8.7-14.6 ms (median of 50) against 0.04 ms with this policy, and the obstacle chain bench's frame
 // 56-59 -> 34-36 ms wall (process CPU 73-76 -> 50-56 ms): triangulate 5.5 -> 0.9 ms, the terrain
