@@ -7,11 +7,11 @@
 // threshold; each such free raises it to that block's size, up to 32 MiB), and it gives the top of
 // a heap back to the kernel once more than the trim threshold lies free there (128 KiB, raised to
 // twice the mmap threshold with it): a frame's 3.7 MB of planes is more. So each frame faults the
-// same pages in again, one fault per 4 KiB page, each page zeroed by the kernel. On the
-// 2-core KVM guest of 2026-12-06 a fault cost about 10 us: allocating the three planes took
-// 8.7-14.6 ms (median of 50) against 0.04 ms with this policy, and the obstacle chain bench's frame
-// 56-59 -> 34-36 ms wall (process CPU 73-76 -> 50-56 ms): triangulate 5.5 -> 0.9 ms, the terrain
-// stage 25 -> 12 ms (docs/obstacles3d.md, "Speed: the full chain").
+// same pages in again, one fault per 4 KiB page, each page zeroed by the kernel. On the 2-core
+// KVM guest of 2026-12-06 a fault cost about 10 us: allocating the three planes took 8.7-14.6 ms
+// (median of 50) against 0.04 ms with this policy, and obstacles3d_chain_bench's frame took 41.9
+// -> 25.1 ms wall (process CPU 54.4 -> 36.6 ms; triangulate 7.7 -> 0.8 ms, the terrain stage 17.9
+// -> 8.0 ms; docs/obstacles3d.md, "Speed: the full chain").
 //
 // keep_freed_heap_memory() sets glibc's mmap threshold to 32 MiB (the largest mallopt takes; it
 // also stops the threshold's dynamic adjustment) and turns trimming off. Blocks under 32 MiB then
