@@ -33,6 +33,7 @@ void check(bool ok, const char* name, const std::string& expected, double actual
 struct CircleMatch {
   Eigen::Vector3d point_previous;
   Eigen::Vector2d left_px, right_px;
+  OdometryFeature left_now, right_now;  // for step 5's triangulation at t
 };
 
 Eigen::Vector3d triangulate(const StereoOdometryParameters& p, const OdometryFeature& left, const OdometryFeature& right) {
@@ -408,6 +409,8 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
                                          previous_right_[static_cast<size_t>(previous_right)]);
       match.left_px = {l_now.x_px, l_now.y_px};
       match.right_px = {r_now.x_px, r_now.y_px};
+      match.left_now = l_now;
+      match.right_now = r_now;
       circle.push_back(match);
     }
   }
@@ -458,6 +461,20 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
     s.confidence = static_cast<double>(s.inliers) / static_cast<double>(s.circle_matches);
     frame.increment = motion.inverse();
     velocity_ = motion;
+    // Step 5: each circle's own motion over the frame.
+    std::vector<char> is_inlier(circle.size(), 0);
+    for (int index : inliers) is_inlier[static_cast<size_t>(index)] = 1;
+    frame.feature_motions.reserve(circle.size());
+    for (size_t i = 0; i < circle.size(); ++i) {
+      FeatureMotion feature;
+      feature.left_px = circle[i].left_px;
+      feature.disparity_px = circle[i].left_now.x_px - circle[i].right_now.x_px;
+      feature.position_m = triangulate(p, circle[i].left_now, circle[i].right_now);
+      feature.displacement_m = feature.position_m - motion * circle[i].point_previous;
+      feature.inlier = is_inlier[i] != 0;
+      frame.feature_motions.push_back(feature);
+    }
+    s.feature_motions = static_cast<int64_t>(circle.size());
     has_velocity_ = true;
   } else if (!has_previous_) {
     s.valid = true;  // frame 0 defines the first pose: nothing to estimate
@@ -470,9 +487,11 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
   const auto count = [](int64_t items) { return static_cast<uint64_t>(items); };
   s.work.scalar_ops = count(s.hamming_distances) * kOdometryWorkHammingOps +
                       count(s.gauss_newton_point_steps) * kOdometryWorkPointStepOps +
-                      count(s.gauss_newton_solves) * kOdometryWorkSolveOps + count(s.reprojection_tests) * kOdometryWorkReprojectionOps;
+                      count(s.gauss_newton_solves) * kOdometryWorkSolveOps + count(s.reprojection_tests) * kOdometryWorkReprojectionOps +
+                      count(s.feature_motions) * kOdometryWorkFeatureMotionOps;
   s.work.memory_bytes = count(s.hamming_distances) * kOdometryWorkHammingBytes +
-                        count(s.gauss_newton_point_steps + s.reprojection_tests) * kOdometryWorkPointBytes;
+                        count(s.gauss_newton_point_steps + s.reprojection_tests) * kOdometryWorkPointBytes +
+                        count(s.feature_motions) * kOdometryWorkFeatureMotionBytes;
 
   previous_left_ = std::move(left_features);
   previous_right_ = std::move(right_features);

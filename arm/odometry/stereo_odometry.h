@@ -20,6 +20,9 @@
 //      twice Gauss-Newton on all inliers followed by a new selection of the inliers.
 //   4. accepted when at least min_inliers inliers remain; otherwise the frame is reported invalid
 //      (confidence 0) and the pose is HELD (identity increment, see process()).
+//   5. on a valid frame, every circle's own motion (FeatureMotion): its point triangulated at t less
+//      its point at t-1 carried by the estimated motion. A static point's is its stereo error; a
+//      moving object's is its motion over the frame (the obstacle tracker's evidence, issue 10).
 //
 // Conventions (DESIGN.md §4): camera frame x right, y down, z forward, metres. The pose of frame t is
 // camera-to-first-frame (KITTI's odometry convention, io/kitti_poses.h): X_first = pose * X_t. The
@@ -101,6 +104,7 @@ struct StereoOdometryStatistics {
   int64_t gauss_newton_point_steps = 0; // one point's residuals and Jacobian rows in one iteration
   int64_t gauss_newton_solves = 0;      // 6x6 normal-equation solves
   int64_t reprojection_tests = 0;       // inlier tests (RANSAC scoring, refinement, RMS)
+  int64_t feature_motions = 0;          // circles whose own motion was computed (step 5)
   // ... in ArmWork units (dag/arm_task.h) with the per-item costs of kOdometryWork* below.
   ArmWork work;
 };
@@ -112,15 +116,34 @@ struct StereoOdometryStatistics {
 //     normal equations and gradient 2 x (2 x 21 + 12) x 2 = 216: about 400 ops; the point's 56 bytes.
 //   6x6 LDLT solve and the update's exponential map: about 300 ops.
 //   Reprojection (inlier) test: transform 18, two projections 12, two errors 10 = 40 ops; 56 bytes.
+//   Feature motion: triangulation 12, transform 18, difference 3 = 33 ops; the point's 56 bytes
+//   read, its FeatureMotion's 64 written.
 inline constexpr uint64_t kOdometryWorkHammingOps = 24, kOdometryWorkHammingBytes = 32;
 inline constexpr uint64_t kOdometryWorkPointStepOps = 400, kOdometryWorkPointBytes = 56;
 inline constexpr uint64_t kOdometryWorkSolveOps = 300;
 inline constexpr uint64_t kOdometryWorkReprojectionOps = 40;
+inline constexpr uint64_t kOdometryWorkFeatureMotionOps = 33, kOdometryWorkFeatureMotionBytes = 120;
+
+// One closed circle of a valid frame seen as a point of the scene (step 5): where it is at t and how
+// it moved relative to the static scene over the frame, both in camera t axes (x right, y down, z
+// forward, metres). displacement_m = position_m - motion * point_{t-1}, motion the frame's estimate
+// (points t-1 -> t): about zero on a static point (its stereo errors at t and at t-1, growing as
+// Z^2 sigma_d / (f B) in depth), the object's motion over one frame on a moving one. Rigid motion is
+// all it describes: a point that slides along an occluding edge reads as moving.
+struct FeatureMotion {
+  Eigen::Vector2d left_px = Eigen::Vector2d::Zero();     // the left view at t
+  double disparity_px = 0;                               // at t (> 0)
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  // triangulated at t
+  Eigen::Vector3d displacement_m = Eigen::Vector3d::Zero();
+  bool inlier = false;                                   // an inlier of the frame's motion
+};
 
 struct StereoOdometryFrame {
   Eigen::Isometry3d increment = Eigen::Isometry3d::Identity();  // camera t -> camera t-1
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();       // camera t -> first frame
   StereoOdometryStatistics statistics;
+  // Step 5: one per closed circle on a valid frame after the first; empty otherwise.
+  std::vector<FeatureMotion> feature_motions;
 };
 
 // One feature of one view: sub-pixel position (px) and its BRIEF-256 descriptor (8 u32 words).

@@ -34,6 +34,23 @@ double angle_deg(const Eigen::Matrix3d& rotation) {
   return std::acos(std::clamp((rotation.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
 }
 
+double median(std::vector<double> values) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2), values.end());
+  return values[values.size() / 2];
+}
+
+// A feature motion's displacement seen in the image: where the point at t-1 carried by the frame's
+// motion (position - displacement) projects, against the feature at t: the larger of the column and
+// the disparity difference, px. A static point's is its matching error (sub-pixel Harris corners:
+// well under half a pixel), whatever its depth.
+double image_motion_error_px(const arm::FeatureMotion& feature) {
+  const Eigen::Vector3d carried = feature.position_m - feature.displacement_m;
+  const double column_px = kFocalPx * carried.x() / carried.z() + kCxPx;
+  const double disparity_px = kFocalPx * kBaselineM / carried.z();
+  return std::max(std::abs(column_px - feature.left_px.x()), std::abs(disparity_px - feature.disparity_px));
+}
+
 TEST(StereoOdometry, RecoversTheIncrementsOfAKnownTrajectory) {
   constexpr int kFrames = 7;
   arm::StereoOdometry odometry(kWidth, kHeight, parameters(), 2);
@@ -70,9 +87,70 @@ TEST(StereoOdometry, RecoversTheIncrementsOfAKnownTrajectory) {
     EXPECT_EQ(s.work.scalar_ops, static_cast<uint64_t>(s.hamming_distances) * arm::kOdometryWorkHammingOps +
                                      static_cast<uint64_t>(s.gauss_newton_point_steps) * arm::kOdometryWorkPointStepOps +
                                      static_cast<uint64_t>(s.gauss_newton_solves) * arm::kOdometryWorkSolveOps +
-                                     static_cast<uint64_t>(s.reprojection_tests) * arm::kOdometryWorkReprojectionOps);
+                                     static_cast<uint64_t>(s.reprojection_tests) * arm::kOdometryWorkReprojectionOps +
+                                     static_cast<uint64_t>(s.feature_motions) * arm::kOdometryWorkFeatureMotionOps);
+    // Step 5: one feature motion per circle, flagged as the inliers; the room is static, so the
+    // inliers' own motion is their stereo error (image_motion_error_px).
+    ASSERT_EQ(result.feature_motions.size(), static_cast<size_t>(s.circle_matches)) << "frame " << frame;
+    EXPECT_EQ(s.feature_motions, s.circle_matches);
+    std::vector<double> inlier_error_px;
+    for (const arm::FeatureMotion& feature : result.feature_motions) {
+      EXPECT_GT(feature.disparity_px, 0);
+      EXPECT_NEAR(feature.position_m.z(), kFocalPx * kBaselineM / feature.disparity_px, 1e-9);
+      if (feature.inlier) inlier_error_px.push_back(image_motion_error_px(feature));
+    }
+    EXPECT_EQ(static_cast<int>(inlier_error_px.size()), s.inliers);
+    EXPECT_LT(median(inlier_error_px), 0.5) << "frame " << frame;
     // The accumulated pose is the trajectory within 1.2 cm per step so far.
     EXPECT_LT((result.pose.translation() - pose.translation()).norm(), 0.012 * frame) << "frame " << frame;
+  }
+}
+
+// A textured panel 2.2 m wide crossing the room at 0.25 m a frame (world x) while the camera moves:
+// the features on it report that motion as their own (FeatureMotion, in camera axes), the room's
+// report about none, and the panel's are not inliers of the camera's motion.
+TEST(StereoOdometry, FeaturesOnAMovingObjectReportItsMotion) {
+  constexpr int kFrames = 4;
+  const Eigen::Vector3d panel_step_world_m(0.25, 0, 0);
+  const auto panel_at = [&](int frame) { return Panel{9.0, -1.6 + 0.25 * frame, 0.6 + 0.25 * frame, -1.6, 1.0}; };
+  arm::StereoOdometry odometry(kWidth, kHeight, parameters(), 2);
+  for (int frame = 0; frame < kFrames; ++frame) {
+    const Panel panel = panel_at(frame);
+    const arm::StereoOdometryFrame result =
+        odometry.process(render(true_pose(frame), false, &panel), render(true_pose(frame), true, &panel));
+    ASSERT_TRUE(result.statistics.valid) << "frame " << frame;
+    if (frame == 0) {
+      EXPECT_TRUE(result.feature_motions.empty());
+      continue;
+    }
+    // The panel's world step in the camera t axes; a feature is on the panel when its world position
+    // (true pose) lies inside the rectangle, with 5 cm of margin, within 0.5 m of its plane.
+    const Eigen::Isometry3d pose = true_pose(frame);
+    const Eigen::Vector3d expected_m = pose.linear().transpose() * panel_step_world_m;
+    std::vector<double> panel_x_m, panel_z_m, room_error_px;
+    int panel_inliers = 0;
+    for (const arm::FeatureMotion& feature : result.feature_motions) {
+      const Eigen::Vector3d world = pose * feature.position_m;
+      const bool on_panel = std::abs(world.z() - panel.z_m) < 0.5 && world.x() > panel.x0_m + 0.05 && world.x() < panel.x1_m - 0.05 &&
+                            world.y() > panel.y0_m + 0.05 && world.y() < panel.y1_m - 0.05;
+      const bool near_panel = std::abs(world.z() - panel.z_m) < 1.0 && world.x() > panel.x0_m - 0.6 && world.x() < panel.x1_m + 0.6;
+      if (on_panel) {
+        panel_x_m.push_back(feature.displacement_m.x());
+        panel_z_m.push_back(feature.displacement_m.z());
+        panel_inliers += feature.inlier ? 1 : 0;
+      } else if (!near_panel && feature.inlier) {
+        room_error_px.push_back(image_motion_error_px(feature));
+      }
+    }
+    ASSERT_GE(panel_x_m.size(), 8u) << "frame " << frame << ": too few features on the panel to test";
+    ASSERT_GE(room_error_px.size(), 20u) << "frame " << frame;
+    // Across the line of sight: within 2 cm of the 25 cm step (a feature's lateral error at 9 m is
+    // 9 m x 0.3 px / 300 px = 1 cm); along it, the disparity's error at 9 m (a quarter pixel is
+    // 25 cm) halved by the median of the panel's features: within 15 cm.
+    EXPECT_NEAR(median(panel_x_m), expected_m.x(), 0.02) << "frame " << frame;
+    EXPECT_NEAR(median(panel_z_m), expected_m.z(), 0.15) << "frame " << frame;
+    EXPECT_LE(panel_inliers * 4, static_cast<int>(panel_x_m.size())) << "frame " << frame << ": the panel's motion is not the camera's";
+    EXPECT_LT(median(room_error_px), 0.5) << "frame " << frame;
   }
 }
 

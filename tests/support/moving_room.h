@@ -32,9 +32,25 @@ struct Wall {
 };
 inline const std::vector<Wall> kRoom = {{0, -4.0, 11}, {0, 4.0, 12}, {1, 1.6, 13}, {1, -3.0, 14}, {2, 30.0, 15}};
 
-inline double scene_grey(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) {
+// An optional textured panel in the room, facing the camera: the rectangle z = z_m, x in [x0_m, x1_m],
+// y in [y0_m, y1_m] (world); its texture is fixed to it (coordinates from its corner (x0_m, y0_m)), so
+// moving the rectangle moves the texture: a rigid moving object.
+struct Panel {
+  double z_m, x0_m, x1_m, y0_m, y1_m;
+  uint32_t seed = 16;
+};
+
+inline double scene_grey(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, const Panel* panel = nullptr) {
   double nearest = std::numeric_limits<double>::infinity();
   double grey = 0;
+  if (panel != nullptr && std::abs(direction.z()) > 1e-12) {
+    const double distance = (panel->z_m - origin.z()) / direction.z();
+    const Eigen::Vector3d hit = origin + distance * direction;
+    if (distance > 0 && hit.x() >= panel->x0_m && hit.x() <= panel->x1_m && hit.y() >= panel->y0_m && hit.y() <= panel->y1_m) {
+      nearest = distance;
+      grey = io::synthetic_texture_grey(40.0 * (hit.x() - panel->x0_m), 40.0 * (hit.y() - panel->y0_m), panel->seed, 128.0);
+    }
+  }
   for (const Wall& wall : kRoom) {
     const double along = direction[wall.axis];
     if (std::abs(along) < 1e-12) continue;
@@ -49,8 +65,8 @@ inline double scene_grey(const Eigen::Vector3d& origin, const Eigen::Vector3d& d
 }
 
 // Renders the view of the camera at `pose` (camera to world); right = true: the right camera,
-// baseline_m along the camera's x axis. 2 x 2 samples per pixel.
-inline Plane render(const Eigen::Isometry3d& pose, bool right) {
+// baseline_m along the camera's x axis. 2 x 2 samples per pixel. panel: the optional moving object.
+inline Plane render(const Eigen::Isometry3d& pose, bool right, const Panel* panel = nullptr) {
   Plane image(kWidth, kHeight, {ElementType::u8, 0}, kWidth + 24);
   const Eigen::Vector3d origin = pose * Eigen::Vector3d(right ? kBaselineM : 0.0, 0, 0);
   for (int y = 0; y < kHeight; ++y) {
@@ -59,7 +75,7 @@ inline Plane render(const Eigen::Isometry3d& pose, bool right) {
       for (double sy : {-0.25, 0.25}) {
         for (double sx : {-0.25, 0.25}) {
           const Eigen::Vector3d ray((x + sx - kCxPx) / kFocalPx, (y + sy - kCyPx) / kFocalPx, 1.0);
-          sum += scene_grey(origin, pose.linear() * ray.normalized());
+          sum += scene_grey(origin, pose.linear() * ray.normalized(), panel);
         }
       }
       image.at<uint8_t>(x, y) = static_cast<uint8_t>(std::clamp(std::lround(sum / 4.0), 0L, 255L));
