@@ -76,7 +76,8 @@
 //        [--frame-cache DIR] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--all-visible] [--count-low] [--score-hidden-edges] [--vertical-gap-m G]
 //        [--hole-membrane H] [--obstacle-refit-m H] [--local-ground on|off] [--local-ground-reach N]
 //        [--innovation-gate-chi2 X] [--moving-disparity-bias PX] [--moving-significance-chi2 X] [--accel-sigma A]
-//        [--moving-consistency N]
+//        [--moving-consistency N] [--feature-motion on|off] [--feature-motion-min N] [--feature-motion-sigma MPS]
+//        [--feature-disparity-sigma PX]
 //        [--occlusion-upper-bounds on|off] [--occluder-rows N] [--occluder-jump J] [--upper-bound-tolerance-m T]
 //        [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] [--ground-below-view upper-bounds|samples]
 //        [--num-disparities N] [--multires-far F] [--discontinuity-radius R] [--discontinuity-jump J]
@@ -87,7 +88,9 @@
 // highest lower edge) or whose free space is lost (free_space_lost, with the first obstacle under
 // it), for finding out why; --frame-cache DIR: frames 1.. read from DIR when it holds them, else
 // rendered and written there (io/sequence_frame_cache.h; the same bits, a rerun about 7x faster);
-// --moving-log: one CSV row
+// --feature-motion off: the voxel tracker without the odometry's feature motion (obstacle_tracking.h,
+// "Feature motion"; --feature-motion-min, --feature-motion-sigma, --feature-disparity-sigma set its
+// parameters); --moving-log: one CSV row
 // per object-frame the voxels detected, with the truth's motion and the reported track's flag,
 // velocity and update count, for finding out why a flag is wrong; --surface-errors: one CSV row per
 // valid cell of the candidates' 2.5D grid per frame (about 2000 a frame at 640x480: --frames limits
@@ -525,6 +528,7 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
   // Odometry dropouts after the first frame, and of them those the constant-velocity bridge did not
   // cover (static camera assumed; arm/obstacles3d/ego_motion.h).
   int frames_without_ego_motion = 0, frames_static_camera = 0;
+  int64_t feature_velocity_updates = 0;  // the voxel tracker's velocity measurements from the odometry's feature motion
   int frames_implausible = 0;  // valid increments the plausibility bound rejected (bridged)
   std::unique_ptr<o3::OdometryEgoMotion> odometry_ego_motion;
   if (odometry) {
@@ -601,9 +605,11 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     // Ego-motion (t -> t-1) in the vehicle frame, V E V^-1: the odometry's increment (the command's)
     // or the sequence's true camera motion.
     o3::EgoMotion ego_motion;
+    std::vector<arm::FeatureMotion> feature_motions;  // the tracker's evidence, on frames whose ego-motion is the odometry's increment
     if (odometry) {
-      const arm::StereoOdometryFrame motion = odometry->process(left, right);
+      arm::StereoOdometryFrame motion = odometry->process(left, right);
       ego_motion = odometry_ego_motion->next(motion.statistics.valid, motion.increment, vehicle_from_camera);
+      if (odometry_ego_motion->source() == o3::EgoMotionSource::odometry) feature_motions = std::move(motion.feature_motions);
       if (n > 0 && motion.statistics.valid && odometry_ego_motion->rejected_implausible()) {
         ++frames_implausible;
         frames_without_ego_motion_list += (frames_without_ego_motion_list.empty() ? " (frames " : ", ") + std::to_string(n) + ": " +
@@ -662,7 +668,8 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
     score_frame(stixels.obstacles(), frame_truth, error_model, settings, false, kMethodNames[3], log, tallies[3]);
     voxel_map.update(candidates, ego_motion);
     const o3::ClusteringResult clusters = o3::cluster_voxels(voxel_map, clustering);
-    const o3::TrackingResult& tracks = tracker.update(clusters.clusters, voxel_map.world_from_current());
+    const o3::TrackingResult& tracks = tracker.update(clusters.clusters, voxel_map.world_from_current(), feature_motions);
+    feature_velocity_updates += tracks.feature_velocity_updates;
     score_frame(tracks.obstacles, frame_truth, error_model, settings, true, kMethodNames[4], log, tallies[4]);
     pipeline_s += seconds_since(started);
   }
@@ -687,6 +694,8 @@ std::vector<Tally> evaluate(const std::string& scene, uint32_t seed, const Setti
                 "%.3f m (frame %d); rotation median %.3f deg, max %.3f deg\n",
                 scene.c_str(), seed, median(odometry_translation_error_m), percentile(odometry_translation_error_m, 0.95),
                 percentile(odometry_translation_error_m, 1.0), odometry_worst_frame, median(odometry_rotation_error_deg), percentile(odometry_rotation_error_deg, 1.0));
+    std::printf("%-9s seed %u: voxel tracker: %lld velocity measurements from the odometry's feature motion\n", scene.c_str(), seed,
+                static_cast<long long>(feature_velocity_updates));
   }
   return tallies;
 }
@@ -791,6 +800,19 @@ int main(int argc, char** argv) {
       settings.tracking.moving_disparity_bias_px = number_argument(i, argc, argv);
     } else if (arg == "--accel-sigma" && has_value) {
       settings.tracking.accel_sigma_mps2 = number_argument(i, argc, argv);
+    } else if (arg == "--feature-motion" && has_value) {
+      const std::string value = argv[++i];
+      if (value != "on" && value != "off") {
+        std::fprintf(stderr, "obstacles3d_eval: --feature-motion: expected on or off, got '%s'\n", value.c_str());
+        return 2;
+      }
+      settings.tracking.feature_motion_min_features = value == "on" ? o3::ObstacleTrackingParameters{}.feature_motion_min_features : 0;
+    } else if (arg == "--feature-motion-min" && has_value) {
+      settings.tracking.feature_motion_min_features = static_cast<int>(number_argument(i, argc, argv));
+    } else if (arg == "--feature-motion-sigma" && has_value) {
+      settings.tracking.feature_motion_sigma_mps = number_argument(i, argc, argv);
+    } else if (arg == "--feature-disparity-sigma" && has_value) {
+      settings.tracking.feature_disparity_sigma_px = number_argument(i, argc, argv);
     } else if (arg == "--moving-consistency" && has_value) {
       settings.tracking.moving_consistency_frames = static_cast<int>(number_argument(i, argc, argv));
     } else if (arg == "--discontinuity-radius" && has_value) {
@@ -834,7 +856,7 @@ int main(int argc, char** argv) {
                    "obstacles3d_eval: unknown or incomplete argument '%s'\nusage: obstacles3d_eval [--frames N] [--seeds N] "
                    "[--scenes urban,country,mining,floating] [--min-pixels P] [--range-m R] [--ego-motion vo|truth] [--grey] [--threads N] [--first-seed S] [--all-visible] "
                    "[--count-low] [--score-hidden-edges] [--frame-cache DIR] [--misses FILE.csv] [--moving-log FILE.csv] [--surface-errors FILE.csv] [--vertical-gap-m G] [--discontinuity-radius R] [--discontinuity-jump J] [--hole-membrane H] [--obstacle-refit-m H] [--local-ground on|off] [--local-ground-reach N] [--innovation-gate-chi2 X] [--moving-disparity-bias PX] [--moving-significance-chi2 X] [--accel-sigma A] "
-                   "[--moving-consistency N] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
+                   "[--moving-consistency N] [--feature-motion on|off] [--feature-motion-min N] [--feature-motion-sigma MPS] [--feature-disparity-sigma PX] [--occlusion-upper-bounds on|off] [--occluder-rows N] "
                    "[--occluder-jump J] [--upper-bound-tolerance-m T] [--far-side-rows N] [--far-side-columns N] [--far-side-jump J] "
                    "[--ground-below-view upper-bounds|samples] [--num-disparities N] [--multires-far F]\n",
                    arg.c_str());
@@ -925,6 +947,11 @@ int main(int argc, char** argv) {
               settings.tracking.accel_sigma_mps2, settings.tracking.innovation_gate_chi2, settings.tracking.moving_speed_mps,
               settings.tracking.moving_significance_chi2, settings.tracking.moving_min_updates, settings.tracking.moving_consistency_frames,
               settings.tracking.moving_disparity_bias_px);
+  std::printf("voxel tracker: feature motion %s (the odometry's points inside a cluster measure its velocity: at least %d, pixel sigma %.2f px, "
+              "disparity sigma %.2f px, model sigma %.2f m/s, gate chi-square %.2f)\n",
+              settings.tracking.feature_motion_min_features > 0 ? "on" : "off", settings.tracking.feature_motion_min_features,
+              settings.tracking.feature_pixel_sigma_px, settings.tracking.feature_disparity_sigma_px, settings.tracking.feature_motion_sigma_mps,
+              settings.tracking.feature_motion_gate_chi2);
   std::printf("disparity: [%d, %d) px, %s\n", settings.disparity.min_disparity,
               settings.disparity.min_disparity + settings.disparity.num_disparities, arm::settings_text(settings.disparity).c_str());
 

@@ -359,12 +359,18 @@ int Obstacles3dCommand::run() const {
     } else {
       const o3::VoxelMapStatus& map_status = method.voxel_map->update(candidates.points, ego_motion);
       const o3::ClusteringResult clusters = o3::cluster_voxels(*method.voxel_map, method.clustering);
-      const o3::TrackingResult& tracks = method.tracker->update(clusters.clusters, method.voxel_map->world_from_current());
+      // The odometry's feature motion measures the clusters' velocities when the map moved by that
+      // odometry's own increment (obstacle_tracking.h, "Feature motion").
+      static const std::vector<arm::FeatureMotion> kNoFeatureMotion;
+      const bool odometry_increment = ego_motion_source.source() == o3::EgoMotionSource::odometry;
+      const o3::TrackingResult& tracks = method.tracker->update(clusters.clusters, method.voxel_map->world_from_current(),
+                                                                odometry_increment ? motion.feature_motions : kNoFeatureMotion);
       obstacles = tracks.obstacles;
-      char text[160];
-      std::snprintf(text, sizeof text, "; %zu clusters, %lld new tracks, %lld confirmed, %lld ghosted, %lld deleted",
+      char text[200];
+      std::snprintf(text, sizeof text, "; %zu clusters, %lld new tracks, %lld confirmed, %lld ghosted, %lld deleted, %lld velocities from feature motion",
                     clusters.clusters.size(), static_cast<long long>(tracks.new_tracks), static_cast<long long>(tracks.confirmed),
-                    static_cast<long long>(tracks.ghosted), static_cast<long long>(tracks.deleted));
+                    static_cast<long long>(tracks.ghosted), static_cast<long long>(tracks.deleted),
+                    static_cast<long long>(tracks.feature_velocity_updates));
       method_status = map_status.text() + text;
     }
     processing_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();

@@ -38,25 +38,51 @@ void ConstantVelocityFilter3d::predict(double period_s, double accel_sigma_mps2)
   covariance_ = transition * covariance_ * transition.transpose() + process;
 }
 
-double ConstantVelocityFilter3d::update(const Eigen::Vector3d& measured_position_m, const Eigen::Matrix3d& measurement_covariance) {
+namespace {
+
+// The linear update with one 3-vector block of the state observed directly (H = [I 0] for the
+// position, offset 0; [0 I] for the velocity, offset 3), Joseph form; returns the normalized
+// innovation squared before the update.
+double update_block(Vector6d& state, Matrix6d& covariance, int offset, const Eigen::Vector3d& measured,
+                    const Eigen::Matrix3d& measurement_covariance) {
   Eigen::Matrix<double, 3, 6> observation = Eigen::Matrix<double, 3, 6>::Zero();
-  observation.leftCols<3>().setIdentity();
-  const Eigen::Vector3d innovation = measured_position_m - state_.head<3>();
-  const Eigen::Matrix3d innovation_covariance = covariance_.topLeftCorner<3, 3>() + measurement_covariance;
+  observation.block<3, 3>(0, offset).setIdentity();
+  const Eigen::Vector3d innovation = measured - state.segment<3>(offset);
+  const Eigen::Matrix3d innovation_covariance = covariance.block<3, 3>(offset, offset) + measurement_covariance;
   const Eigen::Matrix3d inverse = innovation_covariance.inverse();
-  const Eigen::Matrix<double, 6, 3> gain = covariance_ * observation.transpose() * inverse;
-  state_ += gain * innovation;
+  const Eigen::Matrix<double, 6, 3> gain = covariance * observation.transpose() * inverse;
+  state += gain * innovation;
   const Matrix6d reduce = Matrix6d::Identity() - gain * observation;
-  covariance_ = reduce * covariance_ * reduce.transpose() + gain * measurement_covariance * gain.transpose();
-  covariance_ = (0.5 * (covariance_ + covariance_.transpose())).eval();
+  covariance = reduce * covariance * reduce.transpose() + gain * measurement_covariance * gain.transpose();
+  covariance = (0.5 * (covariance + covariance.transpose())).eval();
   return innovation.dot(inverse * innovation);
+}
+
+double block_innovation_squared(const Vector6d& state, const Matrix6d& covariance, int offset, const Eigen::Vector3d& measured,
+                                const Eigen::Matrix3d& measurement_covariance) {
+  const Eigen::Vector3d innovation = measured - state.segment<3>(offset);
+  const Eigen::Matrix3d innovation_covariance = covariance.block<3, 3>(offset, offset) + measurement_covariance;
+  return innovation.dot(innovation_covariance.inverse() * innovation);
+}
+
+}  // namespace
+
+double ConstantVelocityFilter3d::update(const Eigen::Vector3d& measured_position_m, const Eigen::Matrix3d& measurement_covariance) {
+  return update_block(state_, covariance_, 0, measured_position_m, measurement_covariance);
+}
+
+double ConstantVelocityFilter3d::update_velocity(const Eigen::Vector3d& measured_velocity_mps, const Eigen::Matrix3d& measurement_covariance) {
+  return update_block(state_, covariance_, 3, measured_velocity_mps, measurement_covariance);
 }
 
 double ConstantVelocityFilter3d::normalized_innovation_squared(const Eigen::Vector3d& measured_position_m,
                                                                const Eigen::Matrix3d& measurement_covariance) const {
-  const Eigen::Vector3d innovation = measured_position_m - state_.head<3>();
-  const Eigen::Matrix3d innovation_covariance = covariance_.topLeftCorner<3, 3>() + measurement_covariance;
-  return innovation.dot(innovation_covariance.inverse() * innovation);
+  return block_innovation_squared(state_, covariance_, 0, measured_position_m, measurement_covariance);
+}
+
+double ConstantVelocityFilter3d::normalized_velocity_innovation_squared(const Eigen::Vector3d& measured_velocity_mps,
+                                                                        const Eigen::Matrix3d& measurement_covariance) const {
+  return block_innovation_squared(state_, covariance_, 3, measured_velocity_mps, measurement_covariance);
 }
 
 void validate_tracking_parameters(const ObstacleTrackingParameters& p) {
@@ -91,6 +117,15 @@ void validate_tracking_parameters(const ObstacleTrackingParameters& p) {
   require_parameter(p.innovation_gate_chi2 >= 0 && p.innovation_gate_chi2 <= 1000, "innovation_gate_chi2", "[0, 1000]", p.innovation_gate_chi2);
   require_parameter(p.moving_disparity_bias_px >= 0 && p.moving_disparity_bias_px <= 10, "moving_disparity_bias_px", "[0, 10] px",
                     p.moving_disparity_bias_px);
+  require_parameter(p.feature_motion_min_features >= 0 && p.feature_motion_min_features <= 1000, "feature_motion_min_features", "[0, 1000]",
+                    p.feature_motion_min_features);
+  require_parameter(p.feature_pixel_sigma_px > 0 && p.feature_pixel_sigma_px <= 10, "feature_pixel_sigma_px", "(0, 10] px", p.feature_pixel_sigma_px);
+  require_parameter(p.feature_disparity_sigma_px > 0 && p.feature_disparity_sigma_px <= 10, "feature_disparity_sigma_px", "(0, 10] px",
+                    p.feature_disparity_sigma_px);
+  require_parameter(p.feature_motion_sigma_mps >= 0 && p.feature_motion_sigma_mps <= 100, "feature_motion_sigma_mps", "[0, 100] m/s",
+                    p.feature_motion_sigma_mps);
+  require_parameter(p.feature_motion_gate_chi2 >= 0 && p.feature_motion_gate_chi2 <= 1000, "feature_motion_gate_chi2", "[0, 1000]",
+                    p.feature_motion_gate_chi2);
   validate_fragment_merge_parameters(p.fragment_merge);
   require_parameter(p.moving_significance_chi2 >= 0 && p.moving_significance_chi2 <= 1000, "moving_significance_chi2", "[0, 1000]",
           p.moving_significance_chi2);
@@ -111,6 +146,14 @@ ObstacleTracker3d::ObstacleTracker3d(const ObstacleTrackingParameters& parameter
 }
 
 namespace {
+
+// The robust update (header, "Jumps"): a measurement whose normalized innovation squared exceeds
+// the gate gets its noise scaled by NIS / gate, and is counted.
+void scale_beyond_gate(double normalized_innovation_squared, double gate_chi2, Eigen::Matrix3d& noise, int64_t& gated_count) {
+  if (normalized_innovation_squared <= gate_chi2) return;
+  noise *= normalized_innovation_squared / gate_chi2;
+  ++gated_count;
+}
 
 // A cluster's camera depth for the stereo terms, kept off zero (a cluster at the camera's plane).
 double cluster_depth_m(const VoxelCluster& cluster) { return std::max(cluster.obstacle.position_m.z(), 0.1); }
@@ -137,6 +180,75 @@ double ObstacleTracker3d::association_distance(const Track3d& track, const Voxel
          p.density_weight * std::abs(track.density - cluster.density);
 }
 
+ObstacleTracker3d::FeatureVelocity ObstacleTracker3d::feature_velocity(const VoxelCluster& cluster,
+                                                                       const std::vector<FeatureMotion>& feature_motions,
+                                                                       const Eigen::Matrix3d& world_from_camera, double voxel_size_m) const {
+  const ObstacleTrackingParameters& p = parameters_;
+  FeatureVelocity measurement;
+  const std::array<int, 4>& box = cluster.obstacle.bbox_px;
+  const double f = p.stereo_error.focal_px;
+  // The median's axes (header): across the cluster's line of sight (horizontal, then the third
+  // axis) and along it. A feature's error lies almost along its ray, and the rays of one cluster are
+  // nearly parallel, so the two medians across the ray keep the lateral precision.
+  const Eigen::Vector3d along = cluster.obstacle.position_m.norm() > 1e-6 ? Eigen::Vector3d(cluster.obstacle.position_m.normalized())
+                                                                          : Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d across = along.cross(Eigen::Vector3d::UnitY());  // camera y is down: horizontal when the ray is not vertical
+  if (across.norm() < 1e-6) across = Eigen::Vector3d::UnitX();
+  across.normalize();
+  Eigen::Matrix3d ray_axes;  // columns: across (horizontal), across (the third), along; camera frame
+  ray_axes.col(0) = across;
+  ray_axes.col(1) = along.cross(across).normalized();
+  ray_axes.col(2) = along;
+  std::array<std::vector<double>, 3> displacement_ray_m;
+  Eigen::Matrix3d covariance_sum = Eigen::Matrix3d::Zero();  // camera frame
+  for (const FeatureMotion& feature : feature_motions) {
+    if (feature.left_px.x() < box[0] || feature.left_px.x() > box[2] + 1 || feature.left_px.y() < box[1] || feature.left_px.y() > box[3] + 1) {
+      continue;
+    }
+    const Eigen::Vector3d& point = feature.position_m;
+    const double d = feature.disparity_px, depth_margin_m = voxel_size_m + 2.0 * point.z() * p.feature_disparity_sigma_px / d;
+    if (point.x() < cluster.camera_min_m.x() - voxel_size_m || point.x() > cluster.camera_max_m.x() + voxel_size_m ||
+        point.y() < cluster.camera_min_m.y() - voxel_size_m || point.y() > cluster.camera_max_m.y() + voxel_size_m ||
+        point.z() < cluster.camera_min_m.z() - depth_margin_m || point.z() > cluster.camera_max_m.z() + depth_margin_m) {
+      continue;
+    }
+    const Eigen::Vector3d displacement = ray_axes.transpose() * feature.displacement_m;
+    for (int axis = 0; axis < 3; ++axis) displacement_ray_m[static_cast<size_t>(axis)].push_back(displacement[axis]);
+    Eigen::Matrix3d jacobian;  // d(X, Y, Z) / d(u, v, d)
+    jacobian << point.z() / f, 0, -point.x() / d, 0, point.z() / f, -point.y() / d, 0, 0, -point.z() / d;
+    const Eigen::Vector3d variances(p.feature_pixel_sigma_px * p.feature_pixel_sigma_px, p.feature_pixel_sigma_px * p.feature_pixel_sigma_px,
+                                    p.feature_disparity_sigma_px * p.feature_disparity_sigma_px);
+    covariance_sum += 2.0 * jacobian * variances.asDiagonal() * jacobian.transpose();
+  }
+  measurement.features = static_cast<int>(displacement_ray_m[0].size());
+  if (measurement.features == 0) return measurement;
+  const size_t middle = displacement_ray_m[0].size() / 2;
+  Eigen::Vector3d median_ray_m;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double>& values = displacement_ray_m[static_cast<size_t>(axis)];
+    std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(middle), values.end());
+    median_ray_m[axis] = values[middle];
+  }
+  measurement.velocity_mps = world_from_camera * ray_axes * median_ray_m / p.frame_period_s;
+  const double n = measurement.features;
+  measurement.covariance = (M_PI / 2.0) * world_from_camera * covariance_sum * world_from_camera.transpose() /
+                               (n * n * p.frame_period_s * p.frame_period_s) +
+                           Eigen::Matrix3d::Identity() * p.feature_motion_sigma_mps * p.feature_motion_sigma_mps;
+  return measurement;
+}
+
+void ObstacleTracker3d::apply_feature_velocity(Track3d& track, const FeatureVelocity& measurement) {
+  const ObstacleTrackingParameters& p = parameters_;
+  if (p.feature_motion_min_features == 0 || measurement.features < p.feature_motion_min_features) return;
+  Eigen::Matrix3d noise = measurement.covariance;
+  if (p.feature_motion_gate_chi2 > 0) {
+    scale_beyond_gate(track.filter.normalized_velocity_innovation_squared(measurement.velocity_mps, noise), p.feature_motion_gate_chi2, noise,
+                      result_.gated_velocity_updates);
+  }
+  track.filter.update_velocity(measurement.velocity_mps, noise);
+  ++result_.feature_velocity_updates;
+}
+
 void ObstacleTracker3d::report(Track3d& track, const VoxelCluster& cluster, const Eigen::Matrix3d& camera_from_world) {
   track.size_world_m = cluster.size_world_m;
   track.rgb_mean = cluster.rgb_mean;
@@ -148,7 +260,8 @@ void ObstacleTracker3d::report(Track3d& track, const VoxelCluster& cluster, cons
   track.obstacle.moving = track.moving;
 }
 
-const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>& input_clusters, const Eigen::Isometry3d& world_from_current) {
+const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>& input_clusters, const Eigen::Isometry3d& world_from_current,
+                                                const std::vector<FeatureMotion>& feature_motions) {
   const ObstacleTrackingParameters& p = parameters_;
   result_ = TrackingResult{};
   // The voxel edge from a cluster's key box and its extent in metres (size_world_m = extent voxel_size_m).
@@ -187,6 +300,20 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
     }
   }
 
+  // Feature motion (header): each cluster's velocity measured by the odometry's points inside it.
+  result_.feature_motions = static_cast<int64_t>(feature_motions.size());
+  std::vector<FeatureVelocity> feature_velocities(clusters.size());
+  uint64_t features_inside = 0, median_work = 0;
+  const bool use_features = p.feature_motion_min_features > 0 && p.stereo_error.defined() && !feature_motions.empty();
+  if (use_features) {
+    for (size_t c = 0; c < clusters.size(); ++c) {
+      feature_velocities[c] = feature_velocity(clusters[c], feature_motions, world_from_camera, voxel_size_m);
+      const uint64_t m = static_cast<uint64_t>(feature_velocities[c].features);
+      features_inside += m;
+      median_work += 3 * m * (m > 1 ? static_cast<uint64_t>(std::bit_width(m - 1)) : 0);
+    }
+  }
+
   // Algorithm 3.2.3.4: greedy by increasing distance.
   struct Pair {
     double distance;
@@ -214,13 +341,11 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
     const VoxelCluster& cluster = clusters[pair.cluster];
     Eigen::Matrix3d measurement_noise = noise[pair.cluster];
     if (p.innovation_gate_chi2 > 0) {
-      const double nis = track.filter.normalized_innovation_squared(cluster.centroid_world_m, measurement_noise);
-      if (nis > p.innovation_gate_chi2) {
-        measurement_noise *= nis / p.innovation_gate_chi2;
-        ++result_.gated_updates;
-      }
+      scale_beyond_gate(track.filter.normalized_innovation_squared(cluster.centroid_world_m, measurement_noise), p.innovation_gate_chi2,
+                        measurement_noise, result_.gated_updates);
     }
     track.filter.update(cluster.centroid_world_m, measurement_noise);
+    apply_feature_velocity(track, feature_velocities[static_cast<size_t>(pair.cluster)]);
     ++track.updates;
     ++track.consecutive_updates;
     track.misses = 0;
@@ -288,6 +413,7 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
     track.updates = track.consecutive_updates = 1;
     track.associated_this_frame = true;
     track.filter = ConstantVelocityFilter3d(clusters[c].centroid_world_m, noise[c], p.initial_speed_sigma_mps);
+    apply_feature_velocity(track, feature_velocities[static_cast<size_t>(c)]);
     track.queue = p.acceptance_frames <= 1 ? TrackQueue::tracked : TrackQueue::acceptance;
     if (track.queue == TrackQueue::tracked) ++result_.confirmed;
     report(track, clusters[c], camera_from_world);
@@ -330,7 +456,9 @@ const TrackingResult& ObstacleTracker3d::update(const std::vector<VoxelCluster>&
   const uint64_t log_g = g > 1 ? static_cast<uint64_t>(std::bit_width(g - 1)) : 0;
   const uint64_t gate_tests = parameters_.innovation_gate_chi2 > 0 ? u : 0;
   result_.work.scalar_ops = 16 + 150 * t + 60 * c + 15 * far_edge_clusters + 40 * t * c + 4 * g * log_g + 4 * g + 45 * gate_tests + 400 * u + 25 * drift_terms +
-                            60 * n + 30 * o + 8 * t + 20 * adoption_tests;
+                            60 * n + 30 * o + 8 * t + 20 * adoption_tests +
+                            (use_features ? 12 * feature_motions.size() * c : 0) + 60 * features_inside + median_work +
+                            350 * static_cast<uint64_t>(result_.feature_velocity_updates);
   result_.work.memory_bytes = sizeof(Track3d) * 2 * (t + n) + sizeof(VoxelCluster) * c;
   result_.work.scalar_ops += fragments.work.scalar_ops;
   result_.work.memory_bytes += fragments.work.memory_bytes;

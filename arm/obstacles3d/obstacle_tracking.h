@@ -40,6 +40,35 @@
 // fragment would start a track of its own at velocity 0 every few frames). The merged clusters are the
 // clusters below (their count C) and the reported obstacles.
 //
+// Feature motion (the visual odometry's evidence; update()'s feature_motions, arm::FeatureMotion of
+// arm/odometry/stereo_odometry.h, given on frames whose ego-motion is that odometry's own increment):
+// every circle of the odometry is a point seen at t-1 and at t, and its displacement_m is its own
+// motion over the frame, zero on the static scene. A cluster's centroid moves whenever the clustering
+// takes or drops a part (a pole joins a board, a pedestrian's legs split off), which a filter fed
+// centroids alone reads as speed, and at 0.2-0.3 m of centroid noise a walker's 0.15 m a frame is not
+// significant before about 5 updates (below, "Fragment adoption"); the features on the object measure
+// its motion directly, at each frame, from its texture. The features of a cluster are those whose
+// left pixel lies in its image box and whose point lies in its camera-frame box grown by one voxel
+// (and in depth by 2 sigma_Z of the feature as well). With at least feature_motion_min_features of
+// them, the median of their displacements, taken per axis of the cluster's line of sight (the
+// horizontal across it, the third axis, and along it), rotated to the world frame and divided by the
+// frame period, is a measurement of the track's velocity (H = [0 I]) with covariance
+//     R_v = (pi / 2) sum_i C_i / (N^2 T^2) + feature_motion_sigma_mps^2 I,
+// C_i = 2 R_wc J_i diag(sigma_u^2, sigma_u^2, sigma_d^2) J_i^T R_wc^T the displacement's covariance
+// (the point's triangulation error at t and at t-1; J_i the derivative of (X, Y, Z) = ((u - cx) Z / f,
+// (v - cy) Z / f, f B / d) by (u, v, d): rows (Z/f, 0, -X/d), (0, Z/f, -Y/d), (0, 0, -Z/d)), pi / 2 the
+// median's variance over the mean's for Gaussian errors, and feature_motion_sigma_mps the model's
+// error (points sliding along an occluding edge, non-rigid parts). Why the line of sight's axes: a
+// feature's error lies along its ray (sigma_Z, 1.2 m at 20 m for 0.5 px, against 2 cm across it),
+// and a median per world axis takes its x and its y from different features, which turns the depth
+// error into a lateral one by the bearing (urban seed 2: a parked car at 20 m, 4.4 m to the side,
+// read 0.6-0.9 m/s lateral and was flagged moving in 9 frames; with the ray's axes, in 2). The
+// measurement is applied after the position's update, and at a new track's start, gated as the
+// position is (feature_motion_gate_chi2: an innovation beyond it scales R_v by NIS / gate). Across
+// the line of sight it is precise; along it, it is as weak as the stereo depth error and weighs
+// accordingly. The moving vote below then tests a filter that knows the velocity from its first
+// update.
+//
 // Association (Algorithm 3.2.3.4, greedy): every track is predicted one period; for each (track,
 // cluster) pair the distance
 //     d = position_weight |z - H s_predicted| + size_weight |size_t - size_c|_1
@@ -129,7 +158,9 @@
 //                  gain, Joseph form on 6x6, votes and their 2x2 significance test) + 25 D (the range drift's term, D = votes with
 //                  moving_disparity_bias_px > 0 and a stereo model) + 60 N (track start) + 30 O (velocity rotation, output)
 //                  + 8 T (queue moves) + 20 A (fragment adoption: A = young reported tracks times the tracks after the
-//                  update, each a queue test, a box test and a distance) + the fragment merge's (voxel_clustering.h, on the
+//                  update, each a queue test, a box test and a distance) + 12 F C (feature motion: F features tested
+//                  against C clusters' boxes) + 60 M (M features inside: covariance and rotation) + 3 M ceil(log2 M)
+//                  (medians) + 350 V (V velocity updates, gate included) + the fragment merge's (voxel_clustering.h, on the
 //                  input clusters);
 //   memory_bytes = sizeof(Track3d) 2 (T + N) + sizeof(VoxelCluster) C + the fragment merge's.
 #pragma once
@@ -144,6 +175,7 @@
 #include "arm/obstacles3d/obstacle_points.h"
 #include "arm/obstacles3d/voxel_clustering.h"
 #include "arm/obstacles3d/voxel_map.h"
+#include "arm/odometry/stereo_odometry.h"
 #include "arm/point_cloud.h"
 #include "dag/arm_task.h"
 
@@ -162,6 +194,9 @@ class ConstantVelocityFilter3d {
   double update(const Eigen::Vector3d& measured_position_m, const Eigen::Matrix3d& measurement_covariance);
   // That distance without updating: nu^T (P_pp + R)^-1 nu, nu = z - p (the normalized innovation squared).
   double normalized_innovation_squared(const Eigen::Vector3d& measured_position_m, const Eigen::Matrix3d& measurement_covariance) const;
+  // The same two for a measurement of the velocity (H = [0 I]): the feature motion's (header).
+  double update_velocity(const Eigen::Vector3d& measured_velocity_mps, const Eigen::Matrix3d& measurement_covariance);
+  double normalized_velocity_innovation_squared(const Eigen::Vector3d& measured_velocity_mps, const Eigen::Matrix3d& measurement_covariance) const;
   Eigen::Vector3d position_m() const { return state_.head<3>(); }
   Eigen::Vector3d velocity_mps() const { return state_.tail<3>(); }
   const Vector6d& state() const { return state_; }
@@ -204,6 +239,13 @@ struct ObstacleTrackingParameters {
   // in the significance test (needs stereo_error's focal_px and baseline_m). 0: off; [0, 10] px. 1 px:
   // docs/obstacles3d-voxels.md, "The range drift of a disparity bias", has the figures.
   double moving_disparity_bias_px = 1.0;
+  // Feature motion (header): the odometry's points inside a cluster measure its velocity. Needs
+  // stereo_error's focal_px and baseline_m.
+  int feature_motion_min_features = 3;       // fewer inside a cluster: no measurement; 0: off; [0, 1000]
+  double feature_pixel_sigma_px = 0.5;       // a feature's image position error, (0, 10] px
+  double feature_disparity_sigma_px = 0.5;   // its disparity error, (0, 10] px
+  double feature_motion_sigma_mps = 0.2;     // the model's error added to the measurement, [0, 100] m/s
+  double feature_motion_gate_chi2 = 7.81;    // as innovation_gate_chi2, on the velocity's innovation; 0: off; [0, 1000]
   int adoption_updates = 8;             // fragment adoption (header): young below, parents at or above; 0: off; [0, 1000]
   int adoption_pixel_gap_px = 0;        // empty pixels allowed between the image boxes (0: overlapping or adjacent), [0, 1000]
   double adoption_margin_m = 0.5;       // ground distance beyond the half key-box diagonals, [0, 100]
@@ -248,6 +290,9 @@ struct TrackingResult {
   int64_t merged_fragments = 0;  // input clusters merged into another as stereo fragments
   int64_t adopted = 0;           // reported young tracks that report their parent's motion (fragment adoption)
   int64_t gated_updates = 0;     // associations applied with inflated noise (innovation_gate_chi2)
+  int64_t feature_motions = 0;            // feature motions given
+  int64_t feature_velocity_updates = 0;   // velocity measurements applied (feature motion, header)
+  int64_t gated_velocity_updates = 0;     // of them, applied with inflated noise (feature_motion_gate_chi2)
   ArmWork work;
 };
 
@@ -255,8 +300,11 @@ class ObstacleTracker3d {
  public:
   explicit ObstacleTracker3d(const ObstacleTrackingParameters& parameters = {});
 
-  // One frame: the clusters of cluster_voxels and the map's world_from_current (vehicle frames).
-  const TrackingResult& update(const std::vector<VoxelCluster>& clusters, const Eigen::Isometry3d& world_from_current);
+  // One frame: the clusters of cluster_voxels and the map's world_from_current (vehicle frames);
+  // feature_motions: the visual odometry's for this frame (header, "Feature motion"), only when the
+  // map's ego-motion is that odometry's own increment; empty: none.
+  const TrackingResult& update(const std::vector<VoxelCluster>& clusters, const Eigen::Isometry3d& world_from_current,
+                               const std::vector<FeatureMotion>& feature_motions = {});
 
   const std::vector<Track3d>& tracks() const { return tracks_; }  // increasing id, every queue
   const TrackingResult& result() const { return result_; }
@@ -265,6 +313,14 @@ class ObstacleTracker3d {
  private:
   Eigen::Matrix3d measurement_covariance(const VoxelCluster& cluster, const Eigen::Matrix3d& world_from_camera) const;
   double association_distance(const Track3d& track, const VoxelCluster& cluster, double position_distance_m) const;
+  struct FeatureVelocity {
+    int features = 0;  // inside the cluster; a measurement when >= feature_motion_min_features
+    Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();  // world frame
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
+  };
+  FeatureVelocity feature_velocity(const VoxelCluster& cluster, const std::vector<FeatureMotion>& feature_motions,
+                                   const Eigen::Matrix3d& world_from_camera, double voxel_size_m) const;
+  void apply_feature_velocity(Track3d& track, const FeatureVelocity& measurement);
   void report(Track3d& track, const VoxelCluster& cluster, const Eigen::Matrix3d& camera_from_world);
 
   ObstacleTrackingParameters parameters_;

@@ -487,6 +487,154 @@ TEST(ObstacleTracking, AYoungTrackAwayFromEstablishedTracksOrWithAdoptionOffRepo
   }
 }
 
+// Feature motion (obstacle_tracking.h): a cluster 10 m ahead (camera: focal 554 px, baseline 0.3 m,
+// level, looking along the world x, identity ego-motion) seen with a few odometry points on it.
+// The cluster's image box is (300, 200)-(340, 280) and its camera box 0.5 m around its position;
+// features_on() puts `count` points inside both, each moved by step_camera_m over the frame (plus
+// +-noise_m, alternating), and one point far behind it (another object, outside its camera box)
+// that moves 1 m a frame.
+ObstacleTrackingParameters feature_parameters(int min_features) {
+  ObstacleTrackingParameters parameters;  // 10 Hz
+  parameters.stereo_error.focal_px = 554.0;
+  parameters.stereo_error.baseline_m = 0.30;
+  parameters.feature_motion_min_features = min_features;
+  return parameters;
+}
+
+VoxelCluster cluster_with_boxes(const Eigen::Vector3d& world_m) {
+  VoxelCluster cluster = cluster_at(world_m, false);
+  cluster.obstacle.bbox_px = {300, 200, 340, 280};
+  cluster.camera_min_m = cluster.obstacle.position_m - Eigen::Vector3d::Constant(0.5);
+  cluster.camera_max_m = cluster.obstacle.position_m + Eigen::Vector3d::Constant(0.5);
+  return cluster;
+}
+
+std::vector<FeatureMotion> features_on(const VoxelCluster& cluster, int count, const Eigen::Vector3d& step_camera_m, double noise_m) {
+  std::vector<FeatureMotion> features;
+  for (int i = 0; i < count; ++i) {
+    FeatureMotion feature;
+    feature.left_px = Eigen::Vector2d(305.0 + 4 * i, 210.0 + 6 * i);
+    feature.position_m = cluster.obstacle.position_m + Eigen::Vector3d(0.05 * (i % 3), 0.1 * (i % 4), 0.0);
+    feature.disparity_px = 554.0 * 0.30 / feature.position_m.z();
+    feature.displacement_m = step_camera_m + Eigen::Vector3d::Constant(i % 2 == 0 ? noise_m : -noise_m);
+    features.push_back(feature);
+  }
+  FeatureMotion behind;  // inside the image box, 20 m behind the cluster
+  behind.left_px = Eigen::Vector2d(320, 240);
+  behind.position_m = cluster.obstacle.position_m + Eigen::Vector3d(0, 0, 20.0);
+  behind.disparity_px = 554.0 * 0.30 / behind.position_m.z();
+  behind.displacement_m = Eigen::Vector3d(1.0, 0, 0);
+  features.push_back(behind);
+  return features;
+}
+
+// A pedestrian crossing at 1.5 m/s along the world y whose centroid jitters by +-0.25 m (parts of it
+// joining and leaving the cluster). Returns the first frame it is reported moving (-1: never).
+int first_frame_reported_moving(int min_features, int64_t* velocity_updates) {
+  ObstacleTracker3d tracker(feature_parameters(min_features));
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> jitter(-0.25, 0.25);
+  *velocity_updates = 0;
+  for (int frame = 0; frame < 12; ++frame) {
+    const Eigen::Vector3d truth_m(10.0, 2.0 + 0.15 * frame, 0.75);
+    const VoxelCluster cluster = cluster_with_boxes(truth_m + Eigen::Vector3d(jitter(random), jitter(random), 0.0));
+    // Camera x is the world's -y: the step is -0.15 m along the camera's x.
+    const TrackingResult& result =
+        tracker.update({cluster}, Eigen::Isometry3d::Identity(), features_on(cluster, 6, Eigen::Vector3d(-0.15, 0, 0), 0.01));
+    *velocity_updates += result.feature_velocity_updates;
+    if (!result.obstacles.empty() && result.obstacles[0].moving) return frame;
+  }
+  return -1;
+}
+
+TEST(ObstacleTracking, FeatureMotionFlagsAWalkerFromItsFirstReportedFrame) {
+  int64_t velocity_updates = 0;
+  // The track is reported from frame 2 (3 acceptance frames); with the features it is moving there.
+  EXPECT_EQ(first_frame_reported_moving(3, &velocity_updates), 2);
+  EXPECT_EQ(velocity_updates, 3);  // one per frame, the new track's included; the point behind is not its
+  // From the jittering centroids alone the 1.5 m/s is not yet significant there.
+  EXPECT_GT(first_frame_reported_moving(0, &velocity_updates), 2);
+  EXPECT_EQ(velocity_updates, 0);
+  // Fewer points inside than feature_motion_min_features: no measurement.
+  EXPECT_GT(first_frame_reported_moving(7, &velocity_updates), 2);
+  EXPECT_EQ(velocity_updates, 0);
+}
+
+// A static object whose cluster takes in a neighbour's part over frames 10-16 (its centroid drifts
+// 0.12 m a frame sideways, then stays): small steps, within the innovation gate. Its points on the
+// object stay put. Returns the frames reported moving.
+int frames_static_object_reported_moving(int min_features) {
+  ObstacleTracker3d tracker(feature_parameters(min_features));
+  int moving_frames = 0;
+  for (int frame = 0; frame < 25; ++frame) {
+    const double drift_m = 0.12 * std::clamp(frame - 10, 0, 6);
+    const VoxelCluster cluster = cluster_with_boxes(Eigen::Vector3d(12.0, 2.0 + drift_m, 0.75));
+    const TrackingResult& result = tracker.update({cluster}, Eigen::Isometry3d::Identity(), features_on(cluster, 5, Eigen::Vector3d::Zero(), 0.02));
+    if (!result.obstacles.empty() && result.obstacles[0].moving) ++moving_frames;
+  }
+  return moving_frames;
+}
+
+TEST(ObstacleTracking, FeatureMotionKeepsAStaticObjectStaticWhileItsCentroidDrifts) {
+  EXPECT_GT(frames_static_object_reported_moving(0), 0);  // the centroids alone: 1.2 m/s, flagged
+  EXPECT_EQ(frames_static_object_reported_moving(3), 0);
+}
+
+// A static object 20 m ahead and 4.4 m to the left, 2 m wide: seven features, each off by up to a
+// metre along its own ray (its depth error at 20 m, up to 11 m/s at 10 Hz). Across the line of sight
+// the measurement, and so a new track's velocity, stays within 0.1 m/s of zero. (The eval's parked
+// car of urban seed 2, obstacle_tracking.h, is where medians per world axis went wrong; with exact
+// rays, as here, they happen to agree.)
+TEST(ObstacleTracking, FeatureMotionDepthErrorsAlongTheRaysGiveNoLateralVelocity) {
+  ObstacleTracker3d tracker(feature_parameters(3));
+  VoxelCluster cluster = cluster_at(Eigen::Vector3d(20.0, 4.4, -0.6), false);
+  cluster.obstacle.position_m = Eigen::Vector3d(-4.4, 0.6, 20.0);
+  cluster.obstacle.bbox_px = {0, 0, 639, 479};
+  cluster.camera_min_m = Eigen::Vector3d(-5.5, 0.4, 19.5);
+  cluster.camera_max_m = Eigen::Vector3d(-3.3, 0.8, 20.5);
+  const std::array<double, 7> depth_offset_m = {0.3, -0.2, 0.1, 0.0, -0.3, 0.2, -0.1};
+  const std::array<double, 7> along_ray_error_m = {-1.0, 0.8, -0.3, 0.5, -0.9, 1.1, 0.2};
+  std::vector<FeatureMotion> features;
+  for (int i = 0; i < 7; ++i) {
+    FeatureMotion feature;
+    feature.position_m = Eigen::Vector3d(-5.4 + i / 3.0, 0.6, 20.0 + depth_offset_m[static_cast<size_t>(i)]);
+    feature.disparity_px = 554.0 * 0.30 / feature.position_m.z();
+    feature.left_px = Eigen::Vector2d(554.0 * feature.position_m.x() / feature.position_m.z() + 320.0, 260.0);
+    feature.displacement_m = along_ray_error_m[static_cast<size_t>(i)] * feature.position_m.normalized();
+    features.push_back(feature);
+  }
+  const TrackingResult& result = tracker.update({cluster}, Eigen::Isometry3d::Identity(), features);
+  ASSERT_EQ(result.feature_velocity_updates, 1);
+  ASSERT_EQ(tracker.tracks().size(), 1u);
+  // A new track's velocity prior (12 m/s) is wide: across the ray the measurement sets the velocity.
+  const Eigen::Vector3d velocity = tracker.tracks()[0].filter.velocity_mps();
+  // The ray is world (x, y) = (20, 4.4) (x forward, y left); across it, horizontally: (-4.4, 20).
+  const Eigen::Vector2d across_ray = Eigen::Vector2d(-4.4, 20.0).normalized();
+  EXPECT_LT(std::abs(velocity.y() * across_ray.y() + velocity.x() * across_ray.x()), 0.1) << velocity.transpose();
+}
+
+TEST(ObstacleTracking, FeatureMotionFarOffTheFilterIsGatedAndCountedAsTheHeaderSays) {
+  ObstacleTracker3d tracker(feature_parameters(3)), twin(feature_parameters(0));
+  for (int frame = 0; frame < 10; ++frame) {
+    const VoxelCluster cluster = cluster_with_boxes(Eigen::Vector3d(12.0, 2.0, 0.75));
+    // Static points, but at frame 8 they all report 1 m in a frame (a mismatched texture): gated.
+    const Eigen::Vector3d step = frame == 8 ? Eigen::Vector3d(1.0, 0, 0) : Eigen::Vector3d::Zero();
+    const std::vector<FeatureMotion> features = features_on(cluster, 4, step, 0.0);
+    const TrackingResult& result = tracker.update({cluster}, Eigen::Isometry3d::Identity(), features);
+    const uint64_t twin_ops = twin.update({cluster}, Eigen::Isometry3d::Identity(), features).work.scalar_ops;
+    EXPECT_EQ(result.feature_motions, 5);
+    EXPECT_EQ(result.feature_velocity_updates, 1) << frame;
+    EXPECT_EQ(result.gated_velocity_updates, frame == 8 ? 1 : 0) << frame;
+    // 12 F C + 60 M + 3 M ceil(log2 M) + 350 V: F = 5 points, C = 1 cluster, M = 4 inside, V = 1.
+    EXPECT_EQ(result.work.scalar_ops - twin_ops, 12u * 5 + 60u * 4 + 3u * 4 * 2 + 350u) << frame;
+    if (!result.obstacles.empty()) {
+      EXPECT_FALSE(result.obstacles[0].moving) << frame;
+    }
+  }
+  ASSERT_EQ(tracker.tracks().size(), 1u);
+  EXPECT_LT(tracker.tracks()[0].filter.velocity_mps().norm(), 0.7);
+}
+
 TEST(ObstacleTracking, CountedWorkFollowsTheHeaderModel) {
   for (const double gate : {0.0, 7.81}) {
     ObstacleTrackingParameters parameters;
@@ -530,14 +678,24 @@ TEST(ObstacleTracking, EmptyInputAndBadParameters) {
   parameters = {};
   parameters.far_edge_forward_sigma_m = -1;
   EXPECT_THROW(ObstacleTracker3d{parameters}, std::invalid_argument);
+  // The whole message: the parameter, the expected range and the value.
+  const auto expect_message = [](const ObstacleTrackingParameters& bad_parameters, const std::string& message) {
+    try {
+      ObstacleTracker3d bad(bad_parameters);
+      ADD_FAILURE() << "accepted; expected: " << message;
+    } catch (const std::invalid_argument& error) {
+      EXPECT_EQ(std::string(error.what()), message);
+    }
+  };
   parameters = {};
   parameters.innovation_gate_chi2 = -2;
-  try {
-    ObstacleTracker3d bad(parameters);
-    ADD_FAILURE() << "negative innovation gate accepted";
-  } catch (const std::invalid_argument& error) {
-    EXPECT_EQ(std::string(error.what()), "innovation_gate_chi2: expected [0, 1000], got -2");
-  }
+  expect_message(parameters, "innovation_gate_chi2: expected [0, 1000], got -2");
+  parameters = {};
+  parameters.feature_motion_min_features = -1;
+  expect_message(parameters, "feature_motion_min_features: expected [0, 1000], got -1");
+  parameters = {};
+  parameters.feature_disparity_sigma_px = 0;
+  EXPECT_THROW(ObstacleTracker3d{parameters}, std::invalid_argument);
   parameters = {};
   parameters.frame_period_s = -1;
   try {
