@@ -33,17 +33,20 @@ void check(bool ok, const char* name, const std::string& expected, double actual
 struct CircleMatch {
   Eigen::Vector3d point_previous;
   Eigen::Vector2d left_px, right_px;
-  OdometryFeature left_now, right_now;  // for step 5's triangulation at t
 };
 
-Eigen::Vector3d triangulate(const StereoOdometryParameters& p, const OdometryFeature& left, const OdometryFeature& right) {
+Eigen::Vector3d triangulate(const StereoOdometryParameters& p, const Eigen::Vector2d& left_px, const Eigen::Vector2d& right_px) {
   // Rectified pair (DESIGN.md §4): Z = f B / d, X = (u - cx) Z / f, Y = (v - cy) Z / f; the row is the
   // mean of the two views' rows.
-  const double disparity_px = left.x_px - right.x_px;
+  const double disparity_px = left_px.x() - right_px.x();
   const double depth_m = p.focal_px * p.baseline_m / disparity_px;
-  const double row_px = 0.5 * (left.y_px + right.y_px);
-  return {(left.x_px - p.principal_point_x_px) * depth_m / p.focal_px, (row_px - p.principal_point_y_px) * depth_m / p.focal_px,
+  const double row_px = 0.5 * (left_px.y() + right_px.y());
+  return {(left_px.x() - p.principal_point_x_px) * depth_m / p.focal_px, (row_px - p.principal_point_y_px) * depth_m / p.focal_px,
           depth_m};
+}
+
+Eigen::Vector3d triangulate(const StereoOdometryParameters& p, const OdometryFeature& left, const OdometryFeature& right) {
+  return triangulate(p, Eigen::Vector2d(left.x_px, left.y_px), Eigen::Vector2d(right.x_px, right.y_px));
 }
 
 // Projection of a camera-frame point into the left (right = false) or right view.
@@ -409,8 +412,6 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
                                          previous_right_[static_cast<size_t>(previous_right)]);
       match.left_px = {l_now.x_px, l_now.y_px};
       match.right_px = {r_now.x_px, r_now.y_px};
-      match.left_now = l_now;
-      match.right_now = r_now;
       circle.push_back(match);
     }
   }
@@ -468,8 +469,8 @@ StereoOdometryFrame StereoOdometry::process(const Plane& left, const Plane& righ
     for (size_t i = 0; i < circle.size(); ++i) {
       FeatureMotion feature;
       feature.left_px = circle[i].left_px;
-      feature.disparity_px = circle[i].left_now.x_px - circle[i].right_now.x_px;
-      feature.position_m = triangulate(p, circle[i].left_now, circle[i].right_now);
+      feature.disparity_px = circle[i].left_px.x() - circle[i].right_px.x();
+      feature.position_m = triangulate(p, circle[i].left_px, circle[i].right_px);
       feature.displacement_m = feature.position_m - motion * circle[i].point_previous;
       feature.inlier = is_inlier[i] != 0;
       frame.feature_motions.push_back(feature);
