@@ -18,8 +18,9 @@ FramePlan plan_frame(const Graph& graph) {
   std::vector<int> dispatch_of(graph.nodes().size(), -1);
   for (int node_index : graph.order()) {
     dispatch_of[node_index] = static_cast<int>(plan.dispatches.size());
-    plan.dispatches.push_back(Dispatch{node_index, graph.nodes()[node_index].is_vector() ? Engine::vector : Engine::arm,
-                                       {}, {}, {}});
+    const NodeInfo& node = graph.nodes()[node_index];
+    const Engine engine = node.on_unit() ? Engine::unit : (node.is_vector() ? Engine::vector : Engine::arm);
+    plan.dispatches.push_back(Dispatch{node_index, engine, {}, {}, {}});
   }
   const std::vector<BufferInfo>& buffers = graph.buffers();
   for (Dispatch& dispatch : plan.dispatches) {
@@ -128,10 +129,10 @@ FrameRunner::FrameRunner(const Graph& graph, int worker_threads, KernelBackend b
 
 void FrameRunner::enqueue_locked(int dispatch_index) {
   const Dispatch& dispatch = plan_.dispatches[dispatch_index];
-  const size_t tiles = dispatch.engine == Engine::vector ? dispatch.tiles.size() : 1;
+  const size_t tiles = dispatch.runs_tiles() ? dispatch.tiles.size() : 1;
   // Vector nodes go out in chunks of tiles, so every worker gets a share of a large node; a
   // row-state node goes out whole, so one worker runs its tiles top to bottom.
-  const bool row_state = dispatch.engine == Engine::vector && graph_.nodes()[dispatch.node].kernel->state_bytes;
+  const bool row_state = dispatch.runs_tiles() && graph_.nodes()[dispatch.node].kernel->state_bytes;
   const size_t chunk = row_state ? tiles : std::max<size_t>(1, tiles / (4 * pool_->threads.size()));
   int items = 0;
   for (size_t first = 0; first < tiles; first += chunk) {
@@ -167,7 +168,7 @@ void FrameRunner::run_dispatch_item(int dispatch_index, size_t first_tile, size_
     // A delayed input reads the slot written one frame earlier.
     return slot(node.input_buffers[i], node.input_delayed[i] ? frame_index_ - 1 : frame_index_);
   };
-  if (dispatch.engine == Engine::vector) {
+  if (dispatch.runs_tiles()) {
     VectorNodeBinding binding = vector_node_binding(node);
     for (size_t i = 0; i < node.input_buffers.size(); ++i) binding.inputs.push_back(input_plane(i).view());
     for (int output : node.output_buffers) binding.outputs.push_back(slot(output, frame_index_).view());

@@ -19,14 +19,17 @@
 
 namespace lpstereo::arm {
 
-enum class Engine { vector, arm };
+// unit: a kernel node bound to one of the target's fixed-function units; natively it runs tile by
+// tile as a vector node does (its kernel is the unit's functional model).
+enum class Engine { vector, arm, unit };
 
 struct Dispatch {
   int node = -1;
   Engine engine = Engine::vector;
   std::vector<int> after;                 // dispatches of the same frame that must finish first
   std::vector<int> after_previous_frame;  // dispatches of the previous frame (delayed edges)
-  std::vector<TileRect> tiles;            // vector nodes: the output tiles, in DMA order
+  std::vector<TileRect> tiles;            // vector and unit nodes: the output tiles, in DMA order
+  bool runs_tiles() const { return engine != Engine::arm; }
 };
 
 struct FramePlan {

@@ -71,7 +71,8 @@ int tile_dimension(const nlohmann::json& schedule, const char* key, const std::s
 }
 
 NodeSpec parse_node(const nlohmann::json& node, const std::string& source, const std::string& path) {
-  check_keys(node, {"name", "kernel", "task", "inputs", "outputs", "params", "border", "border_value", "schedule", "comment"},
+  check_keys(node, {"name", "kernel", "task", "engine", "inputs", "outputs", "params", "border", "border_value", "schedule",
+              "comment"},
              source, path);
   NodeSpec spec;
   spec.name = require_string(node, "name", source, path);
@@ -80,6 +81,19 @@ NodeSpec parse_node(const nlohmann::json& node, const std::string& source, const
   if (has_kernel == has_task) spec_error(source, path, "expected exactly one of 'kernel' and 'task'");
   if (has_kernel) spec.kernel = require_string(node, "kernel", source, path);
   if (has_task) spec.task = require_string(node, "task", source, path);
+  if (node.contains("engine")) {
+    spec.engine = require_string(node, "engine", source, path);
+    if (spec.engine == "vector" || spec.engine == "arm") {
+      // The default engines are implied by "kernel" and "task"; naming them must agree.
+      if ((spec.engine == "vector") != has_kernel) {
+        spec_error(source, path + ".engine", "'" + spec.engine + "' runs " + (has_kernel ? "tasks" : "kernels") +
+                                                 ", this node has a " + (has_kernel ? "kernel" : "task"));
+      }
+      spec.engine.clear();
+    } else if (!has_kernel) {
+      spec_error(source, path + ".engine", "a fixed-function unit ('" + spec.engine + "') runs a kernel, this node has a task");
+    }
+  }
   if (node.contains("inputs")) {
     const nlohmann::json& inputs = node.at("inputs");
     if (!inputs.is_object()) spec_error(source, path + ".inputs", "expected an object {port: buffer}");
@@ -182,7 +196,7 @@ GraphSpec parse_graph_spec(const std::string& json_text, const std::string& sour
                          (colon == std::string::npos ? message : message.substr(colon + 2)));
   }
   const std::string root = "$";
-  check_keys(document, {"name", "description", "inputs", "constants", "nodes", "outputs", "budget", "comment"},
+  check_keys(document, {"name", "description", "inputs", "constants", "nodes", "outputs", "budget", "camera", "comment"},
              source_name, root);
   GraphSpec spec;
   spec.name = require_string(document, "name", source_name, root);
@@ -228,6 +242,21 @@ GraphSpec parse_graph_spec(const std::string& json_text, const std::string& sour
       if (!output.is_string()) spec_error(source_name, "$.outputs", "expected buffer names, got " + output.dump());
       spec.outputs.push_back(output.get<std::string>());
     }
+  }
+  if (document.contains("camera")) {
+    const nlohmann::json& camera = document.at("camera");
+    check_keys(camera, {"baseline_m", "hfov_deg", "comment"}, source_name, "$.camera");
+    auto positive = [&](const char* key, double max_value) {
+      if (!camera.contains(key) || !camera.at(key).is_number() || !(camera.at(key).get<double>() > 0) ||
+          camera.at(key).get<double>() >= max_value) {
+        spec_error(source_name, std::string("$.camera.") + key,
+                   "expected a number in (0, " + std::to_string(static_cast<int>(max_value)) + ")" +
+                       (camera.contains(key) ? ", got " + camera.at(key).dump() : ", missing"));
+      }
+      return camera.at(key).get<double>();
+    };
+    spec.camera_baseline_m = positive("baseline_m", 100);
+    spec.camera_hfov_deg = positive("hfov_deg", 180);
   }
   if (document.contains("budget")) {
     const nlohmann::json& budget = document.at("budget");
@@ -655,13 +684,101 @@ VectorNodeBinding vector_node_binding(const NodeInfo& node) {
   return binding;
 }
 
+namespace {
+
+std::string joined(const std::vector<std::string>& names) {
+  std::string text;
+  for (const std::string& name : names) text += (text.empty() ? "" : ", ") + name;
+  return text.empty() ? "none" : text;
+}
+
+// An integer SGM parameter a stereo unit is programmed with: the node must state it.
+int unit_parameter(const NodeInfo& node, const UnitLimits& unit, const char* key) {
+  if (!node.spec.params.contains(key) || !node.spec.params.at(key).is_number_integer()) {
+    throw VerifyError(kPhaseMemory, "node '" + node.spec.name + "' on unit '" + unit.name + "': parameter '" + key +
+                                        "' must be given as an integer (a unit is programmed with explicit values)");
+  }
+  return node.spec.params.at(key).get<int>();
+}
+
+}  // namespace
+
+void Graph::check_unit_node(const NodeInfo& node) const {
+  const MemoryBudget& memory = options_.memory;
+  const std::string who = "node '" + node.spec.name + "'";
+  const auto unit = std::find_if(memory.units.begin(), memory.units.end(),
+                                 [&](const UnitLimits& candidate) { return candidate.name == node.spec.engine; });
+  if (unit == memory.units.end()) {
+    std::vector<std::string> names;
+    for (const UnitLimits& candidate : memory.units) names.push_back(candidate.name);
+    throw VerifyError(kPhaseMemory, who + ": engine '" + node.spec.engine + "': target '" + memory.target_name +
+                                        "' has no such unit (its units: " + joined(names) + ")");
+  }
+  const std::string where = who + " on unit '" + unit->name + "'";
+  std::vector<int> planes = node.input_buffers;
+  planes.insert(planes.end(), node.output_buffers.begin(), node.output_buffers.end());
+  for (int b : planes) {
+    const PlaneShape& shape = buffers_[b].shape;
+    if (shape.width > unit->max_width || shape.height > unit->max_height) {
+      throw VerifyError(kPhaseMemory, where + ": buffer '" + buffers_[b].name + "' is " + std::to_string(shape.width) + "x" +
+                                          std::to_string(shape.height) + ", the unit's limit is " +
+                                          std::to_string(unit->max_width) + "x" + std::to_string(unit->max_height));
+    }
+  }
+  if (std::find(unit->functions.begin(), unit->functions.end(), node.kernel->name) == unit->functions.end()) {
+    throw VerifyError(kPhaseMemory, where + ": kernel '" + node.kernel->name + "' is not one of its functions (" +
+                                        joined(unit->functions) + ")");
+  }
+  if (unit->kind == "stereo") {
+    if (node.kernel->name.rfind("census", 0) == 0) {
+      const Halo& halo = node.kernel->halo;
+      const int width = halo.left + halo.right + 1, height = halo.top + halo.bottom + 1;
+      if (width != unit->census_width || height != unit->census_height) {
+        throw VerifyError(kPhaseMemory, where + ": census window " + std::to_string(width) + "x" + std::to_string(height) +
+                                            ", the unit's is " + std::to_string(unit->census_width) + "x" +
+                                            std::to_string(unit->census_height));
+      }
+    } else {
+      const int range = unit_parameter(node, *unit, "num_disparities");
+      if (std::find(unit->search_ranges.begin(), unit->search_ranges.end(), range) == unit->search_ranges.end()) {
+        std::vector<std::string> offered;
+        for (int value : unit->search_ranges) offered.push_back(std::to_string(value));
+        throw VerifyError(kPhaseMemory, where + ": search range (num_disparities) " + std::to_string(range) +
+                                            " is not one the unit offers (" + joined(offered) + ")");
+      }
+      const int p1 = unit_parameter(node, *unit, "p1"), p2 = unit_parameter(node, *unit, "p2");
+      if (p1 > unit->p1_max || p2 > unit->p2_max) {
+        throw VerifyError(kPhaseMemory, where + ": penalties p1 " + std::to_string(p1) + ", p2 " + std::to_string(p2) +
+                                            ", the unit's limits are p1 <= " + std::to_string(unit->p1_max) +
+                                            ", p2 <= " + std::to_string(unit->p2_max));
+      }
+    }
+  }
+  const size_t state = row_state_bytes(node, buffers_);
+  if (state > unit->local_memory_bytes) {
+    throw VerifyError(kPhaseMemory, where + ": row state of " + std::to_string(state) + " bytes, the unit's local memory is " +
+                                        std::to_string(unit->local_memory_bytes) + " bytes (over by " +
+                                        std::to_string(state - unit->local_memory_bytes) + ")");
+  }
+}
+
 void Graph::phase_memory_placement() {
   const MemoryBudget& memory = options_.memory;
   sram_peak_bytes_ = 0;
+  for (BufferInfo& buffer : buffers_) buffer.unit_local = false;
   for (int n : order_) {
     NodeInfo& node = nodes_[n];
     if (!node.is_vector()) continue;
     const PlaneShape output = buffers_[node.output_buffers.at(0)].shape;
+    if (node.on_unit()) {
+      // A unit streams its planes itself: full-width strips for the native run of its functional
+      // model, no vector SRAM taken; on a target, the unit's own limits.
+      node.tile_width = output.width;
+      node.tile_height = std::min(64, output.height);
+      node.sram_working_set_bytes = 0;
+      if (memory.check_units) check_unit_node(node);
+      continue;
+    }
     if (node.spec.tile_width > 0 || node.spec.tile_height > 0) {
       node.tile_width = std::min(node.spec.tile_width > 0 ? node.spec.tile_width : output.width, output.width);
       node.tile_height = std::min(node.spec.tile_height > 0 ? node.spec.tile_height : 64, output.height);
@@ -709,15 +826,26 @@ void Graph::phase_memory_placement() {
     }
     sram_peak_bytes_ = std::max(sram_peak_bytes_, node.sram_working_set_bytes);
   }
-  // DRAM: every buffer lives in DRAM. Inputs are double-buffered (capture writes the next frame
-  // while this one is processed); constants, outputs and delayed buffers (two frames) stay live;
-  // intermediates live from their producer to their last consumer.
+  // A unit's internal stage: produced on a unit and read only on the same unit, never by a later
+  // frame nor as a graph output, it streams inside the unit (a stereo unit's census).
+  if (memory.check_units) {
+    for (BufferInfo& buffer : buffers_) {
+      if (buffer.producer_node < 0 || buffer.is_graph_output || buffer.read_delayed || buffer.consumer_nodes.empty()) continue;
+      const std::string& engine = nodes_[buffer.producer_node].spec.engine;
+      if (!nodes_[buffer.producer_node].on_unit()) continue;
+      buffer.unit_local = std::all_of(buffer.consumer_nodes.begin(), buffer.consumer_nodes.end(),
+                                      [&](int consumer) { return nodes_[consumer].spec.engine == engine; });
+    }
+  }
+  // DRAM: every buffer lives in DRAM but a unit's internal stage. Inputs are double-buffered (capture
+  // writes the next frame while this one is processed); constants, outputs and delayed buffers (two
+  // frames) stay live; intermediates live from their producer to their last consumer.
   std::vector<int> position(nodes_.size(), 0);
   for (size_t i = 0; i < order_.size(); ++i) position[order_[i]] = static_cast<int>(i);
   size_t resident = 0;
   std::vector<size_t> live_at(order_.size() + 1, 0);
   for (const BufferInfo& buffer : buffers_) {
-    const size_t bytes = buffer.bytes();
+    const size_t bytes = buffer.unit_local ? 0 : buffer.bytes();
     if (buffer.is_graph_input) {
       resident += 2 * bytes;
     } else if (buffer.is_constant || buffer.is_graph_output) {
@@ -784,10 +912,13 @@ std::string Graph::to_dot() const {
         << "];\n";
   }
   for (const NodeSpec& node : spec_.nodes) {
+    // Vector nodes blue, ARM tasks orange, nodes on a fixed-function unit green.
     const bool vector = !node.kernel.empty();
+    const bool unit = vector && !node.engine.empty();
+    const std::string engine = unit ? node.engine + ": " + node.kernel : (vector ? "vector: " + node.kernel : "ARM: " + node.task);
     dot << "  " << quote("node:" + node.name) << " [shape=box, style=filled, fillcolor="
-        << (vector ? "\"#9ecae1\"" : "\"#fdae6b\"") << ", label="
-        << quote(node.name + "\\n" + (vector ? "vector: " + node.kernel : "ARM: " + node.task)) << "];\n";
+        << (unit ? "\"#a1d99b\"" : (vector ? "\"#9ecae1\"" : "\"#fdae6b\"")) << ", label=" << quote(node.name + "\\n" + engine)
+        << "];\n";
   }
   // Edges producer -> consumer through named buffers; intermediate buffers are edge labels.
   std::map<std::string, std::string> producer_of;

@@ -70,6 +70,12 @@ struct NodeSpec {
   uint32_t border_value = 0;
   int tile_width = 0;   // schedule; 0 = chosen in phase 4
   int tile_height = 0;
+  // Which engine runs the node: empty for the default (a kernel on the vector engine, a task on the
+  // ARM cores), or the name of one of the target's fixed-function units (UnitLimits). A unit node
+  // names a kernel: on the host it runs that kernel, which is the unit's bit-exact functional model;
+  // on a target, verify() checks it against the unit's limits and the simulator times it by the
+  // unit's throughput instead of the counted vector ops.
+  std::string engine;
 };
 
 struct GraphInputSpec {
@@ -98,6 +104,10 @@ struct GraphSpec {
   // false for graphs not meant to fit the 4K budget: profiled and reported, never enforced.
   bool enforce_budget = true;
   std::string budget_note;  // why a graph is not enforced
+  // The stereo camera the graph is sized for ("camera" in the file; 0 = not given): the profile
+  // turns its matchers' disparity ranges into the near and far limits of the depth they cover.
+  double camera_baseline_m = 0;
+  double camera_hfov_deg = 0;
 };
 
 GraphSpec parse_graph_spec(const std::string& json_text, const std::string& source_name);
@@ -121,6 +131,9 @@ struct BufferInfo {
   bool read_delayed = false;       // some consumer reads it one frame late: kept for two frames
   std::vector<int> consumer_nodes;
   MemoryRegion region = MemoryRegion::dram;
+  // Produced by a unit node and read only by nodes on the same unit (a stereo unit's census
+  // stage): it streams inside the unit and takes no DRAM (set by phase 4 on a target with units).
+  bool unit_local = false;
   size_t bytes() const { return static_cast<size_t>(shape.width) * shape.height * element_bytes(format.type); }
 };
 
@@ -135,6 +148,20 @@ struct NodeInfo {
   int tile_width = 0, tile_height = 0;        // phase 4
   size_t sram_working_set_bytes = 0;          // phase 4: double-buffered tiles + scratch
   bool is_vector() const { return kernel != nullptr; }
+  bool on_unit() const { return kernel != nullptr && !spec.engine.empty(); }
+};
+
+// A fixed-function unit of the target as verify() sees it (host_sim/target.h reads it from the
+// target file's "units"): the kernels it runs and the limits a node bound to it must respect.
+struct UnitLimits {
+  std::string name;                    // the key a node's "engine" names
+  std::string kind;                    // "stereo", "warp" or "scaler"
+  std::vector<std::string> functions;  // kernels whose bit-exact model the unit runs
+  int max_width = 0, max_height = 0;   // of every plane the node reads or writes
+  std::vector<int> search_ranges;      // stereo: the num_disparities values it offers
+  int census_width = 0, census_height = 0;  // stereo: its census window
+  int p1_max = 0, p2_max = 0;          // stereo: largest SGM penalties
+  size_t local_memory_bytes = 0;       // on-unit memory, which holds a node's row state
 };
 
 // What verify() checks capacity against (from the target; host_sim/target.h fills it).
@@ -143,6 +170,11 @@ struct MemoryBudget {
   size_t sram_bytes = 0;        // on-chip memory for vector tiles and scratch; 0 = unlimited
   size_t dram_bytes = 0;        // DRAM available to the graph's buffers; 0 = unlimited
   double sram_tile_share = 0.75;  // share of SRAM a node's double-buffered tiles may take when auto-tiling
+  // A target's fixed-function units. With check_units false (the host), a unit node runs its
+  // functional model whatever its engine names; with it true, a node naming a unit the target
+  // lacks, or beyond the unit's limits, is refused in phase 4.
+  bool check_units = false;
+  std::vector<UnitLimits> units;
 };
 
 struct VerifyOptions {
@@ -178,6 +210,7 @@ class Graph {
   void phase_single_writer();
   void phase_memory_placement();
   void phase_node_init();
+  void check_unit_node(const NodeInfo& node) const;  // phase 4: a unit node against its unit's limits
 
   GraphSpec spec_;
   VerifyOptions options_;

@@ -82,15 +82,31 @@ struct NodeCosts {
   std::vector<TileCost> tiles;  // vector nodes
   double arm_ns = 0;            // ARM tasks
   double arm_cycles = 0;
+  double unit_ns = 0;           // unit nodes
+  double unit_cycles = 0;
+  uint64_t unit_dram_bytes = 0;
+  int unit_track = -1;
   simd::OpCounts ops;
 };
+
+// Pixels a unit node processes: its largest plane (a scaler reads four input pixels per output).
+double unit_pixels(const NodeInfo& node, const std::vector<BufferInfo>& buffers) {
+  double pixels = 0;
+  for (int b : node.input_buffers) pixels = std::max(pixels, static_cast<double>(buffers[b].shape.width) * buffers[b].shape.height);
+  for (int b : node.output_buffers) pixels = std::max(pixels, static_cast<double>(buffers[b].shape.width) * buffers[b].shape.height);
+  return pixels;
+}
+
+// A unit's internal stage: every output streams inside the unit to a node on the same unit.
+bool internal_stage(const NodeInfo& node, const std::vector<BufferInfo>& buffers) {
+  return std::all_of(node.output_buffers.begin(), node.output_buffers.end(), [&](int b) { return buffers[b].unit_local; });
+}
 
 }  // namespace
 
 ProfileReport profile_graph(const Graph& graph, const Target& target, const std::map<std::string, const Plane*>& inputs,
                             const ProfileOptions& options) {
   if (!graph.verified()) throw std::logic_error("profile_graph: graph '" + graph.spec().name + "' is not verified");
-  const int frames = std::max(3, options.frames);
 
   // 1. One native frame: real data in every buffer, and the ARM tasks' counted work.
   arm::FrameRunner runner(graph, options.worker_threads);
@@ -103,7 +119,15 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
     return runner.buffer(buffers[buffer].name);
   };
 
-  // 2. Costs per node: counted ops per tile (once per tile shape and edge position), DMA bytes per tile.
+  // 2. Costs per node: counted ops per tile (once per tile shape and edge position), DMA bytes per
+  // tile; a unit node's time from its unit's rate.
+  const int frames_in_flight = options.frames_in_flight > 0 ? options.frames_in_flight : target.frames_in_flight;
+  if (frames_in_flight < 1) {
+    throw std::invalid_argument("profile_graph: frames in flight: expected >= 1 (target '" + target.name + "' or the options), got " +
+                                std::to_string(frames_in_flight));
+  }
+  const int frames = std::max({3, options.frames, 4 * frames_in_flight + 4});
+  std::vector<std::string> unit_tracks;  // unit names, in order of first use
   std::vector<NodeCosts> costs(plan.dispatches.size());
   for (size_t d = 0; d < plan.dispatches.size(); ++d) {
     const arm::Dispatch& dispatch = plan.dispatches[d];
@@ -114,6 +138,23 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
       node_costs.arm_cycles = static_cast<double>(work.scalar_ops) * target.arm.cycles_per_scalar_op +
                               static_cast<double>(work.memory_bytes) * target.arm.cycles_per_dram_byte;
       node_costs.arm_ns = node_costs.arm_cycles / (target.arm.clock_mhz * 1e-3);
+      continue;
+    }
+    if (dispatch.engine == arm::Engine::unit) {
+      const FixedFunctionUnit* unit = target.unit(node.spec.engine);
+      if (unit == nullptr) {
+        throw std::invalid_argument("profile_graph: node '" + node.spec.name + "' runs on unit '" + node.spec.engine +
+                                    "', which target '" + target.name + "' lacks");
+      }
+      auto track = std::find(unit_tracks.begin(), unit_tracks.end(), unit->limits.name);
+      if (track == unit_tracks.end()) track = unit_tracks.insert(unit_tracks.end(), unit->limits.name);
+      node_costs.unit_track = static_cast<int>(track - unit_tracks.begin());
+      if (internal_stage(node, buffers)) continue;
+      const double pixels = unit_pixels(node, buffers);
+      const int search_range = node.spec.params.value("num_disparities", unit->reference_search_range);
+      node_costs.unit_ns = unit->busy_ns(pixels, search_range);
+      node_costs.unit_cycles = node_costs.unit_ns * unit->clock_mhz * 1e-3;
+      node_costs.unit_dram_bytes = static_cast<uint64_t>(std::llround(pixels * unit->dram_bytes_per_pixel));
       continue;
     }
     VectorNodeBinding binding = vector_node_binding(node);
@@ -156,20 +197,32 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
     }
   }
 
-  // 3. The timeline: frames back to back, each engine serving requests in plan order.
+  // 3. The timeline: frames offered back to back, at most frames_in_flight in the pipeline, each
+  // engine serving requests in plan order. Tracks: vector engine, DMA, the units, the ARM cores.
   ProfileReport report;
   report.tracks = {"vector engine", "DMA"};
+  const int first_unit_track = static_cast<int>(report.tracks.size());
+  for (const std::string& unit_name : unit_tracks) {
+    report.tracks.push_back("unit " + unit_name + " (" + target.unit(unit_name)->limits.kind + ")");
+  }
+  const int first_core_track = static_cast<int>(report.tracks.size());
   for (int core = 0; core < target.arm.cores; ++core) report.tracks.push_back("ARM core " + std::to_string(core));
   double vector_free = 0, dma_free = 0;
+  std::vector<double> unit_free(unit_tracks.size(), 0.0);
   std::vector<double> core_free(static_cast<size_t>(target.arm.cores), 0.0);
   std::vector<std::vector<double>> dispatch_end(static_cast<size_t>(frames), std::vector<double>(plan.dispatches.size(), 0));
   std::vector<double> frame_start(static_cast<size_t>(frames), 0), frame_end(static_cast<size_t>(frames), 0);
   for (int frame = 0; frame < frames; ++frame) {
-    bool first_dispatch = true;
+    // The pipeline holds frames_in_flight frames: this one enters when the one that many before has left.
+    const double admitted = frame >= frames_in_flight ? frame_end[frame - frames_in_flight] : 0;
+    frame_start[frame] = -1;
+    auto started = [&](double start) {
+      if (frame_start[frame] < 0 || start < frame_start[frame]) frame_start[frame] = start;
+    };
     for (size_t d = 0; d < plan.dispatches.size(); ++d) {
       const arm::Dispatch& dispatch = plan.dispatches[d];
       const NodeInfo& node = graph.nodes()[dispatch.node];
-      double ready = 0;
+      double ready = admitted;
       for (int before : dispatch.after) ready = std::max(ready, dispatch_end[frame][before]);
       if (frame > 0) {
         for (int before : dispatch.after_previous_frame) ready = std::max(ready, dispatch_end[frame - 1][before]);
@@ -180,9 +233,17 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
         const double start = std::max(ready, *core);
         end = start + costs[d].arm_ns;
         *core = end;
-        report.trace.push_back({node.spec.name, 2 + static_cast<int>(core - core_free.begin()), start * 1e-3,
+        report.trace.push_back({node.spec.name, first_core_track + static_cast<int>(core - core_free.begin()), start * 1e-3,
                                 costs[d].arm_ns * 1e-3, frame, node.spec.name});
-        if (first_dispatch) frame_start[frame] = start;
+        started(start);
+      } else if (dispatch.engine == arm::Engine::unit) {
+        double& free = unit_free[static_cast<size_t>(costs[d].unit_track)];
+        const double start = std::max(ready, free);
+        end = start + costs[d].unit_ns;
+        free = end;
+        report.trace.push_back({node.spec.name, first_unit_track + costs[d].unit_track, start * 1e-3, costs[d].unit_ns * 1e-3,
+                                frame, node.spec.name});
+        started(start);
       } else {
         const std::vector<TileCost>& tiles = costs[d].tiles;
         std::vector<double> compute_end(tiles.size(), 0);
@@ -194,7 +255,7 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
           if (tiles[i].dma_in_ns > 0) {
             report.trace.push_back({node.spec.name + " in", 1, start * 1e-3, tiles[i].dma_in_ns * 1e-3, frame, node.spec.name});
           }
-          if (first_dispatch && i == 0) frame_start[frame] = start;
+          if (i == 0) started(start);
           return dma_free;
         };
         double in_end = tiles.empty() ? ready : dma_in(0);
@@ -212,10 +273,33 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
       }
       dispatch_end[frame][d] = end;
       frame_end[frame] = std::max(frame_end[frame], end);
-      first_dispatch = false;
+    }
+    if (frame_start[frame] < 0) frame_start[frame] = admitted;
+  }
+  // The steady state: the last 2 x frames_in_flight periods (whole turns of the in-flight window).
+  const int measured = 2 * frames_in_flight;
+  const int first_measured = frames - measured;
+  const double measured_period_ns = (frame_end[frames - 1] - frame_end[first_measured - 1]) / measured;
+  // Each engine's busy time per frame over the measured frames.
+  std::vector<double> busy_ns(report.tracks.size(), 0.0);
+  for (const TraceEvent& event : report.trace) {
+    if (event.frame >= first_measured) busy_ns[static_cast<size_t>(event.track)] += event.duration_us * 1e3 / measured;
+  }
+  // The bound no steady state may beat: the busiest single engine, and the ARM tasks' total over the
+  // cores (frames in flight let one task of consecutive frames run on different cores).
+  double arm_total_ns = 0;
+  for (const NodeCosts& cost : costs) arm_total_ns += cost.arm_ns;
+  double bound_ns = arm_total_ns / target.arm.cores;
+  report.bottleneck = "ARM cores";
+  for (int track = 0; track < first_core_track; ++track) {
+    if (busy_ns[static_cast<size_t>(track)] > bound_ns) {
+      bound_ns = busy_ns[static_cast<size_t>(track)];
+      report.bottleneck = report.tracks[static_cast<size_t>(track)];
     }
   }
-  const double period_ns = (frame_end[frames - 1] - frame_end[0]) / (frames - 1);
+  const double period_ns = std::max(measured_period_ns, bound_ns);
+  double latency_ns = 0;
+  for (int frame = first_measured; frame < frames; ++frame) latency_ns = std::max(latency_ns, frame_end[frame] - frame_start[frame]);
 
   // 4. The report.
   report.graph = graph.spec().name;
@@ -225,23 +309,57 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
   report.height = graph.options().frame_height;
   report.fps_target = options.fps_target;
   report.frame_ms = period_ns * 1e-6;
-  report.latency_ms = (frame_end[frames - 1] - frame_start[frames - 1]) * 1e-6;
+  report.latency_ms = latency_ns * 1e-6;
+  report.max_latency_ms = options.max_latency_ms;
   report.fps = report.frame_ms > 0 ? 1000.0 / report.frame_ms : 0;
   report.frames_simulated = frames;
+  report.frames_in_flight = frames_in_flight;
+  if (graph.spec().camera_baseline_m > 0) {
+    const double pi = 3.14159265358979323846;
+    const double focal_px = report.width / 2.0 / std::tan(graph.spec().camera_hfov_deg * pi / 360.0);
+    const double focal_baseline = focal_px * graph.spec().camera_baseline_m;
+    for (const NodeInfo& node : graph.nodes()) {
+      if (!node.kernel || !node.spec.params.contains("num_disparities")) continue;
+      const double scale = static_cast<double>(report.width) / buffers[node.output_buffers.at(0)].shape.width;
+      const int min_disparity = node.spec.params.value("min_disparity", 0);
+      const int max_disparity = min_disparity + node.spec.params.at("num_disparities").get<int>() - 1;
+      if (max_disparity < 1) continue;
+      const double near_m = focal_baseline / (max_disparity * scale);
+      const double far_m = focal_baseline / (std::max(min_disparity, 1) * scale);
+      report.disparity_near_m = report.disparity_near_m > 0 ? std::min(report.disparity_near_m, near_m) : near_m;
+      report.disparity_far_m = std::max(report.disparity_far_m, far_m);
+    }
+  }
+  const double camera_period_ms = std::max(report.frame_ms, 1000.0 / options.fps_target);
+  for (size_t track = 0; track < report.tracks.size(); ++track) {
+    const double busy_ms = busy_ns[track] * 1e-6;
+    report.engines.push_back({report.tracks[track], busy_ms, 100.0 * busy_ms / camera_period_ms});
+  }
   report.enforce_budget = graph.spec().enforce_budget;
   report.budget_note = graph.spec().budget_note;
   report.sram_budget_bytes = target.memory.sram_bytes;
   report.sram_peak_bytes = graph.sram_peak_bytes();
   report.dram_budget_bytes = target.memory.dram_bytes;
   report.dram_peak_bytes = graph.dram_peak_bytes();
+  // Every frame in flight holds its own buffers; the constants (remap tables) are shared.
+  size_t constant_bytes = 0;
+  for (const BufferInfo& buffer : buffers) constant_bytes += buffer.is_constant ? buffer.bytes() : 0;
+  report.dram_in_flight_bytes = constant_bytes + static_cast<size_t>(frames_in_flight) * (report.dram_peak_bytes - constant_bytes);
   for (size_t d = 0; d < plan.dispatches.size(); ++d) {
     const arm::Dispatch& dispatch = plan.dispatches[d];
     const NodeInfo& node = graph.nodes()[dispatch.node];
     NodeProfile profile;
     profile.name = node.spec.name;
-    profile.kind = dispatch.engine == arm::Engine::vector ? "vector" : "arm";
+    profile.kind = dispatch.engine == arm::Engine::vector ? "vector" : (dispatch.engine == arm::Engine::unit ? "unit" : "arm");
+    profile.engine = dispatch.engine == arm::Engine::vector ? "vector engine" : (dispatch.engine == arm::Engine::unit ? node.spec.engine : "ARM");
     profile.implementation = node.kernel ? node.kernel->name : node.task->name;
-    if (dispatch.engine == arm::Engine::vector) {
+    if (dispatch.engine == arm::Engine::unit) {
+      profile.tile_width = node.tile_width;
+      profile.tile_height = node.tile_height;
+      profile.cycles = costs[d].unit_cycles;
+      profile.ms = costs[d].unit_ns * 1e-6;
+      profile.dram_bytes = costs[d].unit_dram_bytes;
+    } else if (dispatch.engine == arm::Engine::vector) {
       profile.tile_width = node.tile_width;
       profile.tile_height = node.tile_height;
       profile.tiles = dispatch.tiles.size();
@@ -284,6 +402,20 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
     line << std::fixed << "DRAM bandwidth " << report.dram_bandwidth_gbps << " GB/s > " << report.dram_bandwidth_limit_gbps
          << " GB/s usable on " << target.name << " (over by " << report.dram_bandwidth_gbps - report.dram_bandwidth_limit_gbps
          << " GB/s)";
+    report.over_budget.push_back(line.str());
+  }
+  if (options.max_latency_ms > 0 && report.latency_ms > options.max_latency_ms * (1 + 1e-9)) {
+    line.str("");
+    line.precision(3);
+    line << std::fixed << "latency " << report.latency_ms << " ms > " << options.max_latency_ms << " ms allowed (over by "
+         << report.latency_ms - options.max_latency_ms << " ms, " << frames_in_flight << " frames in flight)";
+    report.over_budget.push_back(line.str());
+  }
+  if (report.dram_budget_bytes > 0 && report.dram_in_flight_bytes > report.dram_budget_bytes) {
+    line.str("");
+    line << "DRAM capacity " << report.dram_in_flight_bytes << " bytes with " << frames_in_flight
+         << " frames in flight > " << report.dram_budget_bytes << " bytes on " << target.name << " (over by "
+         << report.dram_in_flight_bytes - report.dram_budget_bytes << ")";
     report.over_budget.push_back(line.str());
   }
   report.fits_budget = report.over_budget.empty();

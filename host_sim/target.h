@@ -38,6 +38,24 @@ struct ArmCores {
   double cycles_per_dram_byte = 0;  // cost of a byte streamed from DRAM by a core
 };
 
+// A fixed-function unit (stereo engine, warp engine, scaler): its limits as verify() checks them,
+// and its rate and DRAM traffic as the simulator times them. Nodes bound to it (NodeSpec::engine)
+// run its functions, the project's own kernels, as its bit-exact functional model.
+struct FixedFunctionUnit {
+  UnitLimits limits;               // name, kind, functions, sizes, search ranges, census, penalties, local memory
+  std::string description;
+  std::string output_format;       // what the unit writes, as its documents say
+  double clock_mhz = 0;
+  double pixels_per_cycle = 0;     // processed pixels per unit clock (at reference_search_range)
+  double setup_us = 0;             // per node and frame: programming the unit
+  double dram_bytes_per_pixel = 0; // DRAM traffic per processed pixel (a stereo unit: both views in, disparity out)
+  int reference_search_range = 0;  // stereo: the range pixels_per_cycle is given for
+  double search_range_scaling = 0; // stereo: 0 = rate independent of the range, 1 = time proportional to it
+
+  // Unit time for `pixels` processed pixels at `search_range` (ignored but for stereo units), in ns.
+  double busy_ns(double pixels, int search_range) const;
+};
+
 struct Target {
   std::string name;
   std::string description;
@@ -46,6 +64,12 @@ struct Target {
   Memory memory;
   ArmCores arm;
   double sram_tile_share = 0.75;  // auto-tiling keeps a node's double-buffered tiles under this share of SRAM
+  std::vector<FixedFunctionUnit> units;
+  // Frames the pipeline holds at once (capture to last output): frame f starts no earlier than
+  // frame f - frames_in_flight has finished ("pipeline" section).
+  int frames_in_flight = 0;
+
+  const FixedFunctionUnit* unit(const std::string& unit_name) const;  // nullptr if the target lacks it
 
   MemoryBudget memory_budget() const;
   double dram_bandwidth_limit_gbps() const { return memory.dram_bandwidth_gbps * memory.dram_usable_share; }

@@ -1,11 +1,10 @@
 #!/usr/bin/env bash
 # Profiles every graph under graphs/ at 3840x1728 on cv1-class with --enforce and prints each
 # Markdown summary. Fails if any enforced graph is over budget. A graph file with "budget":
-# {"enforce": false} is profiled and reported, not enforced: the ones holding the 3840x1728
-# disparity (~650 ms on cv1-class, issue 4's open target question), e.g. terrain.json and
-# obstacles3d-stixels.json (issue 10's full chain: disparity + terrain + stixels + traversability);
-# their parts after the disparity (terrain-from-disparity.json, obstacles3d-stixels-from-disparity.json)
-# fit and are enforced. Usage: profile-graphs.sh LPSTEREO_BINARY
+# {"enforce": false} is profiled and reported, not enforced; its note says why (the what-ifs such
+# as disparity-vector-sgm.json, SGM on the vector engine, and the chains still over a budget). The
+# graphs holding the 3840x1728 disparity run it on cv1-class's warp and stereo units.
+# Usage: profile-graphs.sh LPSTEREO_BINARY
 set -euo pipefail
 cd "$(dirname "$0")/.."
 binary=${1:?usage: profile-graphs.sh LPSTEREO_BINARY}

@@ -132,8 +132,8 @@ void write_profile_outputs(const host_sim::ProfileReport& report, const ProfileO
   if (!outputs.summary_path.empty()) write_file_atomically(outputs.summary_path, host_sim::report_markdown(report));
 }
 
-int run_profile(const std::string& graph_name, const std::string& target_name, FrameSize size, double fps, int frames,
-                bool count_every_tile, bool enforce, const ProfileOutputs& outputs) {
+int run_profile(const std::string& graph_name, const std::string& target_name, FrameSize size, double fps,
+                const host_sim::ProfileOptions& pipeline, bool enforce, const ProfileOutputs& outputs) {
   check_frame_size(size);
   if (!(fps > 0 && fps <= 10000)) throw CommandError(kExitUsage, "--fps: expected a number in (0, 10000], got " + std::to_string(fps));
   const host_sim::Target target = host_sim::load_target(target_name);
@@ -150,10 +150,8 @@ int run_profile(const std::string& graph_name, const std::string& target_name, F
     }
   }();
   const std::map<std::string, Plane> inputs = synthetic_inputs(graph, size);
-  host_sim::ProfileOptions options;
+  host_sim::ProfileOptions options = pipeline;
   options.fps_target = fps;
-  options.frames = frames;
-  options.count_every_tile = count_every_tile;
   host_sim::ProfileReport report = host_sim::profile_graph(graph, target, pointers(inputs), options);
   if (!sram_refusal.empty()) {
     report.fits_budget = false;
@@ -608,8 +606,8 @@ int main(int argc, char** argv) {
   std::string profile_graph, profile_target = "cv1-class";
   FrameSize profile_size{3840, 1728};
   double profile_fps = 30;
-  int frames = 4;
-  bool enforce = false, count_every_tile = false;
+  host_sim::ProfileOptions profile_options;
+  bool enforce = false;
   ProfileOutputs outputs;
   CLI::App* profile = app.add_subcommand("profile", "simulate a graph on a target at a frame size");
   profile->add_option("--graph", profile_graph, "graph name (graphs/NAME.json) or file")->required();
@@ -617,12 +615,21 @@ int main(int argc, char** argv) {
   profile->add_option("--width", profile_size.width, "frame width in pixels")->capture_default_str();
   profile->add_option("--height", profile_size.height, "frame height in pixels")->capture_default_str();
   profile->add_option("--fps", profile_fps, "frame rate budget")->capture_default_str();
-  profile->add_option("--frames", frames, "frames simulated back to back (>= 3)")->capture_default_str()->check(CLI::Range(3, 100));
+  profile->add_option("--frames", profile_options.frames,
+                      "frames simulated (>= 3; at least 4 x frames in flight + 4 are simulated whatever this says)")
+      ->capture_default_str()
+      ->check(CLI::Range(3, 100));
+  profile->add_option("--frames-in-flight", profile_options.frames_in_flight,
+                      "frames the pipeline holds at once (default: the target's pipeline setting)")
+      ->check(CLI::Range(1, 16));
+  profile->add_option("--max-latency-ms", profile_options.max_latency_ms,
+                      "latency budget, first start to last end of a frame (over it: over budget)")
+      ->check(CLI::PositiveNumber);
   profile->add_option("--report", outputs.report_path, "report JSON file");
   profile->add_option("--trace", outputs.trace_path, "Chrome-trace JSON file (opens in Perfetto)");
   profile->add_option("--summary-md", outputs.summary_path, "Markdown summary file");
-  profile->add_flag("--enforce", enforce, "exit 3 when the frame time or DRAM bandwidth is over budget");
-  profile->add_flag("--count-every-tile", count_every_tile, "count ops on every tile, not once per tile shape");
+  profile->add_flag("--enforce", enforce, "exit 3 when the frame time, latency, DRAM bandwidth or DRAM capacity is over budget");
+  profile->add_flag("--count-every-tile", profile_options.count_every_tile, "count ops on every tile, not once per tile shape");
 
   // graph verify | dot
   CLI::App* graph = app.add_subcommand("graph", "check or draw a graph");
@@ -665,7 +672,7 @@ int main(int argc, char** argv) {
     }
     if (*eval) return tools::run_eval(eval_options);
     if (*profile) {
-      return run_profile(profile_graph, profile_target, profile_size, profile_fps, frames, count_every_tile, enforce, outputs);
+      return run_profile(profile_graph, profile_target, profile_size, profile_fps, profile_options, enforce, outputs);
     }
     if (*verify) return run_graph_verify(verify_graph, verify_target, verify_size);
     if (*dot) return run_graph_dot(dot_graph, dot_output);

@@ -101,6 +101,7 @@ TEST(RowState, StateCountsInTheSramWorkingSetAndTheSimulatorRunsIt) {
   target.dma = {10, 50};
   target.memory = {1 << 20, 1 << 30, 10, 0.5};
   target.arm = {1, 1000, 1, 1};
+  target.frames_in_flight = 2;
   const Plane input = random_plane(200, 61, {ElementType::u8, 0}, 0, 1);
   host_sim::ProfileOptions every;
   every.count_every_tile = true;

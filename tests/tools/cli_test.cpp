@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdio>
+#include <set>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -93,29 +94,65 @@ TEST_F(Cli, EnforceExitsThreeWithOneLineWhenOverBudget) {
 // A graph whose tiles do not fit the target's SRAM: the profile says so first, still reports the
 // figures, and --enforce fails even for a graph marked as not meant to fit.
 TEST_F(Cli, ProfileReportsAGraphThatDoesNotFitTheSram) {
-  const std::string command = "profile --graph disparity --target tda4vm-c7x --width 1280 --height 96 --report " + path("r.json");
+  const std::string command =
+      "profile --graph disparity-vector-sgm --target tda4vm-c7x --width 1280 --height 96 --report " + path("r.json");
   const Result reported = run(command);
   ASSERT_EQ(reported.exit_code, 0) << reported.err;
   EXPECT_EQ(reported.out.rfind("DOES NOT FIT: verify phase 4 (memory placement): node 'sgm_far': SRAM working set", 0), 0u)
       << reported.out;
-  EXPECT_NE(reported.out.find("sgm_far                vector sgm_4path"), std::string::npos) << reported.out;
+  EXPECT_NE(reported.out.find("sgm_far                vector engine sgm_4path"), std::string::npos) << reported.out;
   std::ifstream report(path("r.json"));
   const nlohmann::json json = nlohmann::json::parse(report);
   EXPECT_FALSE(json["fits_budget"].get<bool>());
   const Result enforced = run(command + " --enforce");
   EXPECT_EQ(enforced.exit_code, 3);
   EXPECT_EQ(count_lines(enforced.err), 1) << enforced.err;
-  EXPECT_EQ(enforced.err.rfind("lpstereo: over budget: graph 'disparity' on tda4vm-c7x at 1280x96: does not fit the SRAM: ", 0),
+  EXPECT_EQ(enforced.err.rfind("lpstereo: over budget: graph 'disparity-vector-sgm' on tda4vm-c7x at 1280x96: does not fit the SRAM: ",
+                               0),
             0u)
       << enforced.err;
+}
+
+// A node on a fixed-function unit beyond the unit's limits: one line naming node, unit, limit and
+// actual value; exit 1; nothing written. A target without the unit refuses the node the same way.
+TEST_F(Cli, ProfileRefusesAUnitNodeBeyondItsUnitsLimits) {
+  const Result wide = run("profile --graph disparity --target tda4vm-c7x --report " + path("wide.json"));
+  EXPECT_EQ(wide.exit_code, 1);
+  EXPECT_EQ(count_lines(wide.err), 1) << wide.err;
+  EXPECT_NE(wide.err.find("node 'census_left' on unit 'stereo': buffer 'left_rectified' is 3840x1728, the unit's limit is "
+                          "2048x1024"),
+            std::string::npos)
+      << wide.err;
+  EXPECT_FALSE(std::filesystem::exists(path("wide.json")));
+  // At a size the SDE takes, its sourced 9x9 census window has no project kernel: refused by name.
+  const Result census = run("profile --graph disparity --target tda4vm-c7x --width 1280 --height 720");
+  EXPECT_EQ(census.exit_code, 1);
+  EXPECT_NE(census.err.find("node 'census_left' on unit 'stereo': kernel 'census5x5' is not one of its functions"),
+            std::string::npos)
+      << census.err;
+}
+
+// The disparity graph on cv1-class: rectification on the warp unit, census and SGM on the stereo
+// unit, each unit a track with its load; it fits 3840x1728 at 30 fps with the frames in flight bounded.
+TEST_F(Cli, ProfileRunsTheDisparityGraphOnTheUnits) {
+  const Result result = run("profile --graph disparity --width 1920 --height 864 --enforce --report " + path("r.json"));
+  ASSERT_EQ(result.exit_code, 0) << result.err << result.out;
+  EXPECT_NE(result.out.find("sgm                    stereo        sgm_4path"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("rectify_left           warp          remap_bilinear"), std::string::npos) << result.out;
+  std::ifstream report(path("r.json"));
+  const nlohmann::json json = nlohmann::json::parse(report);
+  std::set<std::string> engines;
+  for (const nlohmann::json& engine : json["engines"]) engines.insert(engine["name"].get<std::string>());
+  EXPECT_TRUE(engines.count("unit stereo (stereo)") && engines.count("unit warp (warp)")) << json["engines"].dump();
+  EXPECT_EQ(json["frames_in_flight"].get<int>(), 3);
 }
 
 // A graph whose input is a disparity map gets the synthetic scene's true disparity (s16 Q4).
 TEST_F(Cli, ProfileFeedsADisparityInputTheScenesTrueDisparity) {
   const Result result = run("profile --graph road-profile --width 320 --height 160 --report " + path("r.json"));
   ASSERT_EQ(result.exit_code, 0) << result.err;
-  EXPECT_NE(result.out.find("v_disparity            vector v_disparity"), std::string::npos) << result.out;
-  EXPECT_NE(result.out.find("road_profile           arm    road_profile"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("v_disparity            vector engine v_disparity"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("road_profile           ARM           road_profile"), std::string::npos) << result.out;
 }
 
 TEST_F(Cli, GraphVerifyAndDot) {
