@@ -1,14 +1,18 @@
-// Census transform over a W x H window (Zabih & Woodfill 1994), shared by census5x5 and census9x7.
+// Census transform over a W x H window (Zabih & Woodfill 1994), shared by census5x5, census9x7 and
+// census9x9_sparse.
 //
 // Signature bit k (k = 0 .. W*H-2) is 1 when neighbour k of the window, in raster order with the
 // centre skipped, is strictly darker than the centre pixel. 5x5 gives 24 bits in a census32 word,
-// 9x7 gives 62 bits in a census64 word; the unused upper bits are 0.
+// 9x7 gives 62 bits in a census64 word; the unused upper bits are 0. A sparse census samples every
+// kStep-th pixel of every kStep-th row: W x H samples spread over a ((W - 1) kStep + 1)-wide window
+// (census9x9_sparse: 5x5 samples at step 2 over 9x9, 24 bits; the sparse census of Humenberger et
+// al., CVIU 2010, who sample every second pixel of a 16x16 window).
 //
 // Vector schedule (one chunk = B::kLanesU8 pixels of a row): the signature is built as
 // sizeof(Word) byte planes (plane g holds bits 8g .. 8g+7 of every pixel: compare, and with the
 // bit, or into the plane), then the planes are interleaved into Words with a zip tree.
 // Op count per chunk (documented closed form, checked by tests/kernels/census_test.cpp):
-//   load    = N + 1             (N = W*H - 1 neighbours, plus the centre)
+//   load    = N + 1             (N = W*H - 1 neighbours (samples), plus the centre)
 //   compare = N
 //   logic   = 2 N               (and with the bit, or into the plane)
 //   permute = census_chunk_permutes<Word>()   (8 zips for 32-bit words, 24 for 64-bit words)
@@ -31,9 +35,9 @@ constexpr int census_chunk_permutes() {
   return sizeof(Word) == 4 ? 8 : 24;
 }
 
-// The tile body, written once against back end B. Input 0: u8 tile with halo W/2 x H/2 around it;
-// output 0: Word tile.
-template <class B, int kWindowWidth, int kWindowHeight, class Word>
+// The tile body, written once against back end B. Input 0: u8 tile with halo (W/2) kStep x
+// (H/2) kStep around it; output 0: Word tile.
+template <class B, int kWindowWidth, int kWindowHeight, class Word, int kStep = 1>
 void census_tile(const TileArgs& args) {
   static_assert(sizeof(Word) == 4 || sizeof(Word) == 8, "census words are 32 or 64 bits");
   static_assert(kWindowWidth * kWindowHeight - 1 <= 8 * static_cast<int>(sizeof(Word)), "window too large for word");
@@ -41,8 +45,8 @@ void census_tile(const TileArgs& args) {
   constexpr int kLanes = B::kLanesU8;
   constexpr int kPlanes = static_cast<int>(sizeof(Word));
   constexpr int kWordLanes = kLanes / kPlanes;
-  constexpr int kRadiusX = kWindowWidth / 2;
-  constexpr int kRadiusY = kWindowHeight / 2;
+  constexpr int kRadiusX = kWindowWidth / 2 * kStep;
+  constexpr int kRadiusY = kWindowHeight / 2 * kStep;
 
   const PlaneView& source = args.inputs[0];
   const PlaneView& destination = args.outputs[0];
@@ -64,9 +68,9 @@ void census_tile(const TileArgs& args) {
       VU8 planes[kPlanes];
       for (int plane = 0; plane < kPlanes; ++plane) planes[plane] = zero;
       int bit_index = 0;
-      for (int dy = -kRadiusY; dy <= kRadiusY; ++dy) {
+      for (int dy = -kRadiusY; dy <= kRadiusY; dy += kStep) {
         const uint8_t* row = plane_row<const uint8_t>(source, y + dy);
-        for (int dx = -kRadiusX; dx <= kRadiusX; ++dx) {
+        for (int dx = -kRadiusX; dx <= kRadiusX; dx += kStep) {
           if (dx == 0 && dy == 0) continue;
           const VU8 neighbour = load_at(row, x + dx);
           const VU8 darker = B::cmpgt(centre, neighbour);
@@ -114,7 +118,7 @@ void census_tile(const TileArgs& args) {
 }
 
 // Scalar reference: full planes, border applied here (replicate or constant).
-template <int kWindowWidth, int kWindowHeight, class Word>
+template <int kWindowWidth, int kWindowHeight, class Word, int kStep = 1>
 void census_reference(const std::vector<PlaneView>& inputs, const std::vector<PlaneView>& outputs,
                       const void* /*params*/, BorderMode border_mode, uint32_t border_value) {
   const PlaneView& source = inputs[0];
@@ -125,10 +129,10 @@ void census_reference(const std::vector<PlaneView>& inputs, const std::vector<Pl
       const int centre = pixel(x, y);
       Word signature = 0;
       int bit = 0;
-      for (int dy = -kWindowHeight / 2; dy <= kWindowHeight / 2; ++dy) {
-        for (int dx = -kWindowWidth / 2; dx <= kWindowWidth / 2; ++dx) {
-          if (dx == 0 && dy == 0) continue;
-          if (pixel(x + dx, y + dy) < centre) signature |= Word{1} << bit;
+      for (int sample_y = -kWindowHeight / 2; sample_y <= kWindowHeight / 2; ++sample_y) {
+        for (int sample_x = -kWindowWidth / 2; sample_x <= kWindowWidth / 2; ++sample_x) {
+          if (sample_x == 0 && sample_y == 0) continue;
+          if (pixel(x + sample_x * kStep, y + sample_y * kStep) < centre) signature |= Word{1} << bit;
           ++bit;
         }
       }
@@ -137,23 +141,29 @@ void census_reference(const std::vector<PlaneView>& inputs, const std::vector<Pl
   }
 }
 
-// The descriptor both census kernels share; the caller fills the native table and registers it.
-template <int kWindowWidth, int kWindowHeight, class Word>
+// The descriptor the census kernels share; the caller fills the native table and registers it.
+template <int kWindowWidth, int kWindowHeight, class Word, int kStep = 1>
 KernelDescriptor census_descriptor(const char* name, ElementType word_type, TileFunction counting) {
+  constexpr int kRadiusX = kWindowWidth / 2 * kStep;
+  constexpr int kRadiusY = kWindowHeight / 2 * kStep;
   KernelDescriptor descriptor;
   descriptor.name = name;
-  descriptor.summary = "census transform over a " + std::to_string(kWindowWidth) + "x" +
-                       std::to_string(kWindowHeight) + " window (bit = neighbour darker than centre)";
+  descriptor.summary = "census transform over a " + std::to_string(2 * kRadiusX + 1) + "x" + std::to_string(2 * kRadiusY + 1) +
+                       " window" +
+                       (kStep > 1 ? " (" + std::to_string(kWindowWidth) + "x" + std::to_string(kWindowHeight) + " samples " +
+                                        std::to_string(kStep) + " px apart)"
+                                  : std::string()) +
+                       " (bit = neighbour darker than centre)";
   descriptor.ports = {{"input", PortDirection::input, {ElementType::u8, 0}, PortAccess::window},
                       {"output", PortDirection::output, {word_type, 0}, PortAccess::window}};
-  descriptor.halo = {kWindowWidth / 2, kWindowWidth / 2, kWindowHeight / 2, kWindowHeight / 2};
+  descriptor.halo = {kRadiusX, kRadiusX, kRadiusY, kRadiusY};
   descriptor.border_modes = {BorderMode::replicate, BorderMode::constant};
   descriptor.prepare = [](const nlohmann::json& params, const std::vector<PlaneShape>& input_shapes) {
     check_param_names(params, {});
     return PreparedKernel{nullptr, {input_shapes.at(0)}};
   };
   descriptor.counting = counting;
-  descriptor.reference = census_reference<kWindowWidth, kWindowHeight, Word>;
+  descriptor.reference = census_reference<kWindowWidth, kWindowHeight, Word, kStep>;
   return descriptor;
 }
 

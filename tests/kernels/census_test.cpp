@@ -1,5 +1,5 @@
-// census5x5 and census9x7: bit-exact against the scalar reference on every back end, closed-form op
-// count, and a golden-bit check of the signature layout.
+// census5x5, census9x7 and census9x9_sparse: bit-exact against the scalar reference on every back
+// end, closed-form op count, and golden-bit checks of the signature layout.
 #include <gtest/gtest.h>
 
 #include "dag/tile_executor.h"
@@ -28,8 +28,14 @@ TEST(Census, Census9x7MatchesReferenceAtOddSizeInPaddedBuffer) {
   expect_all_back_ends_match_reference(test_case, kTileShapes);
 }
 
+TEST(Census, Census9x9SparseMatchesReferenceAtOddSizeInPaddedBuffer) {
+  KernelCase test_case{"census9x9_sparse", {}, {}, 24};
+  test_case.inputs.push_back(random_plane(631, 479, {ElementType::u8, 0}, 640, 5));
+  expect_all_back_ends_match_reference(test_case, kTileShapes);
+}
+
 TEST(Census, TinyImagesSmallerThanTheWindow) {
-  for (const char* name : {"census5x5", "census9x7"}) {
+  for (const char* name : {"census5x5", "census9x7", "census9x9_sparse"}) {
     for (auto [width, height] : std::vector<std::pair<int, int>>{{1, 1}, {3, 2}, {65, 3}, {130, 1}}) {
       KernelCase test_case{name, {}, {}, 8};
       test_case.inputs.push_back(random_plane(width, height, {ElementType::u8, 0}, width + 3, 3));
@@ -62,6 +68,26 @@ TEST(Census, Census5x5GoldenBits) {
   }
 }
 
+// Golden bits of the sparse census: the samples sit two pixels apart in a 9x9 window, numbered in
+// raster order over the 5x5 samples with the centre (sample 12) skipped; darker samples at (0, 0),
+// (8, 0), (2, 4) and (8, 8) of the window are bits 0, 4, 11 and 23. A darker pixel between samples,
+// at (1, 1), changes nothing.
+TEST(Census, Census9x9SparseGoldenBits) {
+  Plane input(9, 9, {ElementType::u8, 0});
+  for (int y = 0; y < 9; ++y) {
+    for (int x = 0; x < 9; ++x) input.at<uint8_t>(x, y) = 100;
+  }
+  for (auto [x, y] : std::vector<std::pair<int, int>>{{0, 0}, {8, 0}, {2, 4}, {8, 8}, {1, 1}}) input.at<uint8_t>(x, y) = 99;
+  const KernelDescriptor& kernel = testing::kernel_named("census9x9_sparse");
+  EXPECT_EQ(kernel.halo, (Halo{4, 4, 4, 4}));
+  for (simd::Isa isa : simd::available_isas()) {
+    Plane output(9, 9, {ElementType::census32, 0});
+    VectorNodeBinding binding{&kernel, nullptr, BorderMode::replicate, 0, {input.view()}, {output.view()}};
+    run_vector_node(binding, 9, 9, KernelBackend::native, isa);
+    EXPECT_EQ(output.at<uint32_t>(4, 4), (1u << 0) | (1u << 4) | (1u << 11) | (1u << 23)) << simd::isa_name(isa);
+  }
+}
+
 // The closed form of census_window.h, for one tile covering a W x H image:
 //   chunks = H * ceil(W / 64); load = 25 chunks; compare = 24 chunks; logic = 48 chunks;
 //   permute = 8 chunks + 9 (broadcasts); store = H * ceil(W / 16).
@@ -76,12 +102,15 @@ simd::OpCounts census5x5_closed_form(int64_t width, int64_t height) {
   return counts;
 }
 
-TEST(Census, Census5x5CountedOpsEqualClosedForm) {
-  for (auto [width, height] : std::vector<std::pair<int, int>>{{631, 479}, {640, 480}, {1, 1}, {65, 7}, {200, 3}}) {
-    KernelCase test_case{"census5x5", {}, {}, 0};
-    test_case.inputs.push_back(random_plane(width, height, {ElementType::u8, 0}, 0, 4));
-    EXPECT_TRUE(testing::op_counts_equal(census5x5_closed_form(width, height), testing::count_ops(test_case, width, height)))
-        << width << "x" << height;
+// census9x9_sparse has the same 24 samples, so the same closed form.
+TEST(Census, Census5x5AndSparse9x9CountedOpsEqualClosedForm) {
+  for (const char* name : {"census5x5", "census9x9_sparse"}) {
+    for (auto [width, height] : std::vector<std::pair<int, int>>{{631, 479}, {640, 480}, {1, 1}, {65, 7}, {200, 3}}) {
+      KernelCase test_case{name, {}, {}, 0};
+      test_case.inputs.push_back(random_plane(width, height, {ElementType::u8, 0}, 0, 4));
+      EXPECT_TRUE(testing::op_counts_equal(census5x5_closed_form(width, height), testing::count_ops(test_case, width, height)))
+          << name << " " << width << "x" << height;
+    }
   }
 }
 

@@ -131,6 +131,7 @@ const std::vector<GoldenCase>& golden_cases() {
   static const std::vector<GoldenCase> cases = {
       {"census5x5", nlohmann::json::object(), BorderMode::replicate, {{97, 61}}, 0x40ccef81b86a8ea8ull},
       {"census9x7", nlohmann::json::object(), BorderMode::constant, {{97, 61}}, 0x1baf97e699f34578ull},
+      {"census9x9_sparse", nlohmann::json::object(), BorderMode::replicate, {{97, 61}}, 0x65e9259a0553b942ull},
       {"census_wta_disparity", {{"min_disparity", -3}, {"num_disparities", 24}, {"max_cost_bits", 5}},
        BorderMode::replicate, {{97, 61}, {97, 61}}, 0x78c485fbf2aecb61ull},
       {"median3x3", nlohmann::json::object(), BorderMode::replicate, {{97, 61}}, 0xfe146256b73fdb16ull},

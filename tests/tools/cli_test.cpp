@@ -8,9 +8,10 @@
 
 #include <array>
 #include <cstdio>
-#include <set>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
 #include <sstream>
 #include <string>
 
@@ -145,6 +146,34 @@ TEST_F(Cli, ProfileRunsTheDisparityGraphOnTheUnits) {
   for (const nlohmann::json& engine : json["engines"]) engines.insert(engine["name"].get<std::string>());
   EXPECT_TRUE(engines.count("unit stereo (stereo)") && engines.count("unit warp (warp)")) << json["engines"].dump();
   EXPECT_EQ(json["frames_in_flight"].get<int>(), 3);
+}
+
+// TI's measured loads as the independent check of the tda4vm-c7x units (TI Robotics SDK performance
+// report, LDC + SDE at 1280x720, search range 128, 15 fps: SDE 16.3-16.5 %, two layers 21.1-21.3 %,
+// LDC 4.4-4.5 %). The units' rates come from TI's rate documents (targets/tda4vm-c7x.json), never
+// from these loads. Model, one layer: SDE 1280 x 720 / (0.1615 px/cycle x 520 MHz) + 100 us =
+// 11.07 ms of the 66.7 ms a frame = 16.6 %; the second layer adds a quarter of the pixels and its
+// own set-up: 20.9 %. LDC: two views of 1280 x 720 at 1 px/cycle, 650 MHz, + 100 us each = 3.04 ms
+// = 4.6 %.
+TEST_F(Cli, Tda4vmUnitsReproduceTisMeasuredSdeAndLdcLoads) {
+  auto loads = [&](const std::string& graph) {
+    const std::string report = path(graph + ".json");
+    const Result result =
+        run("profile --graph " + graph + " --target tda4vm-c7x --width 1280 --height 720 --fps 15 --enforce --report " + report);
+    EXPECT_EQ(result.exit_code, 0) << result.err << result.out;
+    std::ifstream file(report);
+    const nlohmann::json json = nlohmann::json::parse(file);
+    std::map<std::string, double> by_engine;
+    for (const nlohmann::json& engine : json["engines"]) by_engine[engine["name"]] = engine["load_percent"].get<double>();
+    return by_engine;
+  };
+  const std::map<std::string, double> one_layer = loads("tda4vm-ldc-sde");
+  ASSERT_TRUE(one_layer.count("unit stereo (stereo)") && one_layer.count("unit warp (warp)"));
+  EXPECT_NEAR(one_layer.at("unit stereo (stereo)"), 16.4, 3.0);
+  EXPECT_NEAR(one_layer.at("unit warp (warp)"), 4.45, 1.0);
+  const std::map<std::string, double> two_layers = loads("tda4vm-ldc-sde-2layer");
+  ASSERT_TRUE(two_layers.count("unit stereo (stereo)") && two_layers.count("unit scaler (scaler)"));
+  EXPECT_NEAR(two_layers.at("unit stereo (stereo)"), 21.2, 3.0);
 }
 
 // A graph whose input is a disparity map gets the synthetic scene's true disparity (s16 Q4).
