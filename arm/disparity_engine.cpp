@@ -164,6 +164,21 @@ void mirror_rows(const Plane& source, Plane& destination) {
 }
 }  // namespace
 
+DisparityParameters chip_configuration(const DisparityParameters& requested, const std::vector<int>& offered_search_ranges) {
+  if (offered_search_ranges.empty()) throw std::invalid_argument("chip_configuration: the unit offers no search range");
+  DisparityParameters chip;  // the defaults: census 5x5, penalties, uniqueness, sub-pixel, median
+  chip.min_disparity = requested.min_disparity;
+  chip.paths = 4;
+  chip.lr_max_diff = 1;
+  chip.speckle_max_size_px = 0;
+  chip.schedule = SgmSchedule::sequential;
+  std::vector<int> ranges = offered_search_ranges;
+  std::sort(ranges.begin(), ranges.end());
+  const auto covering = std::lower_bound(ranges.begin(), ranges.end(), requested.num_disparities);
+  chip.num_disparities = covering == ranges.end() ? ranges.back() : *covering;
+  return chip;
+}
+
 std::string settings_text(const DisparityParameters& parameters) {
   const std::string census = parameters.census_width == 9 ? "census 9x7" : "census 5x5";
   if (parameters.paths == 0) {

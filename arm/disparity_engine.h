@@ -107,6 +107,14 @@ struct DisparityParameters {
   int multires_far_disparities = 128;
 };
 
+// The chip configuration: what a stereo unit of the target model runs, graphs/disparity.json's
+// matcher: single-pass 4-path SGM on census 5x5 with the default penalties, uniqueness 5 %, sub-pixel,
+// LR check 1 px, the 3x3 median, no speckle filter (an ARM task the 4K frame budget does not hold),
+// over the smallest search range the unit offers that covers the requested one (the largest it
+// offers when none does: the unit searches no further). min_disparity is the requested one.
+// offered_search_ranges: the unit's (UnitLimits::search_ranges), not empty.
+DisparityParameters chip_configuration(const DisparityParameters& requested, const std::vector<int>& offered_search_ranges);
+
 // One line naming every setting, for reports and benchmarks ("8-path SGM, census 5x5, P1 5, P2 45, ...").
 std::string settings_text(const DisparityParameters& parameters);
 

@@ -692,74 +692,71 @@ std::string joined(const std::vector<std::string>& names) {
   return text.empty() ? "none" : text;
 }
 
-// An integer SGM parameter a stereo unit is programmed with: the node must state it.
-int unit_parameter(const NodeInfo& node, const UnitLimits& unit, const char* key) {
-  if (!node.spec.params.contains(key) || !node.spec.params.at(key).is_number_integer()) {
-    throw VerifyError(kPhaseMemory, "node '" + node.spec.name + "' on unit '" + unit.name + "': parameter '" + key +
-                                        "' must be given as an integer (a unit is programmed with explicit values)");
-  }
-  return node.spec.params.at(key).get<int>();
-}
-
 }  // namespace
+
+std::string unit_refusal(const UnitLimits& unit, const NodeInfo& node, const std::vector<BufferInfo>& buffers) {
+  std::vector<int> planes = node.input_buffers;
+  planes.insert(planes.end(), node.output_buffers.begin(), node.output_buffers.end());
+  for (int b : planes) {
+    const PlaneShape& shape = buffers[b].shape;
+    if (shape.width > unit.max_width || shape.height > unit.max_height) {
+      return "buffer '" + buffers[b].name + "' is " + std::to_string(shape.width) + "x" + std::to_string(shape.height) +
+             ", the unit's limit is " + std::to_string(unit.max_width) + "x" + std::to_string(unit.max_height);
+    }
+  }
+  if (node.kernel == nullptr || std::find(unit.functions.begin(), unit.functions.end(), node.kernel->name) == unit.functions.end()) {
+    return (node.kernel ? "kernel '" + node.kernel->name + "'" : "task '" + node.spec.task + "'") +
+           " is not one of its functions (" + joined(unit.functions) + ")";
+  }
+  if (unit.kind == "stereo") {
+    if (node.kernel->name.rfind("census", 0) == 0) {
+      const Halo& halo = node.kernel->halo;
+      const int width = halo.left + halo.right + 1, height = halo.top + halo.bottom + 1;
+      if (width != unit.census_width || height != unit.census_height) {
+        return "census window " + std::to_string(width) + "x" + std::to_string(height) + ", the unit's is " +
+               std::to_string(unit.census_width) + "x" + std::to_string(unit.census_height);
+      }
+    } else {
+      // A unit is programmed with explicit values: the node must state each one.
+      int values[3] = {0, 0, 0};
+      const char* keys[3] = {"num_disparities", "p1", "p2"};
+      for (int i = 0; i < 3; ++i) {
+        if (!node.spec.params.contains(keys[i]) || !node.spec.params.at(keys[i]).is_number_integer()) {
+          return std::string("parameter '") + keys[i] + "' must be given as an integer (a unit is programmed with explicit values)";
+        }
+        values[i] = node.spec.params.at(keys[i]).get<int>();
+      }
+      if (std::find(unit.search_ranges.begin(), unit.search_ranges.end(), values[0]) == unit.search_ranges.end()) {
+        std::vector<std::string> offered;
+        for (int value : unit.search_ranges) offered.push_back(std::to_string(value));
+        return "search range (num_disparities) " + std::to_string(values[0]) + " is not one the unit offers (" + joined(offered) + ")";
+      }
+      if (values[1] > unit.p1_max || values[2] > unit.p2_max) {
+        return "penalties p1 " + std::to_string(values[1]) + ", p2 " + std::to_string(values[2]) + ", the unit's limits are p1 <= " +
+               std::to_string(unit.p1_max) + ", p2 <= " + std::to_string(unit.p2_max);
+      }
+    }
+  }
+  const size_t state = row_state_bytes(node, buffers);
+  if (state > unit.local_memory_bytes) {
+    return "row state of " + std::to_string(state) + " bytes, the unit's local memory is " +
+           std::to_string(unit.local_memory_bytes) + " bytes (over by " + std::to_string(state - unit.local_memory_bytes) + ")";
+  }
+  return "";
+}
 
 void Graph::check_unit_node(const NodeInfo& node) const {
   const MemoryBudget& memory = options_.memory;
-  const std::string who = "node '" + node.spec.name + "'";
   const auto unit = std::find_if(memory.units.begin(), memory.units.end(),
                                  [&](const UnitLimits& candidate) { return candidate.name == node.spec.engine; });
   if (unit == memory.units.end()) {
     std::vector<std::string> names;
     for (const UnitLimits& candidate : memory.units) names.push_back(candidate.name);
-    throw VerifyError(kPhaseMemory, who + ": engine '" + node.spec.engine + "': target '" + memory.target_name +
-                                        "' has no such unit (its units: " + joined(names) + ")");
+    throw VerifyError(kPhaseMemory, "node '" + node.spec.name + "': engine '" + node.spec.engine + "': target '" +
+                                        memory.target_name + "' has no such unit (its units: " + joined(names) + ")");
   }
-  const std::string where = who + " on unit '" + unit->name + "'";
-  std::vector<int> planes = node.input_buffers;
-  planes.insert(planes.end(), node.output_buffers.begin(), node.output_buffers.end());
-  for (int b : planes) {
-    const PlaneShape& shape = buffers_[b].shape;
-    if (shape.width > unit->max_width || shape.height > unit->max_height) {
-      throw VerifyError(kPhaseMemory, where + ": buffer '" + buffers_[b].name + "' is " + std::to_string(shape.width) + "x" +
-                                          std::to_string(shape.height) + ", the unit's limit is " +
-                                          std::to_string(unit->max_width) + "x" + std::to_string(unit->max_height));
-    }
-  }
-  if (std::find(unit->functions.begin(), unit->functions.end(), node.kernel->name) == unit->functions.end()) {
-    throw VerifyError(kPhaseMemory, where + ": kernel '" + node.kernel->name + "' is not one of its functions (" +
-                                        joined(unit->functions) + ")");
-  }
-  if (unit->kind == "stereo") {
-    if (node.kernel->name.rfind("census", 0) == 0) {
-      const Halo& halo = node.kernel->halo;
-      const int width = halo.left + halo.right + 1, height = halo.top + halo.bottom + 1;
-      if (width != unit->census_width || height != unit->census_height) {
-        throw VerifyError(kPhaseMemory, where + ": census window " + std::to_string(width) + "x" + std::to_string(height) +
-                                            ", the unit's is " + std::to_string(unit->census_width) + "x" +
-                                            std::to_string(unit->census_height));
-      }
-    } else {
-      const int range = unit_parameter(node, *unit, "num_disparities");
-      if (std::find(unit->search_ranges.begin(), unit->search_ranges.end(), range) == unit->search_ranges.end()) {
-        std::vector<std::string> offered;
-        for (int value : unit->search_ranges) offered.push_back(std::to_string(value));
-        throw VerifyError(kPhaseMemory, where + ": search range (num_disparities) " + std::to_string(range) +
-                                            " is not one the unit offers (" + joined(offered) + ")");
-      }
-      const int p1 = unit_parameter(node, *unit, "p1"), p2 = unit_parameter(node, *unit, "p2");
-      if (p1 > unit->p1_max || p2 > unit->p2_max) {
-        throw VerifyError(kPhaseMemory, where + ": penalties p1 " + std::to_string(p1) + ", p2 " + std::to_string(p2) +
-                                            ", the unit's limits are p1 <= " + std::to_string(unit->p1_max) +
-                                            ", p2 <= " + std::to_string(unit->p2_max));
-      }
-    }
-  }
-  const size_t state = row_state_bytes(node, buffers_);
-  if (state > unit->local_memory_bytes) {
-    throw VerifyError(kPhaseMemory, where + ": row state of " + std::to_string(state) + " bytes, the unit's local memory is " +
-                                        std::to_string(unit->local_memory_bytes) + " bytes (over by " +
-                                        std::to_string(state - unit->local_memory_bytes) + ")");
-  }
+  const std::string refusal = unit_refusal(*unit, node, buffers_);
+  if (!refusal.empty()) throw VerifyError(kPhaseMemory, "node '" + node.spec.name + "' on unit '" + unit->name + "': " + refusal);
 }
 
 void Graph::phase_memory_placement() {

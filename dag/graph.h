@@ -225,6 +225,11 @@ class Graph {
   size_t dram_peak_bytes_ = 0;
 };
 
+// Why `unit` cannot run `node` (a verified graph's node and buffers): the first limit it breaks,
+// naming the limit and the actual value, or "" when the unit can run it. verify() phase 4 refuses
+// a node bound to a unit with this text; a caller choosing where a node runs asks it first.
+std::string unit_refusal(const UnitLimits& unit, const NodeInfo& node, const std::vector<BufferInfo>& buffers);
+
 // Bytes of row state a vector node keeps across the tiles of a frame (KernelDescriptor::state_bytes
 // for its output size); 0 for nodes without row state and for ARM tasks.
 size_t row_state_bytes(const NodeInfo& node, const std::vector<BufferInfo>& buffers);

@@ -1,5 +1,6 @@
 #include "tools/eval_command.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -13,6 +14,7 @@
 
 #include "arm/disparity_engine.h"
 #include "dag/atomic_file.h"
+#include "host_sim/target.h"
 #include "io/disparity_metrics.h"
 #include "io/image_io.h"
 #include "io/kitti_poses.h"
@@ -31,6 +33,7 @@ constexpr const char* kLpstereoMethod = "lpstereo";
 struct Method {
   std::string name;                 // row label and JSON key
   std::optional<io::SgbmMode> sgbm; // empty: lpstereo's engine
+  bool chip = false;                // lpstereo's engine in the chip configuration (--chip)
 };
 
 // Every number of one evaluation, flattened ("all.dense.bad2_pct" -> value); NaN = not available.
@@ -284,6 +287,18 @@ int run_eval(const EvalOptions& options) {
   std::vector<io::StereoPair> pairs = options.benchmark == "middlebury" ? io::load_middlebury_pairs(data_directory)
                                                                          : io::load_kitti_pairs(data_directory);
   std::vector<Method> methods = {{kLpstereoMethod, std::nullopt}};
+  // --chip TARGET: the configuration the chip graphs run on TARGET's stereo unit, beside the defaults.
+  std::vector<int> chip_search_ranges;
+  if (!options.chip_target.empty()) {
+    const host_sim::Target target = host_sim::load_target(options.chip_target);
+    for (const host_sim::FixedFunctionUnit& unit : target.units) {
+      if (unit.limits.kind == "stereo" && chip_search_ranges.empty()) chip_search_ranges = unit.limits.search_ranges;
+    }
+    if (chip_search_ranges.empty()) {
+      throw CommandError(kExitUsage, "--chip: expected a target with a stereo unit, target '" + target.name + "' has none");
+    }
+    methods.push_back({std::string(kLpstereoMethod) + " chip", std::nullopt, true});
+  }
   if (with_opencv) {
     for (io::SgbmMode mode : {io::SgbmMode::sgbm, io::SgbmMode::sgbm_3way, io::SgbmMode::hh}) {
       methods.push_back({std::string("opencv ") + io::sgbm_mode_name(mode), mode});
@@ -301,6 +316,11 @@ int run_eval(const EvalOptions& options) {
                                    " px at full resolution, the whole range at half resolution, fused")
                                       .c_str()
                                 : "");
+  if (!chip_search_ranges.empty()) {
+    std::printf("lpstereo chip: arm::chip_configuration on %s's stereo unit (%s; the smallest offered range covering "
+                "each pair's)\n",
+                options.chip_target.c_str(), arm::settings_text(arm::chip_configuration(single_pass, chip_search_ranges)).c_str());
+  }
   if (with_opencv) std::printf("%s\n", io::sgbm_settings_text(sgbm_settings).c_str());
 
   nlohmann::json report;
@@ -352,6 +372,11 @@ int run_eval(const EvalOptions& options) {
         arm::DisparityParameters parameters = defaults;
         parameters.min_disparity = pair.min_disparity_px;
         parameters.num_disparities = pair.num_disparities;
+        if (method.chip) {
+          // The unit searches its own range; one that runs past the image is cut to the width.
+          parameters = arm::chip_configuration(parameters, chip_search_ranges);
+          parameters.num_disparities = std::min(parameters.num_disparities, width - pair.min_disparity_px);
+        }
         arm::DisparityEngine engine(width, pair.left.height(), parameters, {}, options.threads);
         disparity_q4 = engine.compute(pair.left, pair.right);  // shares the buffer, which outlives the engine
       }

@@ -22,6 +22,7 @@ struct EvalOptions {
   std::optional<int> min_disparity_px;  // overrides every pair's range
   int threads = 0;                 // engine worker threads (0 = one per hardware thread)
   MultiresOptions multires;        // --multires on|off [--multires-far F]: the engine's multi-resolution mode
+  std::string chip_target;         // --chip TARGET: also the chip configuration of TARGET's stereo unit; empty: not
   // odometry only
   std::vector<double> segment_lengths_m;  // --lengths; empty: io::automatic_segment_lengths_m
   std::optional<int> step_frames;         // --step; default 1

@@ -187,6 +187,8 @@ struct DisparityOptions : tools::DisparityEngineOptions {
   double fps = 30;
   // both
   std::string target_name;  // empty: cv1-class for --synthetic, no profile otherwise
+  std::string config = "host";  // host: the engine's accurate defaults; chip: what the target's stereo unit runs
+  std::vector<std::string> matcher_flags_given;  // the matcher flags on the command line (--config chip refuses them)
   int threads = 0;
   std::string backend = "native";
   // LEFT RIGHT only: calibration (one file or A,B), rectify with it, the right-view map
@@ -301,6 +303,30 @@ double density_pct(const Plane& disparity_q4, int16_t invalid_q4) {
 
 using tools::profile_engine_on_target;  // tools/target_profile.h
 
+// The matcher flags a --config chip run refuses: the chip configuration fixes them.
+const std::vector<std::string> kMatcherFlags = {"--paths",  "--census",       "--p1",            "--p2",
+                                                "--lr-check", "--uniqueness", "--subpixel",      "--median",
+                                                "--speckle-size", "--speckle-range", "--multires", "--multires-far"};
+
+// --config chip: the engine's parameters replaced by the chip configuration of the target's stereo
+// unit (arm::chip_configuration; the target: --target, else cv1-class), checked against the width.
+arm::DisparityParameters configured(const DisparityOptions& options, const arm::DisparityParameters& parameters, int width) {
+  if (options.config != "chip") return parameters;
+  if (!options.matcher_flags_given.empty()) {
+    throw CommandError(kExitUsage, "--config chip fixes the matcher (arm::chip_configuration): expected none of the matcher flags, got " +
+                                       options.matcher_flags_given.front());
+  }
+  const std::string target_name = options.target_name.empty() ? "cv1-class" : options.target_name;
+  const host_sim::Target target = host_sim::load_target(target_name);
+  for (const host_sim::FixedFunctionUnit& unit : target.units) {
+    if (unit.limits.kind != "stereo") continue;
+    const arm::DisparityParameters chip = arm::chip_configuration(parameters, unit.limits.search_ranges);
+    tools::check_disparity_range(chip.min_disparity, chip.num_disparities, width);
+    return chip;
+  }
+  throw CommandError(kExitUsage, "--config chip: expected a target with a stereo unit, target '" + target.name + "' has none");
+}
+
 // The built-in scene: disparity.png, disparity_color.png, the views, the truth and the profile on a
 // target, all into one folder.
 int run_disparity_synthetic(const DisparityOptions& options) {
@@ -320,7 +346,8 @@ int run_disparity_synthetic(const DisparityOptions& options) {
   const io::SyntheticStereoScene scene = io::make_synthetic_stereo_scene(scene_options);
   // Default range: the scene's largest disparity, rounded up to a multiple of 16.
   const int scene_num_disparities = std::min(options.size.width, (scene.max_disparity_px + 1 + 15) / 16 * 16);
-  const arm::DisparityParameters parameters = tools::disparity_parameters(options, options.size.width, scene_num_disparities);
+  const arm::DisparityParameters parameters =
+      configured(options, tools::disparity_parameters(options, options.size.width, scene_num_disparities), options.size.width);
   const host_sim::Target target = host_sim::load_target(options.target_name.empty() ? "cv1-class" : options.target_name);
   arm::DisparityEngine engine(options.size.width, options.size.height, parameters, MemoryBudget{}, options.threads,
                               kernel_backend(options));
@@ -414,7 +441,8 @@ int run_disparity_files(const DisparityOptions& options) {
       right = rectified.right;
     }
   }
-  const arm::DisparityParameters parameters = tools::disparity_parameters(options, left.width(), arm::DisparityParameters{}.num_disparities);
+  const arm::DisparityParameters parameters = configured(
+      options, tools::disparity_parameters(options, left.width(), arm::DisparityParameters{}.num_disparities), left.width());
   std::optional<host_sim::Target> target;
   if (!options.target_name.empty()) target = host_sim::load_target(options.target_name);
   arm::DisparityEngine engine(left.width(), left.height(), parameters, MemoryBudget{}, options.threads, kernel_backend(options));
@@ -564,6 +592,13 @@ int main(int argc, char** argv) {
                         "target to profile the engine's graph on (targets/NAME.json or file; with --report; "
                         "--synthetic: default cv1-class)");
   disparity->add_option("--report", disparity_options.report_path, "profile report JSON (with --target)");
+  disparity->add_option("--config", disparity_options.config,
+                        "host: the engine's accurate defaults; chip: what the target's stereo unit runs (4-path SGM, "
+                        "LR check 1 px, no speckle filter, the smallest search range the unit offers that covers "
+                        "--num-disp; the target: --target, else cv1-class), the configuration the profile then costs "
+                        "on the unit")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"host", "chip"}));
   disparity->add_flag("--synthetic", disparity_options.synthetic,
                       "the built-in scene: disparity.png, disparity_color.png, left/right/ground_truth.png and "
                       "profile.json/trace.json/profile.md into --out-dir");
@@ -593,6 +628,9 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0, 256));
   tools::add_multires_options(*eval, eval_options.multires);
+  eval->add_option("--chip", eval_options.chip_target,
+                   "also the chip configuration of this target's stereo unit (arm::chip_configuration: 4-path SGM, "
+                   "LR 1 px, no speckle filter, the unit's search range), as 'lpstereo chip'");
   eval->add_option("--lengths", eval_options.segment_lengths_m,
                    "odometry: segment lengths in metres, comma-separated (default: the lengths the path allows, "
                    "KITTI's 100,...,800 beyond 800 m)")
@@ -668,6 +706,9 @@ int main(int argc, char** argv) {
   }
   try {
     if (*disparity) {
+      for (const std::string& flag : kMatcherFlags) {
+        if (disparity->count(flag) > 0) disparity_options.matcher_flags_given.push_back(flag);
+      }
       return disparity_options.synthetic ? run_disparity_synthetic(disparity_options) : run_disparity_files(disparity_options);
     }
     if (*eval) return tools::run_eval(eval_options);

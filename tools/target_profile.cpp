@@ -13,13 +13,41 @@ Graph verified_for_target(const GraphSpec& spec, const host_sim::Target& target,
   return graph;
 }
 
+void bind_to_units(GraphSpec& spec, const host_sim::Target& target, int width, int height) {
+  if (target.units.empty()) return;
+  const Graph on_vector = verified_for_target(spec, target, width, height, false);
+  for (size_t n = 0; n < spec.nodes.size(); ++n) {
+    const NodeInfo& node = on_vector.nodes()[n];
+    if (!node.is_vector() || !spec.nodes[n].engine.empty()) continue;
+    for (const host_sim::FixedFunctionUnit& unit : target.units) {
+      if (unit_refusal(unit.limits, node, on_vector.buffers()).empty()) {
+        spec.nodes[n].engine = unit.limits.name;
+        break;
+      }
+    }
+  }
+  // A stereo unit computes its census only for its own matcher: a census whose matcher stays on the
+  // vector engine stays there too.
+  for (size_t n = 0; n < spec.nodes.size(); ++n) {
+    const host_sim::FixedFunctionUnit* unit = spec.nodes[n].engine.empty() ? nullptr : target.unit(spec.nodes[n].engine);
+    if (unit == nullptr || unit->limits.kind != "stereo" || spec.nodes[n].kernel.rfind("census", 0) != 0) continue;
+    for (int output : on_vector.nodes()[n].output_buffers) {
+      for (int consumer : on_vector.buffers()[output].consumer_nodes) {
+        if (spec.nodes[consumer].engine != spec.nodes[n].engine) spec.nodes[n].engine.clear();
+      }
+    }
+  }
+}
+
 host_sim::ProfileReport profile_engine_on_target(const arm::DisparityParameters& parameters, int width, int height,
                                                  const host_sim::Target& target,
                                                  const std::map<std::string, const Plane*>& inputs,
                                                  const host_sim::ProfileOptions& options) {
   arm::DisparityParameters chip = parameters;
   chip.schedule = arm::SgmSchedule::sequential;
-  const Graph graph = verified_for_target(arm::DisparityEngine::graph_spec(chip), target, width, height);
+  GraphSpec spec = arm::DisparityEngine::graph_spec(chip);
+  bind_to_units(spec, target, width, height);
+  const Graph graph = verified_for_target(spec, target, width, height);
   return host_sim::profile_graph(graph, target, inputs, options);
 }
 

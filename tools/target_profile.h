@@ -17,9 +17,16 @@ namespace lpstereo::tools {
 // SRAM were large enough (a profile of a graph that does not fit).
 Graph verified_for_target(const GraphSpec& spec, const host_sim::Target& target, int width, int height, bool check_sram = true);
 
+// Binds every node of `spec` that no engine names to the first of the target's units that can run
+// it at width x height (dag/graph.h unit_refusal): the chip runs a stage on its fixed-function unit
+// when it has one that takes it (census and 4-path SGM on a stereo unit; 8-path SGM has none and
+// stays on the vector engine).
+void bind_to_units(GraphSpec& spec, const host_sim::Target& target, int width, int height);
+
 // The engine's graph profiled on a target in the chip's schedule: the single row-streaming SGM
 // passes (arm::SgmSchedule::sequential), which give the same bits as the host's two-passes-side-by-
-// side schedule but keep fewer W x H x D volumes in DRAM. Verified against the target's memory.
+// side schedule but keep fewer W x H x D volumes in DRAM), each stage on a unit of the target that
+// takes it (bind_to_units). Verified against the target's memory.
 host_sim::ProfileReport profile_engine_on_target(const arm::DisparityParameters& parameters, int width, int height,
                                                  const host_sim::Target& target,
                                                  const std::map<std::string, const Plane*>& inputs,

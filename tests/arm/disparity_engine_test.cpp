@@ -478,5 +478,30 @@ TEST(DisparityEngineMustFail, RefusesBadParameters) {
   EXPECT_ANY_THROW(arm::DisparityEngine(64, 32, parameters));
 }
 
+// The chip configuration: graphs/disparity.json's matcher over the smallest offered range covering
+// the requested one, the largest offered when none does; the requested smallest disparity kept.
+TEST(DisparityEngine, ChipConfigurationIsTheUnitsMatcherOverAnOfferedRange) {
+  arm::DisparityParameters requested;
+  requested.min_disparity = -3;
+  requested.num_disparities = 80;
+  requested.paths = 8;
+  requested.lr_max_diff = 2;
+  requested.census_width = 9;
+  const arm::DisparityParameters chip = arm::chip_configuration(requested, {256, 64, 128});
+  EXPECT_EQ(chip.min_disparity, -3);
+  EXPECT_EQ(chip.num_disparities, 128);
+  EXPECT_EQ(chip.paths, 4);
+  EXPECT_EQ(chip.census_width, 5);
+  EXPECT_EQ(chip.lr_max_diff, 1);
+  EXPECT_EQ(chip.speckle_max_size_px, 0);
+  EXPECT_TRUE(chip.median && chip.subpixel);
+  EXPECT_EQ(chip.uniqueness_percent, arm::DisparityParameters{}.uniqueness_percent);
+  requested.num_disparities = 64;
+  EXPECT_EQ(arm::chip_configuration(requested, {64, 128, 256}).num_disparities, 64);
+  requested.num_disparities = 300;
+  EXPECT_EQ(arm::chip_configuration(requested, {64, 128, 256}).num_disparities, 256);
+  EXPECT_THROW(arm::chip_configuration(requested, {}), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace lpstereo

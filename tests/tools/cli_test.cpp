@@ -65,6 +65,40 @@ TEST_F(Cli, MainJobWritesDisparityColourViewAndProfile) {
   EXPECT_TRUE(no_temporaries());
 }
 
+// The demo's run (scripts/run-demo.sh): the chip configuration, census and 4-path SGM on cv1-class's
+// stereo unit over the unit's range that covers the scene's, and a profile that fits the budget.
+TEST_F(Cli, ChipConfigurationRunsOnTheStereoUnitAndFits) {
+  const Result result = run("disparity --synthetic --config chip --width 320 --height 240 --out-dir " + path("chip"));
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  std::ifstream report(path("chip/profile.json"));
+  const nlohmann::json json = nlohmann::json::parse(report);
+  EXPECT_TRUE(json["fits_budget"].get<bool>());
+  std::map<std::string, std::string> engine_of;
+  for (const nlohmann::json& node : json["nodes"]) engine_of[node["implementation"]] = node["engine"];
+  EXPECT_EQ(engine_of["sgm_4path"], "stereo");
+  EXPECT_EQ(engine_of["census5x5"], "stereo");
+  EXPECT_EQ(engine_of["median3x3_s16"], "vector engine");
+  EXPECT_EQ(engine_of.count("speckle_filter"), 0u);
+  EXPECT_NE(result.out.find("disparities [0, 64)"), std::string::npos) << result.out;  // the scene's 48, the unit's 64
+  EXPECT_NE(result.out.find("fits the budget"), std::string::npos) << result.out;
+  // The chip configuration fixes the matcher; a target without a stereo unit has none.
+  const Result flags = run("disparity --synthetic --config chip --paths 8 --out-dir " + path("chip2"));
+  EXPECT_EQ(flags.exit_code, 2);
+  EXPECT_EQ(flags.err, "lpstereo: --config chip fixes the matcher (arm::chip_configuration): expected none of the matcher "
+                       "flags, got --paths\n");
+  std::ofstream no_units(path("no-units.json"));
+  std::ifstream cv1(std::string(LPSTEREO_SOURCE_DIR) + "/targets/cv1-class.json");
+  nlohmann::json target = nlohmann::json::parse(cv1);
+  target.erase("units");
+  target["name"] = "no-units";
+  no_units << target.dump();
+  no_units.close();
+  const Result none = run("disparity --synthetic --config chip --target " + path("no-units.json") + " --out-dir " + path("chip3"));
+  EXPECT_EQ(none.exit_code, 2);
+  EXPECT_EQ(none.err, "lpstereo: --config chip: expected a target with a stereo unit, target 'no-units' has none\n");
+  EXPECT_FALSE(fs::exists(path("chip2")) || fs::exists(path("chip3")));
+}
+
 TEST_F(Cli, ProfileWritesReportTraceAndSummary) {
   const Result result = run("profile --graph stereo-census-wta --target tda4vm-c7x --width 640 --height 288 --report " +
                             path("r.json") + " --trace " + path("t.json") + " --summary-md " + path("s.md"));
