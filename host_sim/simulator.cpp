@@ -207,82 +207,95 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
   }
   const int first_core_track = static_cast<int>(report.tracks.size());
   for (int core = 0; core < target.arm.cores; ++core) report.tracks.push_back("ARM core " + std::to_string(core));
-  double vector_free = 0, dma_free = 0;
-  std::vector<double> unit_free(unit_tracks.size(), 0.0);
-  std::vector<double> core_free(static_cast<size_t>(target.arm.cores), 0.0);
-  std::vector<std::vector<double>> dispatch_end(static_cast<size_t>(frames), std::vector<double>(plan.dispatches.size(), 0));
-  std::vector<double> frame_start(static_cast<size_t>(frames), 0), frame_end(static_cast<size_t>(frames), 0);
-  for (int frame = 0; frame < frames; ++frame) {
-    // The pipeline holds frames_in_flight frames: this one enters when the one that many before has left.
-    const double admitted = frame >= frames_in_flight ? frame_end[frame - frames_in_flight] : 0;
-    frame_start[frame] = -1;
-    auto started = [&](double start) {
-      if (frame_start[frame] < 0 || start < frame_start[frame]) frame_start[frame] = start;
-    };
-    for (size_t d = 0; d < plan.dispatches.size(); ++d) {
-      const arm::Dispatch& dispatch = plan.dispatches[d];
-      const NodeInfo& node = graph.nodes()[dispatch.node];
-      double ready = admitted;
-      for (int before : dispatch.after) ready = std::max(ready, dispatch_end[frame][before]);
-      if (frame > 0) {
-        for (int before : dispatch.after_previous_frame) ready = std::max(ready, dispatch_end[frame - 1][before]);
-      }
-      double end = ready;
-      if (dispatch.engine == arm::Engine::arm) {
-        auto core = std::min_element(core_free.begin(), core_free.end());
-        const double start = std::max(ready, *core);
-        end = start + costs[d].arm_ns;
-        *core = end;
-        report.trace.push_back({node.spec.name, first_core_track + static_cast<int>(core - core_free.begin()), start * 1e-3,
-                                costs[d].arm_ns * 1e-3, frame, node.spec.name});
-        started(start);
-      } else if (dispatch.engine == arm::Engine::unit) {
-        double& free = unit_free[static_cast<size_t>(costs[d].unit_track)];
-        const double start = std::max(ready, free);
-        end = start + costs[d].unit_ns;
-        free = end;
-        report.trace.push_back({node.spec.name, first_unit_track + costs[d].unit_track, start * 1e-3, costs[d].unit_ns * 1e-3,
-                                frame, node.spec.name});
-        started(start);
-      } else {
-        const std::vector<TileCost>& tiles = costs[d].tiles;
-        std::vector<double> compute_end(tiles.size(), 0);
-        auto dma_in = [&](size_t i) {
-          // Slot reuse: tile i's input buffer is the one tile i-2 computed from.
-          double start = std::max(ready, dma_free);
-          if (i >= 2) start = std::max(start, compute_end[i - 2]);
-          dma_free = start + tiles[i].dma_in_ns;
-          if (tiles[i].dma_in_ns > 0) {
-            report.trace.push_back({node.spec.name + " in", 1, start * 1e-3, tiles[i].dma_in_ns * 1e-3, frame, node.spec.name});
-          }
-          if (i == 0) started(start);
-          return dma_free;
-        };
-        double in_end = tiles.empty() ? ready : dma_in(0);
-        for (size_t i = 0; i < tiles.size(); ++i) {
-          const double start = std::max(in_end, vector_free);
-          compute_end[i] = start + tiles[i].compute_ns;
-          vector_free = compute_end[i];
-          report.trace.push_back({node.spec.name, 0, start * 1e-3, tiles[i].compute_ns * 1e-3, frame, node.spec.name});
-          if (i + 1 < tiles.size()) in_end = dma_in(i + 1);  // prefetch before this tile's write-back
-          const double out_start = std::max(compute_end[i], dma_free);
-          dma_free = out_start + tiles[i].dma_out_ns;
-          report.trace.push_back({node.spec.name + " out", 1, out_start * 1e-3, tiles[i].dma_out_ns * 1e-3, frame, node.spec.name});
-          end = std::max(end, dma_free);
+  // One run of the timeline with frame f offered at f x camera_period_ns (0: back to back); it
+  // enters the pipeline when offered and when frame f - frames_in_flight has left.
+  struct Timeline {
+    std::vector<double> entry, end;  // per frame: when it entered the pipeline, when its last dispatch ended
+    std::vector<TraceEvent> trace;
+  };
+  auto run_timeline = [&](double camera_period_ns) {
+    Timeline timeline;
+    std::vector<TraceEvent>& trace = timeline.trace;
+    double vector_free = 0, dma_free = 0;
+    std::vector<double> unit_free(unit_tracks.size(), 0.0);
+    std::vector<double> core_free(static_cast<size_t>(target.arm.cores), 0.0);
+    std::vector<std::vector<double>> dispatch_end(static_cast<size_t>(frames), std::vector<double>(plan.dispatches.size(), 0));
+    std::vector<double>& frame_entry = timeline.entry;
+    std::vector<double>& frame_end = timeline.end;
+    frame_entry.assign(static_cast<size_t>(frames), 0);
+    frame_end.assign(static_cast<size_t>(frames), 0);
+    for (int frame = 0; frame < frames; ++frame) {
+      const double admitted =
+          std::max(frame * camera_period_ns, frame >= frames_in_flight ? frame_end[frame - frames_in_flight] : 0.0);
+      frame_entry[frame] = admitted;
+      for (size_t d = 0; d < plan.dispatches.size(); ++d) {
+        const arm::Dispatch& dispatch = plan.dispatches[d];
+        const NodeInfo& node = graph.nodes()[dispatch.node];
+        double ready = admitted;
+        for (int before : dispatch.after) ready = std::max(ready, dispatch_end[frame][before]);
+        if (frame > 0) {
+          for (int before : dispatch.after_previous_frame) ready = std::max(ready, dispatch_end[frame - 1][before]);
         }
+        double end = ready;
+        if (dispatch.engine == arm::Engine::arm) {
+          auto core = std::min_element(core_free.begin(), core_free.end());
+          const double start = std::max(ready, *core);
+          end = start + costs[d].arm_ns;
+          *core = end;
+          trace.push_back({node.spec.name, first_core_track + static_cast<int>(core - core_free.begin()), start * 1e-3,
+                           costs[d].arm_ns * 1e-3, frame, node.spec.name});
+        } else if (dispatch.engine == arm::Engine::unit) {
+          double& free = unit_free[static_cast<size_t>(costs[d].unit_track)];
+          const double start = std::max(ready, free);
+          end = start + costs[d].unit_ns;
+          free = end;
+          trace.push_back({node.spec.name, first_unit_track + costs[d].unit_track, start * 1e-3, costs[d].unit_ns * 1e-3, frame,
+                           node.spec.name});
+        } else {
+          const std::vector<TileCost>& tiles = costs[d].tiles;
+          std::vector<double> compute_end(tiles.size(), 0);
+          auto dma_in = [&](size_t i) {
+            // Slot reuse: tile i's input buffer is the one tile i-2 computed from.
+            double start = std::max(ready, dma_free);
+            if (i >= 2) start = std::max(start, compute_end[i - 2]);
+            dma_free = start + tiles[i].dma_in_ns;
+            if (tiles[i].dma_in_ns > 0) {
+              trace.push_back({node.spec.name + " in", 1, start * 1e-3, tiles[i].dma_in_ns * 1e-3, frame, node.spec.name});
+            }
+            return dma_free;
+          };
+          double in_end = tiles.empty() ? ready : dma_in(0);
+          for (size_t i = 0; i < tiles.size(); ++i) {
+            const double start = std::max(in_end, vector_free);
+            compute_end[i] = start + tiles[i].compute_ns;
+            vector_free = compute_end[i];
+            trace.push_back({node.spec.name, 0, start * 1e-3, tiles[i].compute_ns * 1e-3, frame, node.spec.name});
+            if (i + 1 < tiles.size()) in_end = dma_in(i + 1);  // prefetch before this tile's write-back
+            const double out_start = std::max(compute_end[i], dma_free);
+            dma_free = out_start + tiles[i].dma_out_ns;
+            trace.push_back({node.spec.name + " out", 1, out_start * 1e-3, tiles[i].dma_out_ns * 1e-3, frame, node.spec.name});
+            end = std::max(end, dma_free);
+          }
+        }
+        dispatch_end[frame][d] = end;
+        frame_end[frame] = std::max(frame_end[frame], end);
       }
-      dispatch_end[frame][d] = end;
-      frame_end[frame] = std::max(frame_end[frame], end);
     }
-    if (frame_start[frame] < 0) frame_start[frame] = admitted;
-  }
+    return timeline;
+  };
+  // The capacity: frames back to back, so the period is the pipeline's own. The user's view: frames
+  // at the camera's rate (1000 / fps_target ms apart), whose latency and trace the report gives.
+  const Timeline back_to_back = run_timeline(0);
+  const std::vector<double>& frame_end = back_to_back.end;
+  Timeline paced = run_timeline(1e9 / options.fps_target);
+  report.trace = std::move(paced.trace);
   // The steady state: the last 2 x frames_in_flight periods (whole turns of the in-flight window).
   const int measured = 2 * frames_in_flight;
   const int first_measured = frames - measured;
   const double measured_period_ns = (frame_end[frames - 1] - frame_end[first_measured - 1]) / measured;
   // Each engine's busy time per frame over the measured frames.
   std::vector<double> busy_ns(report.tracks.size(), 0.0);
-  for (const TraceEvent& event : report.trace) {
+  for (const TraceEvent& event : back_to_back.trace) {
     if (event.frame >= first_measured) busy_ns[static_cast<size_t>(event.track)] += event.duration_us * 1e3 / measured;
   }
   // The bound no steady state may beat: the busiest single engine, and the ARM tasks' total over the
@@ -298,8 +311,12 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
     }
   }
   const double period_ns = std::max(measured_period_ns, bound_ns);
+  // Latency: from entering the pipeline to the frame's last output, at the camera's rate (a frame
+  // the pipeline cannot take yet waits, as a capture ring holds it, and its wait does not count).
   double latency_ns = 0;
-  for (int frame = first_measured; frame < frames; ++frame) latency_ns = std::max(latency_ns, frame_end[frame] - frame_start[frame]);
+  for (int frame = first_measured; frame < frames; ++frame) {
+    latency_ns = std::max(latency_ns, paced.end[frame] - paced.entry[frame]);
+  }
 
   // 4. The report.
   report.graph = graph.spec().name;

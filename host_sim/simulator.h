@@ -18,14 +18,16 @@
 //     a unit's internal stage (outputs read only on the same unit, BufferInfo::unit_local) costs
 //     nothing of its own: the unit's rate covers it;
 //   - ARM task: counted ArmWork x the target's cycles per unit, on the earliest free ARM core;
-//   - frames are offered back to back (the camera is never the bottleneck), but at most
-//     frames_in_flight of them are in the pipeline: frame f starts no earlier than frame
-//     f - frames_in_flight has finished. Each engine serves its requests in plan order.
-//   - steady state: frame_ms is the mean period between frame completions over the last
-//     2 x frames_in_flight of at least 4 x frames_in_flight + 4 simulated frames, and never less
-//     than the busiest engine's time per frame (the ARM tasks' total over the cores), so no
-//     bottleneck can hide behind the simulation's start-up;
-//     fps = 1000 / frame_ms; latency_ms is the longest first-start-to-last-end of a measured frame.
+//   - frames: at most frames_in_flight of them are in the pipeline: frame f enters no earlier than
+//     frame f - frames_in_flight has finished. Each engine serves its requests in plan order. The
+//     timeline runs twice: frames offered back to back (the capacity) and frames offered at the
+//     camera's rate, 1000 / fps_target ms apart (what a user sees);
+//   - steady state: frame_ms is the back-to-back run's mean period between frame completions over
+//     the last 2 x frames_in_flight of at least 4 x frames_in_flight + 4 simulated frames, and never
+//     less than the busiest engine's time per frame (the ARM tasks' total over the cores), so no
+//     bottleneck can hide behind the simulation's start-up; fps = 1000 / frame_ms;
+//   - latency_ms and the trace come from the camera-rate run: latency
+//     is the longest time from a measured frame's entry into the pipeline to its last output.
 #pragma once
 
 #include <map>
