@@ -716,7 +716,7 @@ std::string unit_refusal(const UnitLimits& unit, const NodeInfo& node, const std
         return "census window " + std::to_string(width) + "x" + std::to_string(height) + ", the unit's is " +
                std::to_string(unit.census_width) + "x" + std::to_string(unit.census_height);
       }
-    } else {
+    } else if (node.kernel->name.rfind("sgm", 0) == 0) {
       // A unit is programmed with explicit values: the node must state each one.
       int values[3] = {0, 0, 0};
       const char* keys[3] = {"num_disparities", "p1", "p2"};

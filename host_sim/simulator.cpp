@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <tuple>
 #include <sstream>
@@ -151,7 +152,21 @@ ProfileReport profile_graph(const Graph& graph, const Target& target, const std:
       node_costs.unit_track = static_cast<int>(track - unit_tracks.begin());
       if (internal_stage(node, buffers)) continue;
       const double pixels = unit_pixels(node, buffers);
-      const int search_range = node.spec.params.value("num_disparities", unit->reference_search_range);
+      // The search range of the unit's job: the node's own, or its matcher's upstream on the unit
+      // (a stereo unit's median after its SGM).
+      std::function<int(const NodeInfo&)> search_range_of = [&](const NodeInfo& stage) -> int {
+        if (stage.spec.params.contains("num_disparities")) return stage.spec.params.at("num_disparities").get<int>();
+        for (int input : stage.input_buffers) {
+          const int producer = buffers[input].producer_node;
+          if (producer >= 0 && graph.nodes()[producer].spec.engine == stage.spec.engine) {
+            const int range = search_range_of(graph.nodes()[producer]);
+            if (range > 0) return range;
+          }
+        }
+        return 0;
+      };
+      const int found_range = search_range_of(node);
+      const int search_range = found_range > 0 ? found_range : unit->reference_search_range;
       node_costs.unit_ns = unit->busy_ns(pixels, search_range);
       node_costs.unit_cycles = node_costs.unit_ns * unit->clock_mhz * 1e-3;
       node_costs.unit_dram_bytes = static_cast<uint64_t>(std::llround(pixels * unit->dram_bytes_per_pixel));

@@ -26,16 +26,25 @@ void bind_to_units(GraphSpec& spec, const host_sim::Target& target, int width, i
       }
     }
   }
-  // A stereo unit computes its census only for its own matcher: a census whose matcher stays on the
-  // vector engine stays there too.
+  // A stereo unit's census and median are stages of its matcher's job: one whose neighbour (the
+  // matcher it feeds, the matcher it filters) stays on the vector engine stays there too.
   for (size_t n = 0; n < spec.nodes.size(); ++n) {
     const host_sim::FixedFunctionUnit* unit = spec.nodes[n].engine.empty() ? nullptr : target.unit(spec.nodes[n].engine);
-    if (unit == nullptr || unit->limits.kind != "stereo" || spec.nodes[n].kernel.rfind("census", 0) != 0) continue;
-    for (int output : on_vector.nodes()[n].output_buffers) {
+    if (unit == nullptr || unit->limits.kind != "stereo" || spec.nodes[n].kernel.rfind("sgm", 0) == 0) continue;
+    const NodeInfo& node = on_vector.nodes()[n];
+    bool with_matcher = false;
+    for (int output : node.output_buffers) {
       for (int consumer : on_vector.buffers()[output].consumer_nodes) {
-        if (spec.nodes[consumer].engine != spec.nodes[n].engine) spec.nodes[n].engine.clear();
+        with_matcher = with_matcher || (spec.nodes[consumer].engine == spec.nodes[n].engine &&
+                                        spec.nodes[consumer].kernel.rfind("sgm", 0) == 0);
       }
     }
+    for (int input : node.input_buffers) {
+      const int producer = on_vector.buffers()[input].producer_node;
+      with_matcher = with_matcher || (producer >= 0 && spec.nodes[producer].engine == spec.nodes[n].engine &&
+                                      spec.nodes[producer].kernel.rfind("sgm", 0) == 0);
+    }
+    if (!with_matcher) spec.nodes[n].engine.clear();
   }
 }
 

@@ -129,6 +129,34 @@ TEST(UnitNodes, TheUnitRunsTheMatcherAtItsRateOnItsOwnTrack) {
   EXPECT_EQ(on_vector.dram_peak_bytes() - graph.dram_peak_bytes(), 2u * 640u * 360u * 4u);
 }
 
+// A median after the matcher on the same unit (TI's SDE has one): the matcher becomes an internal
+// stage, the median carries the job's time at the matcher's search range and its DRAM traffic.
+TEST(UnitNodes, AMedianOnTheUnitCarriesItsMatchersJob) {
+  host_sim::Target target = target_with_unit();
+  target.units[0].limits.functions.push_back("median3x3_s16");
+  std::string text = graph_text();
+  const std::string match_end = R"("params": {"num_disparities": 64, "p1": 5, "p2": 45}},)";
+  ASSERT_NE(text.find(match_end), std::string::npos);
+  text.replace(text.find(R"({"disparity": "disparity"})"), 26, R"({"disparity": "raw"})");
+  text.insert(text.find(match_end) + match_end.size(),
+              R"({"name": "median", "kernel": "median3x3_s16", "engine": "stereo", "inputs": {"input": "raw"},
+                  "outputs": {"output": "disparity"}, "params": {"invalid_q4": -16}},)");
+  const Graph graph = verified(text, target, 640, 360);
+  const Plane left = random_plane(640, 360, {ElementType::u8, 0}, 0, 7);
+  const Plane right = random_plane(640, 360, {ElementType::u8, 0}, 0, 8);
+  const host_sim::ProfileReport report = host_sim::profile_graph(graph, target, {{"left", &left}, {"right", &right}}, {});
+  const double job_ms = 0.010 + 640.0 * 360.0 / 0.5 * (64.0 / 128.0) / 500e6 * 1e3;  // at the matcher's range 64
+  for (const host_sim::NodeProfile& node : report.nodes) {
+    if (node.name == "median") {
+      EXPECT_NEAR(node.ms, job_ms, 1e-9);
+      EXPECT_EQ(node.dram_bytes, 4u * 640u * 360u);
+    } else if (node.name != "exposure") {
+      EXPECT_EQ(node.ms, 0) << node.name;
+      EXPECT_EQ(node.dram_bytes, 0u) << node.name;
+    }
+  }
+}
+
 TEST(UnitNodes, TheFunctionalModelGivesTheKernelsBits) {
   const host_sim::Target target = target_with_unit();
   const Graph on_unit = verified(graph_text(), target, 333, 97);
