@@ -44,8 +44,8 @@ int ceil_half(int value) { return -floor_half(-value); }
 
 // The matching nodes for one pass: census of both views (named with `suffix`) already in
 // left_census / right_census; the pass's disparity map (s16 Q4) into `output`.
-void add_matcher(GraphSpec& spec, const DisparityParameters& parameters, int min_disparity, int num_disparities,
-                 const std::string& suffix, const std::string& output) {
+void add_matcher(GraphSpec& spec, const DisparityParameters& parameters, EightPathLayout layout, int min_disparity,
+                 int num_disparities, const std::string& suffix, const std::string& output) {
   const std::string left_census = "left_census" + suffix;
   const std::string right_census = "right_census" + suffix;
   const bool census64 = parameters.census_width == 9;
@@ -69,44 +69,39 @@ void add_matcher(GraphSpec& spec, const DisparityParameters& parameters, int min
   selection["uniqueness_percent"] = parameters.uniqueness_percent;
   selection["subpixel"] = parameters.subpixel ? 1 : 0;
   selection["lr_max_diff"] = parameters.lr_max_diff;
-  if (parameters.schedule != SgmSchedule::sequential) {
-    // Two passes of paths side by side, each writing its path sums, then the selection.
-    const bool four = parameters.paths == 4;
-    const std::string first_kernel = four ? "sgm_4path_row_pair_sums" : "sgm_8path_forward";
-    const std::string second_kernel = four ? "sgm_4path_column_pair_sums" : "sgm_8path_backward_sums";
-    NodeSpec first = census_pair_node((four ? "sgm_row_pair" : "sgm_forward") + suffix, first_kernel + kernel_suffix,
-                                      penalties, left_census, right_census);
-    first.outputs["sums"] = (four ? "row_pair_sums" : "forward_sums") + suffix;
-    NodeSpec second = census_pair_node((four ? "sgm_column_pair" : "sgm_backward") + suffix, second_kernel + kernel_suffix,
-                                       penalties, left_census, right_census);
-    second.outputs["sums"] = (four ? "column_pair_sums" : "backward_sums") + suffix;
-    NodeSpec select;
-    select.name = "sgm_select" + suffix;
-    select.kernel = "sgm_sums_select";
-    select.inputs["first_sums"] = {first.outputs["sums"], false};
-    select.inputs["second_sums"] = {second.outputs["sums"], false};
-    select.outputs["disparity"] = output;
-    select.params = selection;
-    spec.nodes.push_back(first);
-    spec.nodes.push_back(second);
-    spec.nodes.push_back(select);
-    return;
-  }
   if (parameters.paths == 4) {
     NodeSpec sgm = census_pair_node("sgm" + suffix, "sgm_4path" + kernel_suffix, selection, left_census, right_census);
     sgm.outputs["disparity"] = output;
     spec.nodes.push_back(sgm);
     return;
   }
-  NodeSpec forward =
-      census_pair_node("sgm_forward" + suffix, "sgm_8path_forward" + kernel_suffix, penalties, left_census, right_census);
-  forward.outputs["sums"] = "forward_sums" + suffix;
+  if (layout == EightPathLayout::forward_backward) {
+    NodeSpec forward =
+        census_pair_node("sgm_forward" + suffix, "sgm_8path_forward" + kernel_suffix, penalties, left_census, right_census);
+    forward.outputs["sums"] = "forward_sums" + suffix;
+    NodeSpec backward =
+        census_pair_node("sgm_backward" + suffix, "sgm_8path_backward" + kernel_suffix, selection, left_census, right_census);
+    backward.inputs["forward"] = {"forward_sums" + suffix, false};
+    backward.outputs["disparity"] = output;
+    spec.nodes.push_back(forward);
+    spec.nodes.push_back(backward);
+    return;
+  }
+  // 8 paths by bands (kernels/sgm_8path_bands.cpp): the two checkpoint passes side by side, then the
+  // bands, in parallel; no W x H x D volume.
+  NodeSpec forward = census_pair_node("sgm_forward_checkpoints" + suffix, "sgm_8path_forward_checkpoints" + kernel_suffix,
+                                      penalties, left_census, right_census);
+  forward.outputs["checkpoints"] = "forward_checkpoints" + suffix;
+  NodeSpec backward = census_pair_node("sgm_backward_checkpoints" + suffix, "sgm_8path_backward_checkpoints" + kernel_suffix,
+                                       penalties, left_census, right_census);
+  backward.outputs["checkpoints"] = "backward_checkpoints" + suffix;
+  NodeSpec bands = census_pair_node("sgm_bands" + suffix, "sgm_8path_bands" + kernel_suffix, selection, left_census, right_census);
+  bands.inputs["forward_checkpoints"] = {forward.outputs["checkpoints"], false};
+  bands.inputs["backward_checkpoints"] = {backward.outputs["checkpoints"], false};
+  bands.outputs["disparity"] = output;
   spec.nodes.push_back(forward);
-  NodeSpec backward =
-      census_pair_node("sgm_backward" + suffix, "sgm_8path_backward" + kernel_suffix, selection, left_census, right_census);
-  backward.inputs["forward"] = {"forward_sums" + suffix, false};
-  backward.outputs["disparity"] = output;
   spec.nodes.push_back(backward);
+  spec.nodes.push_back(bands);
 }
 
 // The SGM map's post-processing, OpenCV StereoSGBM's: the 3x3 median that keeps invalid pixels
@@ -171,7 +166,6 @@ DisparityParameters chip_configuration(const DisparityParameters& requested, con
   chip.paths = 4;
   chip.lr_max_diff = 1;
   chip.speckle_max_size_px = 0;
-  chip.schedule = SgmSchedule::sequential;
   std::vector<int> ranges = offered_search_ranges;
   std::sort(ranges.begin(), ranges.end());
   const auto covering = std::lower_bound(ranges.begin(), ranges.end(), requested.num_disparities);
@@ -219,7 +213,7 @@ MultiresSplit multires_split(int min_disparity, int num_disparities, int far_cap
   return split;
 }
 
-GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
+GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters, EightPathLayout layout) {
   if (parameters.census_width != 5 && parameters.census_width != 9) {
     throw std::invalid_argument("disparity parameter 'census_width': expected 5 or 9, got " +
                                 std::to_string(parameters.census_width));
@@ -245,7 +239,7 @@ GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
   add_census(spec, parameters, "left", "right", "");
   if (!parameters.multires) {
     spec.description = "census " + census_name + " of both views, " + matcher;
-    add_matcher(spec, parameters, parameters.min_disparity, parameters.num_disparities, "",
+    add_matcher(spec, parameters, layout, parameters.min_disparity, parameters.num_disparities, "",
                 post_processing ? "sgm_disparity" : "disparity");
     if (post_processing) add_post_processing(spec, parameters, "sgm_disparity");
     return spec;
@@ -258,11 +252,11 @@ GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters) {
                      std::to_string(split.min_far) + ", " + std::to_string(split.min_far + split.num_far) +
                      ") px and at half resolution over [" + std::to_string(split.min_near) + ", " +
                      std::to_string(split.min_near + split.num_near) + ") half px, fused (disparity_fuse_multires)";
-  add_matcher(spec, parameters, split.min_far, split.num_far, "", "disparity_far");
+  add_matcher(spec, parameters, layout, split.min_far, split.num_far, "", "disparity_far");
   spec.nodes.push_back(unary_node("downsample_left", "downsample2x", "left", "left_half"));
   spec.nodes.push_back(unary_node("downsample_right", "downsample2x", "right", "right_half"));
   add_census(spec, parameters, "left_half", "right_half", "_half");
-  add_matcher(spec, parameters, split.min_near, split.num_near, "_half", "disparity_near_half");
+  add_matcher(spec, parameters, layout, split.min_near, split.num_near, "_half", "disparity_near_half");
   NodeSpec fuse;
   fuse.name = "fuse";
   fuse.kernel = "disparity_fuse_multires";
@@ -289,14 +283,8 @@ DisparityEngine::DisparityEngine(int width, int height, const DisparityParameter
                                 std::to_string(parameters.min_disparity + parameters.num_disparities) +
                                 " exceeds the image width " + std::to_string(width));
   }
-  // SgmSchedule::automatic: one worker cannot run two path passes side by side, so it runs the
-  // chip's schedule, the same bits with one W x H x D volume fewer (8 paths) or none (4 paths).
   const int workers = resolved_worker_threads(worker_threads);
-  DisparityParameters graph_parameters = parameters;
-  if (parameters.schedule == SgmSchedule::automatic) {
-    graph_parameters.schedule = workers == 1 ? SgmSchedule::sequential : SgmSchedule::side_by_side;
-  }
-  GraphSpec spec = graph_spec(graph_parameters);
+  GraphSpec spec = graph_spec(parameters);
   // The speckle filter in bands on the workers: it is the graph's last node, so the other workers
   // would wait for it (the same bits and counted work, arm/tasks/speckle_filter.cpp).
   for (NodeSpec& node : spec.nodes) {

@@ -3,16 +3,13 @@
 // census, matching and refinement; see graphs/ for the same graphs as files), verifies it against a
 // target's memory, and runs it frame after frame with the ARM-side scheduler.
 //
-// The default is semi-global matching on census Hamming costs: census of both views, then, in the
-// host's schedule (SgmSchedule::side_by_side), two passes of paths side by side that each write
-// their path sums, then sgm_sums_select:
-//   paths = 8: sgm_8path_forward (left, top-left, top, top-right) beside sgm_8path_backward_sums
-//              (right, bottom-right, bottom, bottom-left, rows bottom up);
-//   paths = 4: sgm_4path_row_pair_sums (left, top-left) beside sgm_4path_column_pair_sums (top,
-//              top-right);
-// or, in the chip's schedule (SgmSchedule::sequential; the same bits): sgm_4path, one row-streaming
-// pass, or sgm_8path_forward then sgm_8path_backward fused with the selection. SgmSchedule::automatic
-// (the default) is side_by_side with two or more worker threads and sequential with one;
+// The default is semi-global matching on census Hamming costs: census of both views, then
+//   paths = 8: by bands of 64 rows, no W x H x D volume (kernels/sgm_8path_bands.cpp):
+//              sgm_8path_forward_checkpoints beside sgm_8path_backward_checkpoints (each pass's row
+//              state at every band), then sgm_8path_bands, the bands in parallel, each running the
+//              forward paths from its checkpoint into one band of sums and the backward paths with
+//              the selection; bit for bit sgm_8path_forward + sgm_8path_backward over the frame;
+//   paths = 4: sgm_4path, one row-streaming pass (the chip's; no volume either);
 //   paths = 0: census_wta_disparity, no aggregation (the baseline; census 5x5 only).
 // Every SGM graph ends in winner takes all with the uniqueness ratio, the parabola sub-pixel step
 // and the left-right check (kernels/sgm_core.h, kernels/sgm_reference.h), then the 3x3 median and
@@ -58,21 +55,15 @@ namespace lpstereo::arm {
 
 class FrameRunner;
 
-// How the SGM passes run (the same bits every way; tests/kernels/golden_test.cpp checks each).
-enum class SgmSchedule {
-  // side_by_side with two or more worker threads, sequential with one: one worker cannot run two
-  // passes side by side, and there the schedule with fewer volumes is the faster one
-  // (disparity_bench, BM_lpstereo_one_worker: 5-7 % for 8 paths, a third for 4 paths, on a
-  // 2-core AVX-512 host).
-  automatic,
-  // The paths as two passes side by side, each writing its path sums, then the selection
-  // (sgm_sums_select, row bands in parallel): 8 paths as sgm_8path_forward + sgm_8path_backward_sums,
-  // 4 paths as sgm_4path_row_pair_sums + sgm_4path_column_pair_sums. What two host cores run fastest;
-  // two W x H x D u16 volumes in DRAM.
-  side_by_side,
-  // The chip's schedule, fewer volumes in DRAM: sgm_4path in one row-streaming pass (none), or
-  // sgm_8path_forward then sgm_8path_backward fused with the selection (one).
-  sequential,
+// How graph_spec lays out 8-path SGM (4 paths are always sgm_4path, one row-streaming pass). The
+// same bits either way (tests/kernels/golden_test.cpp).
+enum class EightPathLayout {
+  // What the engine runs on the host and the board: by bands, no W x H x D volume.
+  bands,
+  // sgm_8path_forward, then sgm_8path_backward fused with the selection, the forward sums in DRAM
+  // (2 W H D bytes): what a target profile costs, since a vector engine's tiles go through its SRAM,
+  // which cannot hold the bands' sums.
+  forward_backward,
 };
 
 struct DisparityParameters {
@@ -87,7 +78,6 @@ struct DisparityParameters {
   int uniqueness_percent = 5;  // SGM: the best cost must beat the others (|d - best| > 1) by this %; 0 = off, <= 50
   bool subpixel = true;        // SGM: parabola sub-pixel step (Q4); false = whole pixels
   int lr_max_diff = 2;         // SGM: left-right check tolerance in px; -1 = off
-  SgmSchedule schedule = SgmSchedule::automatic;  // SGM only: the order of the passes, the same bits (see SgmSchedule)
   // Post-processing of the SGM map (not with paths = 0), OpenCV StereoSGBM's order and semantics:
   bool median = true;          // 3x3 median that keeps invalid pixels invalid (kernels/median3x3_s16.cpp)
   int speckle_max_size_px = 100;  // regions of at most this many pixels become invalid; 0 = off
@@ -150,13 +140,11 @@ class DisparityEngine {
 
   int16_t invalid_disparity_q4() const { return static_cast<int16_t>((parameters_.min_disparity - 1) * 16); }
   const DisparityParameters& parameters() const { return parameters_; }
-  // The graph it runs: graph_spec of its parameters with SgmSchedule::automatic resolved for its
-  // worker threads.
+  // The graph it runs: graph_spec of its parameters.
   const Graph& graph() const { return *graph_; }
 
-  // The graph spec the engine runs for these parameters (also what `lpstereo graph dot` draws);
-  // SgmSchedule::automatic is drawn as side_by_side, what an engine with two or more workers runs.
-  static GraphSpec graph_spec(const DisparityParameters& parameters);
+  // The graph spec the engine runs for these parameters (also what `lpstereo graph dot` draws).
+  static GraphSpec graph_spec(const DisparityParameters& parameters, EightPathLayout layout = EightPathLayout::bands);
 
  private:
   DisparityParameters parameters_;

@@ -399,8 +399,8 @@ void BM_opencv_BFMatcher_knn2_ratio(benchmark::State& state) {
   set_pairs_per_second(state, count);
 }
 
-// The three passes of the host's 8-path SGM schedule (arm/disparity_engine.h, SgmSchedule::
-// side_by_side), each alone on one thread: sgm_8path_forward and sgm_8path_backward_sums (each
+// The three passes of the two-pass-side-by-side 8-path SGM layout (graph files may use it; the
+// engine runs sgm_8path_bands, which holds no volume), each alone on one thread: sgm_8path_forward and sgm_8path_backward_sums (each
 // writes its u16 sums volume, W x H x D) and sgm_sums_select (reads both, selects with the engine's
 // defaults: uniqueness 5 %, sub-pixel, LR check 2 px). Census 5x5 of the frame's texture and of the
 // same texture shifted by kSgmShiftPx. Sizes: 640x480 with 64 disparities (the obstacle chain's),

@@ -33,8 +33,8 @@
 // way the chip overlaps its vector engine with its ARM cores): one thread computes disparity and
 // points of frame n + 1 while the other runs terrain, stixels and traversability of frame n (that
 // stage single-threaded). Throughput = frames / wall time of the whole pass (median over passes);
-// each stage on one thread (its own disparity engine with one worker, which runs its SGM in the
-// sequential schedule: arm::SgmSchedule::automatic with one worker); the results digest must
+// each stage on one thread (its own disparity engine with one worker, the bands of its SGM one
+// after the other); the results digest must
 // equal the sequential one (checked: exit 1 otherwise). Printed beside it, not counted for the
 // line: the same pipeline with the disparity engine on 2 workers, 3 threads on the 2 cores (the
 // engine leaves a core idle in its single-threaded speckle filter, and stage 2 fills it).

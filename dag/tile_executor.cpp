@@ -150,6 +150,8 @@ void run_vector_node(const VectorNodeBinding& binding, int tile_width, int tile_
     tile_width = output.width;
   }
   if (binding.kernel->full_width_tiles) tile_width = output.width;  // the kernel works along whole rows
+  const int block_height = std::max(1, binding.kernel->block_height);
+  tile_height = (tile_height + block_height - 1) / block_height * block_height;  // whole blocks (sgm_8path_bands: bands)
   TileRunner runner;
   simd::OpCounts local;
   simd::CountingScope scope(local);

@@ -49,6 +49,7 @@
 // the target; phminposuw on x86, vminvq on NEON).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <type_traits>
@@ -84,12 +85,22 @@ enum class SgmPass {
   row_pair_sums,     // 2 of the 4 single-pass paths (along the row, top-left), writes their sums: sgm_4path_row_pair_sums
   column_pair_sums,  // the other 2 (top, top-right), writes their sums: sgm_4path_column_pair_sums
   select,         // no paths: adds two sums planes, winner takes all: sgm_sums_select
+  // The banded 8-path schedule (no W x H x D volume; kernels/sgm_8path_bands.cpp):
+  forward_checkpoints,   // the 3 forward paths from the previous row, no sums: the state at each band's top
+  backward_checkpoints,  // the 3 backward ones (rows bottom up): the state below each band
+  forward_band,   // inside sgm_8path_bands: forward as `forward`, into the band's sums buffer (no streaming stores)
+  backward_band,  // inside sgm_8path_bands: backward as `backward`, census whole, the band's forward sums
 };
 
 // Which of the four paths of a direction a pass runs: along the row, the diagonal from the previous
 // row's left neighbour (the "down" diagonal slot), straight from the previous row, the other diagonal.
-inline constexpr bool sgm_runs_row_path(SgmPass pass) { return pass != SgmPass::column_pair_sums && pass != SgmPass::select; }
-inline constexpr bool sgm_runs_down_diagonal(SgmPass pass) { return sgm_runs_row_path(pass); }
+inline constexpr bool sgm_writes_checkpoints(SgmPass pass) {
+  return pass == SgmPass::forward_checkpoints || pass == SgmPass::backward_checkpoints;
+}
+inline constexpr bool sgm_runs_row_path(SgmPass pass) {
+  return pass != SgmPass::column_pair_sums && pass != SgmPass::select && !sgm_writes_checkpoints(pass);
+}
+inline constexpr bool sgm_runs_down_diagonal(SgmPass pass) { return pass != SgmPass::column_pair_sums && pass != SgmPass::select; }
 inline constexpr bool sgm_runs_straight(SgmPass pass) { return pass != SgmPass::row_pair_sums && pass != SgmPass::select; }
 inline constexpr bool sgm_runs_up_diagonal(SgmPass pass) { return sgm_runs_straight(pass); }
 // Row-state regions: one per path from the previous row.
@@ -99,12 +110,36 @@ inline constexpr int sgm_state_regions(SgmPass pass) {
 
 // What each pass does (the tile body branches on these at compile time).
 inline constexpr bool sgm_runs_paths(SgmPass pass) { return pass != SgmPass::select; }
-inline constexpr bool sgm_rows_bottom_up(SgmPass pass) { return pass == SgmPass::backward || pass == SgmPass::backward_sums; }
+inline constexpr bool sgm_rows_bottom_up(SgmPass pass) {
+  return pass == SgmPass::backward || pass == SgmPass::backward_sums || pass == SgmPass::backward_checkpoints ||
+         pass == SgmPass::backward_band;
+}
 inline constexpr bool sgm_writes_sums(SgmPass pass) {
   return pass == SgmPass::forward || pass == SgmPass::backward_sums || pass == SgmPass::row_pair_sums ||
-         pass == SgmPass::column_pair_sums;
+         pass == SgmPass::column_pair_sums || pass == SgmPass::forward_band;
 }
-inline constexpr bool sgm_selects(SgmPass pass) { return !sgm_writes_sums(pass); }
+inline constexpr bool sgm_selects(SgmPass pass) {
+  return pass == SgmPass::single || pass == SgmPass::backward || pass == SgmPass::select || pass == SgmPass::backward_band;
+}
+// The passes that read the census planes whole and stage each right row with its border themselves
+// (their output is not the image's size, or they run inside another kernel's tile).
+inline constexpr bool sgm_stages_right_row(SgmPass pass) {
+  return sgm_writes_sums(pass) || sgm_writes_checkpoints(pass) || pass == SgmPass::backward_band;
+}
+// The passes that add a forward sums plane (input 2) before selecting.
+inline constexpr bool sgm_reads_forward_sums(SgmPass pass) { return pass == SgmPass::backward || pass == SgmPass::backward_band; }
+
+// The banded 8-path schedule cuts the image into bands of this many rows (the last one may be
+// shorter): one checkpoint row per band and direction, one band of forward sums per worker. 64
+// balances the two at the sizes the engine is used at (the closed form is in
+// kernels/sgm_8path_bands.cpp); it is also the default tile height, so the bands are the tiles.
+inline constexpr int kSgmBandRows = 64;
+inline constexpr int sgm_band_count(int height) { return (height + kSgmBandRows - 1) / kSgmBandRows; }
+// A checkpoint row: the three paths from the previous row (down diagonal, straight, up diagonal), each
+// W positions x D u16 (see kernels/sgm_8path_bands.cpp for the layout).
+inline constexpr int64_t sgm_checkpoint_row_elements(int width, int disparities) {
+  return int64_t{3} * width * disparities;
+}
 
 inline constexpr int sgm_padded(int disparities, int lanes) { return (disparities + lanes - 1) / lanes * lanes; }
 
@@ -150,7 +185,7 @@ inline SgmScratchLayout sgm_scratch_layout(int width, const SgmParams& params, S
   layout.rows_offset = align(layout.keys_offset + 4 * layout.keys_count);
   layout.row_count = static_cast<size_t>(width) + 64;
   layout.staged_offset = align(layout.rows_offset + 4 * 4 * layout.row_count);
-  layout.staged_count = sgm_writes_sums(pass) ? static_cast<size_t>(width) + sgm_left_halo(params) +
+  layout.staged_count = sgm_stages_right_row(pass) ? static_cast<size_t>(width) + sgm_left_halo(params) +
                                                        sgm_right_halo(params) + 64
                                                  : 0;
   layout.total = align(layout.staged_offset + static_cast<size_t>(word_bytes) * layout.staged_count);
@@ -201,7 +236,8 @@ struct PathConstants {
 // costs on this path (previous[-1] and previous[Dp] are 0xFFFF sentinels, or everything is 0 for
 // a path start); the new costs go to `out` (which may be `previous`: everything is loaded before
 // anything is stored). sum[k] gets the costs added (or set, for the first path).
-template <class B, int kMaxVectors>
+// kAccumulate = false: the checkpoint passes, which keep the path costs and sum nothing.
+template <class B, int kMaxVectors, bool kAccumulate = true>
 LPSTEREO_SGM_INLINE void path_step(const uint16_t* previous, uint16_t* out, const typename B::VU16* cost, typename B::VU16* sum, bool first,
                int vectors, const PathConstants<B>& constants) {
   using VU16 = typename B::VU16;
@@ -225,7 +261,7 @@ LPSTEREO_SGM_INLINE void path_step(const uint16_t* previous, uint16_t* out, cons
     const VU16 best = B::min(neighbours[k], B::min(last[k], minimum_p2));
     const VU16 value = B::adds(cost[k], B::sub(best, minimum));
     B::store(out + k * L, value);
-    sum[k] = first ? value : B::adds(sum[k], value);
+    if constexpr (kAccumulate) sum[k] = first ? value : B::adds(sum[k], value);
   }
 }
 
@@ -279,14 +315,16 @@ void sgm_tile_for(const TileArgs& args) {
   constexpr bool kSelect = sgm_selects(kPass);
   constexpr bool kPaths = sgm_runs_paths(kPass);
   constexpr bool kWritesSums = sgm_writes_sums(kPass);
+  constexpr bool kStagesRight = sgm_stages_right_row(kPass);
+  constexpr bool kAccumulates = kWritesSums || kSelect;
 
   const SgmParams& params = *static_cast<const SgmParams*>(args.params);
   const int count = params.num_disparities;
   const int vectors = kFixedVectors > 0 ? kFixedVectors : (count + L16 - 1) / L16;
   if (vectors < 1) __builtin_unreachable();  // prepare() guarantees num_disparities >= 1
   const int padded = vectors * L16;
-  const int width = kWritesSums ? args.inputs[0].width : args.outputs[0].width;
-  const int height = kWritesSums ? args.inputs[0].height : args.image_height;
+  const int width = kStagesRight ? args.inputs[0].width : args.outputs[0].width;
+  const int height = kStagesRight ? args.inputs[0].height : args.image_height;
   const int tile_rows = args.outputs[0].height;
   const bool lr_check = kSelect && params.lr_max_diff >= 0;
 
@@ -378,7 +416,7 @@ void sgm_tile_for(const TileArgs& args) {
     minus_one32 = B::set1_u32(0xFFFFFFFFu);
   }
 
-  const bool stream_sums = kWritesSums && padded == count;
+  const bool stream_sums = kWritesSums && kPass != SgmPass::forward_band && padded == count;
   // Right-view words are readable up to the right halo (the forward pass stages the same border).
   const int right_end = width + sgm_right_halo(params);
   for (int step = 0; step < tile_rows; ++step) {
@@ -387,7 +425,7 @@ void sgm_tile_for(const TileArgs& args) {
     const int mirrored_y = kBackward ? height - 1 - y : y;
     [[maybe_unused]] const Word* left_row = nullptr;
     [[maybe_unused]] const Word* right_row = nullptr;
-    if constexpr (kWritesSums) {
+    if constexpr (kStagesRight) {
       // Stage the right row with its replicate border: [-left halo, W + right halo).
       left_row = plane_row<const Word>(args.inputs[0], y);
       const Word* source = plane_row<const Word>(args.inputs[1], y);
@@ -452,17 +490,17 @@ void sgm_tile_for(const TileArgs& args) {
         }
         if constexpr (kDownDiagonal) {
           uint16_t* down_slot = regions[0] + diagonal_down * slot_stride + 1;
-          sgm_detail::path_step<B, kMaxVectors>(mirrored_x == 0 ? start : down_slot, down_slot, cost, sum, !kRowPath, vectors,
+          sgm_detail::path_step<B, kMaxVectors, kAccumulates>(mirrored_x == 0 ? start : down_slot, down_slot, cost, sum, !kRowPath, vectors,
                                                 path_constants);
         }
         if constexpr (kStraight) {
           uint16_t* straight_slot = regions[1] + static_cast<ptrdiff_t>(mirrored_x) * slot_stride + 1;
-          sgm_detail::path_step<B, kMaxVectors>(straight_slot, straight_slot, cost, sum, !kRowPath && !kDownDiagonal, vectors,
+          sgm_detail::path_step<B, kMaxVectors, kAccumulates>(straight_slot, straight_slot, cost, sum, !kRowPath && !kDownDiagonal, vectors,
                                                 path_constants);
         }
         if constexpr (kUpDiagonal) {
           uint16_t* up_slot = regions[2] + diagonal_up * slot_stride + 1;
-          sgm_detail::path_step<B, kMaxVectors>(mirrored_x == width - 1 ? start : up_slot, up_slot, cost, sum, false,
+          sgm_detail::path_step<B, kMaxVectors, kAccumulates>(mirrored_x == width - 1 ? start : up_slot, up_slot, cost, sum, false,
                                                 vectors, path_constants);
         }
         diagonal_down = diagonal_down + 1 == width ? 0 : diagonal_down + 1;
@@ -480,9 +518,11 @@ void sgm_tile_for(const TileArgs& args) {
           for (int k = 0; k < vectors; ++k) store_clipped<B>(out, k * L16, count, sum[k]);
         }
         continue;
-      } else {
-        if constexpr (kPass == SgmPass::backward) {
-          const uint16_t* forward = plane_row<const uint16_t>(args.inputs[2], y) + static_cast<ptrdiff_t>(x) * count;
+      } else if constexpr (kSelect) {
+        if constexpr (sgm_reads_forward_sums(kPass)) {
+          // The whole frame's forward sums (backward) or the band's, rows from the band's top (backward_band).
+          const int forward_row = kPass == SgmPass::backward_band ? row : y;
+          const uint16_t* forward = plane_row<const uint16_t>(args.inputs[2], forward_row) + static_cast<ptrdiff_t>(x) * count;
           for (int k = 0; k < vectors; ++k) sum[k] = B::adds(sum[k], load_clipped<B>(forward, k * L16, count));
         }
         // Winner takes all on keys S << 16 | (d - min_disparity).
@@ -594,6 +634,172 @@ void sgm_tile(const TileArgs& args) {
     }
   }
   sgm_detail::sgm_tile_for<B, Word, kPass, 0>(args);
+}
+
+// THE BANDED 8-PATH SCHEDULE (kernels/sgm_8path_bands.cpp has its working set in closed form).
+// A checkpoint row holds the row state a pass has before it enters a band: the previous row's path
+// costs of the three paths that come from it (region 0 the down diagonal, 1 straight, 2 the up
+// diagonal; for the backward pass bottom-right, bottom, bottom-left), each as W positions p of D u16:
+// element (r W + p) D + j = L_r(pixel p of the previous row, d = min_disparity + D - 1 - j), the
+// lanes' reversed order. Positions are in the pass's own order: p = x forward, p = W - 1 - x backward
+// (rows and columns mirrored, as the pass walks them). The row state itself is a back end's layout
+// (slots of its Dp + 1 u16, diagonals rotated by the row); a checkpoint is the same for every back
+// end, so the checkpoint kernels' outputs are compared bit for bit like any other kernel's.
+// The first band a pass enters has no previous row: its checkpoint is zero, the frame start's state.
+// Saving and restoring are plain copies (on the chip: a DMA of the state), not counted as vector ops.
+namespace sgm_detail {
+
+inline int positive_modulo(int value, int modulus) { return ((value % modulus) + modulus) % modulus; }
+
+// The slot that position p of mirrored row `previous_row` wrote in region r (see the tile body).
+inline int checkpoint_slot(int region, int position, int previous_row, int width) {
+  if (region == 0) return positive_modulo(position - previous_row, width);
+  if (region == 2) return positive_modulo(position + previous_row, width);
+  return position;
+}
+
+// The row state (this back end's: `padded` lanes per slot) into a checkpoint row.
+inline void save_checkpoint(const uint16_t* state, int width, int padded, int count, int previous_row, uint16_t* checkpoint) {
+  const ptrdiff_t slot_stride = padded + 1;
+  const ptrdiff_t region_size = static_cast<ptrdiff_t>(width) * slot_stride + 1;
+  for (int region = 0; region < 3; ++region) {
+    for (int position = 0; position < width; ++position) {
+      const uint16_t* slot = state + region * region_size +
+                             static_cast<ptrdiff_t>(checkpoint_slot(region, position, previous_row, width)) * slot_stride + 1;
+      std::copy(slot, slot + count, checkpoint + (static_cast<ptrdiff_t>(region) * width + position) * count);
+    }
+  }
+}
+
+// A checkpoint row back into this back end's row state: sentinels and padding lanes 0xFFFF, as the
+// pass leaves them after any row. checkpoint == nullptr: the frame start, all zero (the pass sets
+// the sentinels on its first row, as for a whole frame).
+inline void restore_checkpoint(const uint16_t* checkpoint, int width, int padded, int count, int previous_row, uint16_t* state) {
+  const ptrdiff_t slot_stride = padded + 1;
+  const ptrdiff_t region_size = static_cast<ptrdiff_t>(width) * slot_stride + 1;
+  if (checkpoint == nullptr) {
+    std::fill(state, state + 3 * region_size, uint16_t{0});
+    return;
+  }
+  std::fill(state, state + 3 * region_size, uint16_t{0xFFFF});
+  for (int region = 0; region < 3; ++region) {
+    for (int position = 0; position < width; ++position) {
+      const uint16_t* values = checkpoint + (static_cast<ptrdiff_t>(region) * width + position) * count;
+      std::copy(values, values + count,
+                state + region * region_size +
+                    static_cast<ptrdiff_t>(checkpoint_slot(region, position, previous_row, width)) * slot_stride + 1);
+    }
+  }
+}
+
+}  // namespace sgm_detail
+
+// What both banded kernels read off their arguments: the census planes are whole, so their size is
+// the image's.
+struct SgmBandedFrame {
+  const SgmParams& params;
+  int count, width, height, padded, bands;
+};
+template <class B>
+SgmBandedFrame sgm_banded_frame(const TileArgs& args) {
+  const SgmParams& params = *static_cast<const SgmParams*>(args.params);
+  return SgmBandedFrame{params, params.num_disparities, args.inputs[0].width, args.inputs[0].height,
+                        sgm_padded(params.num_disparities, B::kLanesU16), sgm_band_count(args.inputs[0].height)};
+}
+
+// The checkpoint passes' tile: output rows are bands (`args.outputs[0]` row i = band tile_y + i).
+// For each band in the pass's order: the state before it goes to its checkpoint row, then the pass
+// runs the band's rows (all but the last band: nothing after it reads that state).
+template <class B, class Word, SgmPass kPass>
+void sgm_checkpoints_tile(const TileArgs& args) {
+  static_assert(sgm_writes_checkpoints(kPass));
+  constexpr bool kBackward = sgm_rows_bottom_up(kPass);
+  const SgmBandedFrame frame = sgm_banded_frame<B>(args);
+  const auto [params, count, width, height, padded, bands] = frame;
+  const int tile_bands = args.outputs[0].height;
+  for (int step = 0; step < tile_bands; ++step) {
+    const int band_in_tile = kBackward ? tile_bands - 1 - step : step;
+    const int band = args.tile_y + band_in_tile;
+    const int y0 = band * kSgmBandRows;
+    const int y1 = std::min(y0 + kSgmBandRows, height);
+    uint16_t* checkpoint = plane_row<uint16_t>(args.outputs[0], band_in_tile);
+    const bool first_band = kBackward ? band == bands - 1 : band == 0;
+    if (first_band) {
+      std::fill(checkpoint, checkpoint + sgm_checkpoint_row_elements(width, count), uint16_t{0});
+    } else {
+      sgm_detail::save_checkpoint(reinterpret_cast<const uint16_t*>(args.state), width, padded, count,
+                                  kBackward ? height - y1 - 1 : y0 - 1, checkpoint);
+    }
+    if (kBackward ? band == 0 : band == bands - 1) continue;
+    TileArgs band_args = args;
+    band_args.outputs[0] = PlaneView{nullptr, 0, width, y1 - y0};  // the band's rows; the pass writes nothing
+    band_args.tile_y = y0;
+    band_args.image_height = height;
+    sgm_tile<B, Word, kPass>(band_args);
+  }
+}
+
+// sgm_8path_bands' scratch (bytes): the forward and the backward row state (3 regions each), one
+// band of forward sums (kSgmBandRows W D u16), then the passes' own scratch.
+struct SgmBandsScratchLayout {
+  size_t state_bytes = 0;   // each of the two states
+  size_t sums_offset = 0;
+  size_t pass_offset = 0;
+  size_t total = 0;
+};
+inline SgmBandsScratchLayout sgm_bands_scratch_layout(int width, const SgmParams& params, int word_bytes) {
+  auto align = [](size_t bytes) { return (bytes + 63) / 64 * 64; };
+  SgmBandsScratchLayout layout;
+  layout.state_bytes = align(sgm_state_bytes(width, params.num_disparities, 3));
+  layout.sums_offset = 2 * layout.state_bytes;
+  layout.pass_offset =
+      layout.sums_offset + align(size_t{2} * kSgmBandRows * static_cast<size_t>(width) * static_cast<size_t>(params.num_disparities));
+  layout.total = layout.pass_offset + std::max(sgm_scratch_layout(width, params, SgmPass::forward_band, word_bytes).total,
+                                               sgm_scratch_layout(width, params, SgmPass::backward_band, word_bytes).total);
+  return layout;
+}
+
+// sgm_8path_bands' tile: whole rows, whole bands (the tile height is a multiple of kSgmBandRows).
+// Inputs: left and right census (whole), the forward and the backward checkpoints. Per band: the
+// forward paths from the band's checkpoint write the band's forward sums, then the backward paths
+// from theirs add them and select, exactly as sgm_8path_forward + sgm_8path_backward over the frame.
+template <class B, class Word>
+void sgm_bands_tile(const TileArgs& args) {
+  const SgmBandedFrame frame = sgm_banded_frame<B>(args);
+  const auto [params, count, width, height, padded, bands] = frame;
+  const SgmBandsScratchLayout layout = sgm_bands_scratch_layout(width, params, static_cast<int>(sizeof(Word)));
+  uint16_t* const forward_state = reinterpret_cast<uint16_t*>(args.scratch);
+  uint16_t* const backward_state = reinterpret_cast<uint16_t*>(args.scratch + layout.state_bytes);
+  uint8_t* const sums = args.scratch + layout.sums_offset;
+  const ptrdiff_t sums_stride = static_cast<ptrdiff_t>(width) * count * 2;
+  for (int y0 = args.tile_y; y0 < args.tile_y + args.outputs[0].height; y0 += kSgmBandRows) {
+    const int band = y0 / kSgmBandRows;
+    const int y1 = std::min(y0 + kSgmBandRows, height);
+    const PlaneView band_sums{sums, sums_stride, width * count, y1 - y0};
+
+    TileArgs forward = args;
+    forward.input_count = 2;
+    forward.outputs[0] = band_sums;
+    forward.tile_y = y0;
+    forward.image_height = height;
+    forward.state = reinterpret_cast<uint8_t*>(forward_state);
+    forward.state_bytes = layout.state_bytes;
+    forward.scratch = args.scratch + layout.pass_offset;
+    forward.scratch_bytes = layout.total - layout.pass_offset;
+    sgm_detail::restore_checkpoint(band == 0 ? nullptr : plane_row<const uint16_t>(args.inputs[2], band), width, padded, count,
+                                   y0 - 1, forward_state);
+    sgm_tile<B, Word, SgmPass::forward_band>(forward);
+
+    TileArgs backward = forward;
+    backward.input_count = 3;
+    backward.inputs[2] = band_sums;
+    backward.outputs[0] = PlaneView{args.outputs[0].origin + static_cast<ptrdiff_t>(y0 - args.tile_y) * args.outputs[0].stride_bytes,
+                                    args.outputs[0].stride_bytes, width, y1 - y0};
+    backward.state = reinterpret_cast<uint8_t*>(backward_state);
+    sgm_detail::restore_checkpoint(band == bands - 1 ? nullptr : plane_row<const uint16_t>(args.inputs[3], band), width, padded,
+                                   count, height - y1 - 1, backward_state);
+    sgm_tile<B, Word, SgmPass::backward_band>(backward);
+  }
 }
 
 }  // namespace lpstereo::kernels

@@ -29,9 +29,18 @@ SgmVolume sgm_reference_costs(const PlaneView& left, const PlaneView& right, int
 }
 
 int32_t sgm_reference_add_path(const SgmVolume& cost, int p1, int p2, SgmPathDirection direction, SgmVolume& sum) {
+  const SgmVolume path = sgm_reference_path(cost, p1, p2, direction);
+  int32_t largest = 0;
+  for (size_t i = 0; i < sum.values.size(); ++i) {
+    sum.values[i] += path.values[i];
+    largest = std::max(largest, path.values[i]);
+  }
+  return largest;
+}
+
+SgmVolume sgm_reference_path(const SgmVolume& cost, int p1, int p2, SgmPathDirection direction) {
   const int width = cost.width, height = cost.height, count = cost.disparities;
   SgmVolume path{width, height, count, std::vector<int32_t>(cost.values.size(), 0)};
-  int32_t largest = 0;
   // Visit every pixel after its predecessor (x + dx, y + dy) on the path.
   for (int row = 0; row < height; ++row) {
     const int y = direction.dy > 0 ? height - 1 - row : row;
@@ -53,12 +62,10 @@ int32_t sgm_reference_add_path(const SgmVolume& cost, int p1, int p2, SgmPathDir
           value += best - previous_min;
         }
         path.at(x, y, i) = value;
-        largest = std::max(largest, value);
       }
     }
   }
-  for (size_t i = 0; i < sum.values.size(); ++i) sum.values[i] += path.values[i];
-  return largest;
+  return path;
 }
 
 void sgm_reference_select(const SgmVolume& sum, const SgmParams& settings, const PlaneView& output) {
@@ -123,9 +130,53 @@ void add_sums_plane(const PlaneView& sums, SgmVolume& sum) {
 }
 }  // namespace
 
+void sgm_reference_checkpoints(SgmPass pass, int word_bytes, const std::vector<PlaneView>& inputs,
+                               const std::vector<PlaneView>& outputs, const SgmParams& params) {
+  const int count = params.num_disparities;
+  const SgmVolume cost = sgm_reference_costs(inputs[0], inputs[1], word_bytes, params.min_disparity, count);
+  const bool backward = sgm_rows_bottom_up(pass);
+  const int width = cost.width, height = cost.height;
+  // Regions: the three paths from the previous row, kSgmForwardPaths / kSgmBackwardPaths 1..3.
+  std::vector<SgmVolume> paths;
+  for (int path = 1; path < 4; ++path) {
+    paths.push_back(sgm_reference_path(cost, params.p1, params.p2, backward ? kSgmBackwardPaths[path] : kSgmForwardPaths[path]));
+  }
+  for (int band = 0; band < sgm_band_count(height); ++band) {
+    uint16_t* out = plane_row<uint16_t>(outputs[0], band);
+    const int y0 = band * kSgmBandRows;
+    const int y1 = std::min(y0 + kSgmBandRows, height);
+    const bool first_band = backward ? y1 == height : band == 0;
+    const int previous_y = backward ? y1 : y0 - 1;  // the row the pass leaves before entering the band
+    for (int region = 0; region < 3; ++region) {
+      for (int position = 0; position < width; ++position) {
+        const int x = backward ? width - 1 - position : position;
+        for (int lane = 0; lane < count; ++lane) {
+          const int32_t value = first_band ? 0 : paths[static_cast<size_t>(region)].at(x, previous_y, count - 1 - lane);
+          out[(static_cast<size_t>(region) * width + position) * count + lane] = static_cast<uint16_t>(value);
+        }
+      }
+    }
+  }
+}
+
+void sgm_reference_8path(int word_bytes, const PlaneView& left, const PlaneView& right, const PlaneView& output,
+                         const SgmParams& params) {
+  const SgmVolume cost = sgm_reference_costs(left, right, word_bytes, params.min_disparity, params.num_disparities);
+  SgmVolume sum{cost.width, cost.height, cost.disparities, std::vector<int32_t>(cost.values.size(), 0)};
+  for (int path = 0; path < 4; ++path) {
+    sgm_reference_add_path(cost, params.p1, params.p2, kSgmForwardPaths[path], sum);
+    sgm_reference_add_path(cost, params.p1, params.p2, kSgmBackwardPaths[path], sum);
+  }
+  sgm_reference_select(sum, params, output);
+}
+
 void sgm_reference(SgmPass pass, int word_bytes, const std::vector<PlaneView>& inputs,
                    const std::vector<PlaneView>& outputs, const SgmParams& params) {
   const int count = params.num_disparities;
+  if (sgm_writes_checkpoints(pass)) {
+    sgm_reference_checkpoints(pass, word_bytes, inputs, outputs, params);
+    return;
+  }
   if (pass == SgmPass::select) {  // inputs: the forward and the backward sums, W*D x H each
     SgmVolume sum{inputs[0].width / count, inputs[0].height, count,
                   std::vector<int32_t>(static_cast<size_t>(inputs[0].width) * inputs[0].height, 0)};
@@ -160,6 +211,11 @@ namespace {
 
 std::string shape_text(const PlaneShape& shape) { return std::to_string(shape.width) + "x" + std::to_string(shape.height); }
 
+// The checkpoint passes' output: one row of 3 W D u16 per band.
+PlaneShape sgm_checkpoints_shape(const PlaneShape& image, int disparities) {
+  return PlaneShape{static_cast<int>(sgm_checkpoint_row_elements(image.width, disparities)), sgm_band_count(image.height)};
+}
+
 PreparedKernel sgm_prepare(SgmPass pass, const nlohmann::json& json, const std::vector<PlaneShape>& input_shapes) {
   check_param_names(json, {"min_disparity", "num_disparities", "p1", "p2", "uniqueness_percent", "subpixel", "lr_max_diff"});
   auto params = std::make_shared<SgmParams>();
@@ -171,10 +227,11 @@ PreparedKernel sgm_prepare(SgmPass pass, const nlohmann::json& json, const std::
   params->uniqueness_percent = param_int(json, "uniqueness_percent", 0, 0, kSgmMaxUniquenessPercent);
   params->subpixel = param_int(json, "subpixel", 1, 0, 1);
   params->lr_max_diff = param_int(json, "lr_max_diff", -1, -1, 2047);
-  if (sgm_writes_sums(pass) &&
+  if (!sgm_selects(pass) &&
       (json.contains("uniqueness_percent") || json.contains("subpixel") || json.contains("lr_max_diff"))) {
-    throw KernelError("a pass that writes path sums selects no disparity: parameters uniqueness_percent, subpixel and "
-                      "lr_max_diff belong to the selecting kernel");
+    throw KernelError(std::string("a pass that writes path ") + (sgm_writes_checkpoints(pass) ? "checkpoints" : "sums") +
+                      " selects no disparity: parameters uniqueness_percent, subpixel and lr_max_diff belong to the "
+                      "selecting kernel");
   }
   if (pass == SgmPass::select) {  // the two sums planes, W*D x H each, W = their width / D
     const PlaneShape first = input_shapes.at(0);
@@ -191,6 +248,9 @@ PreparedKernel sgm_prepare(SgmPass pass, const nlohmann::json& json, const std::
   const PlaneShape left = input_shapes.at(0);
   if (!(input_shapes.at(1) == left)) {
     throw KernelError("port 'right': expected the left view's size " + shape_text(left) + ", got " + shape_text(input_shapes[1]));
+  }
+  if (sgm_writes_checkpoints(pass)) {
+    return PreparedKernel{params, {sgm_checkpoints_shape(left, params->num_disparities)}, {}, {}};
   }
   const PlaneShape sums{left.width * params->num_disparities, left.height};
   if (pass == SgmPass::backward && !(input_shapes.at(2) == sums)) {
@@ -213,7 +273,7 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
   descriptor.name = name;
   const BufferFormat census{word_bytes == 4 ? ElementType::census32 : ElementType::census64, 0};
   const std::string census_name = word_bytes == 4 ? "census32" : "census64";
-  const PortAccess census_access = sgm_writes_sums(pass) ? PortAccess::whole : PortAccess::window;
+  const PortAccess census_access = sgm_stages_right_row(pass) ? PortAccess::whole : PortAccess::window;
   if (pass == SgmPass::select) {
     descriptor.ports = {{"first_sums", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole},
                         {"second_sums", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole}};
@@ -255,8 +315,24 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
                            "run in parallel)";
       descriptor.full_width_tiles = true;
       break;
+    case SgmPass::forward_checkpoints:
+      descriptor.summary = "8-path SGM by bands: the forward paths from the previous row (top-left, top, top-right) on " +
+                           census_name + " Hamming costs: their state at the top of each band of " +
+                           std::to_string(kSgmBandRows) + " rows (one u16 row of 3 W D per band)";
+      break;
+    case SgmPass::backward_checkpoints:
+      descriptor.summary = "8-path SGM by bands: the backward paths from the next row (bottom-right, bottom, bottom-left; "
+                           "rows bottom up) on " + census_name + " Hamming costs: their state below each band of " +
+                           std::to_string(kSgmBandRows) + " rows (one u16 row of 3 W D per band)";
+      descriptor.rows_bottom_up = true;
+      break;
+    case SgmPass::forward_band:
+    case SgmPass::backward_band:
+      throw std::logic_error("sgm_descriptor: the band passes run inside sgm_8path_bands, they are no kernel of their own");
   }
-  if (sgm_writes_sums(pass)) {
+  if (sgm_writes_checkpoints(pass)) {
+    descriptor.ports.push_back({"checkpoints", PortDirection::output, {ElementType::u16, 0}, PortAccess::window});
+  } else if (sgm_writes_sums(pass)) {
     descriptor.ports.push_back({"sums", PortDirection::output, {ElementType::u16, 0}, PortAccess::window});
   } else {
     descriptor.ports.push_back({"disparity", PortDirection::output, {ElementType::s16, 4}, PortAccess::window});
@@ -267,6 +343,7 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
   };
   // The forward pass's output is W*D wide: the image width is that over D.
   auto image_width = [pass](int output_width, const SgmParams& params) {
+    if (sgm_writes_checkpoints(pass)) return output_width / (3 * params.num_disparities);
     return sgm_writes_sums(pass) ? output_width / params.num_disparities : output_width;
   };
   if (sgm_runs_paths(pass)) {
@@ -279,14 +356,68 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
     const auto& params = *static_cast<const SgmParams*>(params_pointer);
     return sgm_scratch_layout(image_width(tile_width, params), params, pass, word_bytes).total;
   };
-  // Whole inputs (the forward pass's census rows, the backward pass's forward sums): the tile's rows.
-  descriptor.source_rect = [](int, const PixelRect& tile, const PlaneShape& shape, const void*) {
+  // Whole inputs (the forward pass's census rows, the backward pass's forward sums): the tile's rows;
+  // the checkpoint passes' output rows are bands, so their census rows are the bands' rows.
+  descriptor.source_rect = [pass](int, const PixelRect& tile, const PlaneShape& shape, const void*) {
+    if (sgm_writes_checkpoints(pass)) {
+      return PixelRect{0, std::min(tile.y0 * kSgmBandRows, shape.height), shape.width,
+                       std::min(tile.y1 * kSgmBandRows, shape.height)};
+    }
     return PixelRect{0, tile.y0, shape.width, tile.y1};
   };
   descriptor.counting = counting;
   descriptor.reference = [pass, word_bytes](const std::vector<PlaneView>& inputs, const std::vector<PlaneView>& outputs,
                                             const void* params, BorderMode, uint32_t) {
     sgm_reference(pass, word_bytes, inputs, outputs, *static_cast<const SgmParams*>(params));
+  };
+  return descriptor;
+}
+
+KernelDescriptor sgm_bands_descriptor(int word_bytes, const char* name, TileFunction counting) {
+  KernelDescriptor descriptor;
+  descriptor.name = name;
+  const BufferFormat census{word_bytes == 4 ? ElementType::census32 : ElementType::census64, 0};
+  const std::string census_name = word_bytes == 4 ? "census32" : "census64";
+  descriptor.summary = "8-path SGM by bands of " + std::to_string(kSgmBandRows) + " rows on " + census_name +
+                       " Hamming costs, from the two passes' checkpoints: per band the forward sums, then the backward "
+                       "paths with winner takes all, uniqueness, sub-pixel and LR check, s16 Q4 (no W x H x D volume; "
+                       "bands run in parallel)";
+  descriptor.ports = {{"left", PortDirection::input, census, PortAccess::whole},
+                      {"right", PortDirection::input, census, PortAccess::whole},
+                      {"forward_checkpoints", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole},
+                      {"backward_checkpoints", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole},
+                      {"disparity", PortDirection::output, {ElementType::s16, 4}, PortAccess::window}};
+  descriptor.border_modes = {BorderMode::replicate};
+  descriptor.full_width_tiles = true;
+  descriptor.block_height = kSgmBandRows;  // a tile is whole bands
+  descriptor.prepare = [](const nlohmann::json& json, const std::vector<PlaneShape>& shapes) {
+    PreparedKernel prepared = sgm_prepare(SgmPass::single, json, {shapes.at(0), shapes.at(1)});
+    const auto& params = *static_cast<const SgmParams*>(prepared.params.get());
+    const PlaneShape expected = sgm_checkpoints_shape(shapes[0], params.num_disparities);
+    const char* names[2] = {"forward_checkpoints", "backward_checkpoints"};
+    for (int i = 0; i < 2; ++i) {
+      if (!(shapes.at(2 + i) == expected)) {
+        throw KernelError(std::string("port '") + names[i] + "': expected the checkpoints of " + shape_text(shapes[0]) + " x " +
+                          std::to_string(params.num_disparities) + " disparities, " + shape_text(expected) + ", got " +
+                          shape_text(shapes[2 + i]));
+      }
+    }
+    prepared.input_halos.clear();  // every input is whole
+    return prepared;
+  };
+  descriptor.scratch_bytes = [word_bytes](int tile_width, int, const void* params_pointer) {
+    return sgm_bands_scratch_layout(tile_width, *static_cast<const SgmParams*>(params_pointer), word_bytes).total;
+  };
+  // Census: the tile's rows; checkpoints: the rows of the tile's bands.
+  descriptor.source_rect = [](int input, const PixelRect& tile, const PlaneShape& shape, const void*) {
+    if (input < 2) return PixelRect{0, tile.y0, shape.width, tile.y1};
+    return PixelRect{0, tile.y0 / kSgmBandRows, shape.width,
+                     std::min(shape.height, (tile.y1 + kSgmBandRows - 1) / kSgmBandRows)};
+  };
+  descriptor.counting = counting;
+  descriptor.reference = [word_bytes](const std::vector<PlaneView>& inputs, const std::vector<PlaneView>& outputs,
+                                      const void* params, BorderMode, uint32_t) {
+    sgm_reference_8path(word_bytes, inputs[0], inputs[1], outputs[0], *static_cast<const SgmParams*>(params));
   };
   return descriptor;
 }

@@ -65,6 +65,9 @@ SgmVolume sgm_reference_costs(const PlaneView& left, const PlaneView& right, int
 // Adds L_r of one path direction to `sum` (same shape as `cost`). Returns the largest L_r(p, d).
 int32_t sgm_reference_add_path(const SgmVolume& cost, int p1, int p2, SgmPathDirection direction, SgmVolume& sum);
 
+// The path costs L_r of one direction over the whole volume.
+SgmVolume sgm_reference_path(const SgmVolume& cost, int p1, int p2, SgmPathDirection direction);
+
 // Winner takes all, uniqueness, sub-pixel and LR check on the summed volume: s16 Q4 output.
 void sgm_reference_select(const SgmVolume& sum, const SgmParams& params, const PlaneView& output);
 
@@ -74,8 +77,15 @@ void sgm_reference_select(const SgmVolume& sum, const SgmParams& params, const P
 void sgm_reference(SgmPass pass, int word_bytes, const std::vector<PlaneView>& inputs,
                    const std::vector<PlaneView>& outputs, const SgmParams& params);
 
+// 8-path SGM over the whole image (the 8 paths summed, then the selection): what sgm_8path_forward +
+// sgm_8path_backward and sgm_8path_bands compute.
+void sgm_reference_8path(int word_bytes, const PlaneView& left, const PlaneView& right, const PlaneView& output,
+                         const SgmParams& params);
+
 // The descriptor of an SGM kernel (ports, halos, state, scratch, parameters, reference); the caller
 // fills the native table and registers it.
 KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, TileFunction counting);
+// The descriptor of sgm_8path_bands (census32: word_bytes 4, census64: 8).
+KernelDescriptor sgm_bands_descriptor(int word_bytes, const char* name, TileFunction counting);
 
 }  // namespace lpstereo::kernels

@@ -52,9 +52,7 @@ host_sim::ProfileReport profile_engine_on_target(const arm::DisparityParameters&
                                                  const host_sim::Target& target,
                                                  const std::map<std::string, const Plane*>& inputs,
                                                  const host_sim::ProfileOptions& options) {
-  arm::DisparityParameters chip = parameters;
-  chip.schedule = arm::SgmSchedule::sequential;
-  GraphSpec spec = arm::DisparityEngine::graph_spec(chip);
+  GraphSpec spec = arm::DisparityEngine::graph_spec(parameters, arm::EightPathLayout::forward_backward);
   bind_to_units(spec, target, width, height);
   const Graph graph = verified_for_target(spec, target, width, height);
   return host_sim::profile_graph(graph, target, inputs, options);

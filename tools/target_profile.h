@@ -23,10 +23,10 @@ Graph verified_for_target(const GraphSpec& spec, const host_sim::Target& target,
 // stays on the vector engine).
 void bind_to_units(GraphSpec& spec, const host_sim::Target& target, int width, int height);
 
-// The engine's graph profiled on a target in the chip's schedule: the single row-streaming SGM
-// passes (arm::SgmSchedule::sequential), which give the same bits as the host's two-passes-side-by-
-// side schedule but keep fewer W x H x D volumes in DRAM), each stage on a unit of the target that
-// takes it (bind_to_units). Verified against the target's memory.
+// The engine's graph profiled on a target in the chip's layout (arm::EightPathLayout::
+// forward_backward: 8 paths as two row-streaming passes with the forward sums in DRAM, the same bits
+// as the host's bands), each stage on a unit of the target that takes it (bind_to_units). Verified
+// against the target's memory.
 host_sim::ProfileReport profile_engine_on_target(const arm::DisparityParameters& parameters, int width, int height,
                                                  const host_sim::Target& target,
                                                  const std::map<std::string, const Plane*>& inputs,

@@ -14,6 +14,7 @@
 #include <set>
 
 #include "arm/disparity_engine.h"
+#include "arm/scheduler.h"
 #include "arm/tasks/road_profile.h"
 #include "dag/remap_table.h"
 #include "dag/tile_executor.h"
@@ -193,8 +194,32 @@ const std::vector<GoldenCase>& golden_cases() {
       {"yuv422_to_luma", {{"order", "uyvy"}}, BorderMode::replicate, {{97, 61}}, 0x51af7fcca88cd762ull},
       {"rgb888_to_luma", {{"order", "bgr"}}, BorderMode::replicate, {{3 * 97, 61}}, 0x740a5dc71b3098ffull},
       {"sgm_sums_select", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}, {"uniqueness_percent", 5}, {"subpixel", 1}, {"lr_max_diff", 1}}, BorderMode::replicate, {{97 * 40, 61}, {97 * 40, 61}}, 0xe8ebb4cbc8b52d59ull},
+      // The banded 8-path schedule over three bands (64, 64 and 22 rows); sgm_8path_bands gets the
+      // checkpoints its census inputs give (derived_golden_inputs), its output is 8-path SGM's.
+      {"sgm_8path_forward_checkpoints", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 150}, {97, 150}}, 0x429a03ae1e994c45ull},
+      {"sgm_8path_backward_checkpoints", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 150}, {97, 150}}, 0x0087f652d8e84e70ull},
+      {"sgm_8path_forward_checkpoints_census64", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 150}, {97, 150}}, 0x2286dc602bf89043ull},
+      {"sgm_8path_backward_checkpoints_census64", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}}, BorderMode::replicate, {{97, 150}, {97, 150}}, 0x3b851197a14ada24ull},
+      {"sgm_8path_bands", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}, {"uniqueness_percent", 5}, {"subpixel", 1}, {"lr_max_diff", 1}}, BorderMode::replicate, {{97, 150}, {97, 150}, {3 * 97 * 40, 3}, {3 * 97 * 40, 3}}, 0x7b1fe995576c9186ull},
+      {"sgm_8path_bands_census64", {{"min_disparity", -3}, {"num_disparities", 40}, {"p1", 5}, {"p2", 45}, {"uniqueness_percent", 5}, {"subpixel", 1}, {"lr_max_diff", 1}}, BorderMode::replicate, {{97, 150}, {97, 150}, {3 * 97 * 40, 3}, {3 * 97 * 40, 3}}, 0xdf6ab2102ed6fafcull},
   };
   return cases;
+}
+
+// Inputs a kernel needs to be consistent with its other inputs: sgm_8path_bands reads the checkpoints
+// of its census inputs, so they are the checkpoint kernels' (reference) outputs, not random planes.
+void derive_golden_inputs(const GoldenCase& golden, const std::vector<PlaneView>& input_views, std::vector<Plane>& inputs) {
+  if (golden.kernel.rfind("sgm_8path_bands", 0) != 0) return;
+  const std::string suffix = golden.kernel.size() > std::string("sgm_8path_bands").size() ? "_census64" : "";
+  const char* passes[2] = {"sgm_8path_forward_checkpoints", "sgm_8path_backward_checkpoints"};
+  nlohmann::json penalties = golden.params;
+  for (const char* key : {"uniqueness_percent", "subpixel", "lr_max_diff"}) penalties.erase(key);
+  for (int i = 0; i < 2; ++i) {
+    const KernelDescriptor& checkpoints = testing::kernel_named(passes[i] + suffix);
+    const PreparedKernel prepared = checkpoints.prepare(penalties, {golden.input_shapes[0], golden.input_shapes[1]});
+    std::vector<PlaneView> outputs = {inputs.at(2 + i).view()};
+    checkpoints.reference({input_views[0], input_views[1]}, outputs, prepared.params.get(), golden.border_mode, 0);
+  }
 }
 
 // The first pixel where two planes differ, as "x=.. y=..", or "" if equal.
@@ -228,6 +253,7 @@ TEST(Golden, EveryKernelGivesItsGoldenBitsOnEveryBackEnd) {
       input_views.push_back(inputs.back().view());
       ++input;
     }
+    derive_golden_inputs(golden, input_views, inputs);
     const PreparedKernel prepared = kernel.prepare(golden.params, golden.input_shapes);
     std::vector<BufferFormat> output_formats;
     for (const PortSpec& port : kernel.ports) {
@@ -274,9 +300,9 @@ TEST(Golden, KernelsAllHaveAGoldenCase) {
   }
 }
 
-// The whole disparity pipeline on the built-in synthetic scene: the engine's defaults (8-path SGM,
-// LR check, median, speckle filter) under both 8-path schedules, and the chip graphs' matcher alone
-// (4-path SGM, LR 1 px, no post-processing) under both 4-path schedules: a schedule never changes a bit.
+// The whole disparity pipeline on the built-in synthetic scene: the engine's defaults (8-path SGM by
+// bands, LR check, median, speckle filter) and in the two-pass layout a target profile costs, and the
+// chip graphs' matcher alone (4-path SGM, LR 1 px, no post-processing): a layout never changes a bit.
 TEST(Golden, DisparityPipelineGivesItsGoldenBitsOnEveryBackEnd) {
   io::SyntheticSceneOptions scene_options;
   scene_options.width = 193;
@@ -285,30 +311,31 @@ TEST(Golden, DisparityPipelineGivesItsGoldenBitsOnEveryBackEnd) {
   struct Pipeline {
     std::string label;
     arm::DisparityParameters parameters;
+    arm::EightPathLayout layout = arm::EightPathLayout::bands;
     uint64_t golden;
   };
-  std::vector<Pipeline> pipelines(4);
-  pipelines[0].label = "engine defaults";
+  std::vector<Pipeline> pipelines(3);
+  pipelines[0].label = "engine defaults (8 paths by bands)";
   pipelines[0].golden = 0x10f3737f44ee57beull;
-  pipelines[2].label = "engine defaults, 8-path backward pass fused with the selection";
-  pipelines[2].parameters.schedule = arm::SgmSchedule::sequential;
-  pipelines[2].golden = pipelines[0].golden;  // a schedule: the same bits
+  pipelines[2].label = "engine defaults, 8 paths as sgm_8path_forward + sgm_8path_backward";
+  pipelines[2].layout = arm::EightPathLayout::forward_backward;
+  pipelines[2].golden = pipelines[0].golden;  // a layout: the same bits
   pipelines[1].label = "4-path SGM alone";
   pipelines[1].parameters.paths = 4;
   pipelines[1].parameters.lr_max_diff = 1;
   pipelines[1].parameters.median = false;
   pipelines[1].parameters.speckle_max_size_px = 0;
   pipelines[1].golden = 0x35f7256dcdd1de53ull;
-  pipelines[3] = pipelines[1];
-  pipelines[3].label = "4-path SGM alone, one row-streaming pass (sgm_4path)";
-  pipelines[3].parameters.schedule = arm::SgmSchedule::sequential;
   for (Pipeline& pipeline : pipelines) {
     pipeline.parameters.num_disparities = 32;
     std::optional<Plane> scalar;
     auto check = [&](KernelBackend backend, simd::Isa isa, const std::string& label) {
       simd::ActiveIsaScope scope(isa);
-      arm::DisparityEngine engine(scene_options.width, scene_options.height, pipeline.parameters, {}, 0, backend);
-      const Plane& disparity = engine.compute(scene.left, scene.right);
+      const auto graph = make_verified_graph(arm::DisparityEngine::graph_spec(pipeline.parameters, pipeline.layout),
+                                             scene_options.width, scene_options.height, {});
+      arm::FrameRunner runner(*graph, 2, backend);
+      runner.process({{"left", &scene.left}, {"right", &scene.right}});
+      const Plane& disparity = runner.buffer("disparity");
       if (!scalar) scalar = disparity.clone();
       EXPECT_EQ(first_difference(*scalar, disparity), "") << pipeline.label << " on " << label << " vs scalar";
       EXPECT_EQ(hex(plane_hash(disparity)), hex(pipeline.golden)) << pipeline.label << " on " << label;

@@ -1,4 +1,5 @@
-// SGM kernels (sgm_4path, sgm_8path_forward / _backward, census64 variants): bit-exact against the
+// SGM kernels (sgm_4path, sgm_8path_forward / _backward, the path-pair and select passes, the banded
+// 8-path schedule's checkpoints and bands, census64 variants): bit-exact against the
 // scalar reference on every back end at odd sizes in padded buffers with several tile heights (the
 // row state carried across tiles), golden disparities of shifted patterns, the overflow bound at the
 // largest range and penalties, closed-form op counts, and parameter errors.
@@ -219,6 +220,73 @@ TEST(Sgm8Path, BackwardSumsAndSelectMatchReferenceAndTheTwoPassPair) {
   }
 }
 
+// The banded 8-path schedule (kernels/sgm_8path_bands.cpp): both checkpoint passes against the
+// reference at odd sizes in padded buffers across tile heights (in bands; the row state carried
+// across tiles), sgm_8path_bands from those checkpoints against the reference, and its map equals
+// the two-pass pair's (sgm_8path_forward + sgm_8path_backward) bit for bit. Heights: three bands with
+// a short last one, exactly one band, one band and one row; every range of kRanges (the bodies for
+// 2, 4 and 8 vectors, partial vectors, negative ranges, one disparity).
+TEST(Sgm8PathBands, CheckpointsAndBandsMatchReferenceAndTheTwoPassPair) {
+  const std::vector<std::pair<int, int>> sizes = {{37, 150}, {29, 64}, {31, 65}};
+  for (const RangeCase& range : kRanges) {
+    for (auto [width, height] : sizes) {
+      const nlohmann::json params = sgm_params(range.min_disparity, range.num_disparities, 6, 70, range.uniqueness,
+                                               range.subpixel, range.lr_max_diff);
+      CensusPair pair = shifted_census(width, height, ElementType::census32, (width + 9) * 4, std::max(range.min_disparity, -5),
+                                       range.min_disparity + range.num_disparities - 1, 41);
+      SCOPED_TRACE("min_disparity " + std::to_string(range.min_disparity) + " D " + std::to_string(range.num_disparities) +
+                   ", " + std::to_string(width) + "x" + std::to_string(height));
+      const int checkpoint_width = 3 * width * range.num_disparities;
+      const int bands = kernels::sgm_band_count(height);
+      for (const char* name : {"sgm_8path_forward_checkpoints", "sgm_8path_backward_checkpoints"}) {
+        KernelCase checkpoints{name, forward_params(params), {pair.left, pair.right}, 6};
+        expect_all_back_ends_match_reference(checkpoints, {{checkpoint_width, bands}, {checkpoint_width, 1}});
+      }
+      const Plane forward = reference_sums("sgm_8path_forward_checkpoints", pair.left, pair.right, forward_params(params));
+      const Plane backward = reference_sums("sgm_8path_backward_checkpoints", pair.left, pair.right, forward_params(params));
+      KernelCase banded{"sgm_8path_bands", params, {pair.left, pair.right, forward, backward}, 4};
+      expect_all_back_ends_match_reference(banded, {{width, height}, {width, kernels::kSgmBandRows}, {width, 2 * kernels::kSgmBandRows}});
+      const Plane forward_sums = reference_forward_sums(pair.left, pair.right, forward_params(params), 4);
+      const Plane two_pass =
+          reference_disparity("sgm_8path_backward", {&pair.left, &pair.right, &forward_sums}, params, width, height);
+      const Plane by_bands =
+          reference_disparity("sgm_8path_bands", {&pair.left, &pair.right, &forward, &backward}, params, width, height);
+      for (int y = 0; y < height; ++y) {
+        for (int x = 0; x < width; ++x) ASSERT_EQ(by_bands.at<int16_t>(x, y), two_pass.at<int16_t>(x, y)) << x << "," << y;
+      }
+    }
+  }
+}
+
+// The checkpoints are what the bands restore: with them zeroed (the frame start's state for every
+// band) the bands' map differs from the two-pass pair's, so the restore is what makes it equal.
+TEST(Sgm8PathBands, ZeroCheckpointsGiveADifferentMap) {
+  const nlohmann::json params = sgm_params(0, 32, 6, 70, 10, 1, 1);
+  CensusPair pair = shifted_census(41, 150, ElementType::census32, 41 * 4, 0, 31, 43);
+  const Plane forward = reference_sums("sgm_8path_forward_checkpoints", pair.left, pair.right, forward_params(params));
+  const Plane backward = reference_sums("sgm_8path_backward_checkpoints", pair.left, pair.right, forward_params(params));
+  Plane zero_forward(forward.width(), forward.height(), forward.format());
+  Plane zero_backward(backward.width(), backward.height(), backward.format());
+  const KernelDescriptor& kernel = testing::kernel_named("sgm_8path_bands");
+  const PreparedKernel prepared = kernel.prepare(params, {{41, 150}, {41, 150}, {forward.width(), forward.height()},
+                                                          {backward.width(), backward.height()}});
+  auto run = [&](const Plane& forward_checkpoints, const Plane& backward_checkpoints) {
+    Plane disparity(41, 150, {ElementType::s16, 4});
+    VectorNodeBinding binding{&kernel, prepared.params.get(), BorderMode::replicate, 0,
+                              {pair.left.view(), pair.right.view(), forward_checkpoints.view(), backward_checkpoints.view()},
+                              {disparity.view()}, prepared.input_halos};
+    run_vector_node(binding, 41, kernels::kSgmBandRows, KernelBackend::native, simd::available_isas().back());
+    return disparity;
+  };
+  const Plane restored = run(forward, backward);
+  const Plane zeroed = run(zero_forward, zero_backward);
+  int64_t different = 0;
+  for (int y = 0; y < 150; ++y) {
+    for (int x = 0; x < 41; ++x) different += restored.at<int16_t>(x, y) != zeroed.at<int16_t>(x, y) ? 1 : 0;
+  }
+  EXPECT_GT(different, 0);
+}
+
 // The host-parallel 4-path pair: each pair's sums against the reference at odd sizes across tile
 // heights (the row state carried across tiles), and pair + pair + sgm_sums_select gives sgm_4path's
 // map bit for bit.
@@ -266,6 +334,22 @@ TEST(Sgm8Path, Census64MatchesReference) {
   KernelCase backward{"sgm_8path_backward_census64", params, {}, 8};
   backward.inputs = {pair.left, pair.right, reference_forward_sums(pair.left, pair.right, forward_params(params), 8)};
   expect_all_back_ends_match_reference(backward, {{29, 11}, {29, 4}});
+}
+
+TEST(Sgm8PathBands, Census64MatchesReference) {
+  const nlohmann::json params = sgm_params(-4, 33, 10, 120, 10, 1, 1);
+  CensusPair pair = shifted_census(29, 131, ElementType::census64, 32 * 8, 0, 25, 5);
+  const int checkpoint_width = 3 * 29 * 33;
+  for (const char* name : {"sgm_8path_forward_checkpoints_census64", "sgm_8path_backward_checkpoints_census64"}) {
+    KernelCase checkpoints{name, forward_params(params), {pair.left, pair.right}, 4};
+    expect_all_back_ends_match_reference(checkpoints, {{checkpoint_width, 3}, {checkpoint_width, 1}});
+  }
+  KernelCase banded{"sgm_8path_bands_census64", params,
+                    {pair.left, pair.right,
+                     reference_sums("sgm_8path_forward_checkpoints_census64", pair.left, pair.right, forward_params(params)),
+                     reference_sums("sgm_8path_backward_checkpoints_census64", pair.left, pair.right, forward_params(params))},
+                    8};
+  expect_all_back_ends_match_reference(banded, {{29, 131}, {29, kernels::kSgmBandRows}});
 }
 
 // A smooth texture f(x, y) (sum of oriented sines) seen by the right camera shifted by `shift` px:
