@@ -39,6 +39,17 @@ void check_range(const char* name, int value, int min_value, int max_value) {
   }
 }
 
+// The search range against the image width (the kernels check the rest when the graph is verified).
+void check_range_fits(int width, const DisparityParameters& parameters) {
+  check_range("num_disparities", parameters.num_disparities, 1, width);
+  check_range("min_disparity", parameters.min_disparity, -width + 1, width - 1);
+  if (parameters.min_disparity + parameters.num_disparities > width) {
+    throw std::invalid_argument("disparity parameters: min_disparity + num_disparities = " +
+                                std::to_string(parameters.min_disparity + parameters.num_disparities) +
+                                " exceeds the image width " + std::to_string(width));
+  }
+}
+
 int floor_half(int value) { return value >= 0 ? value / 2 : -((1 - value) / 2); }
 int ceil_half(int value) { return -floor_half(-value); }
 
@@ -276,13 +287,7 @@ GraphSpec DisparityEngine::graph_spec(const DisparityParameters& parameters, Eig
 DisparityEngine::DisparityEngine(int width, int height, const DisparityParameters& parameters, const MemoryBudget& memory,
                                  int worker_threads, KernelBackend backend)
     : parameters_(parameters) {
-  check_range("num_disparities", parameters.num_disparities, 1, width);
-  check_range("min_disparity", parameters.min_disparity, -width + 1, width - 1);
-  if (parameters.min_disparity + parameters.num_disparities > width) {
-    throw std::invalid_argument("disparity parameters: min_disparity + num_disparities = " +
-                                std::to_string(parameters.min_disparity + parameters.num_disparities) +
-                                " exceeds the image width " + std::to_string(width));
-  }
+  check_range_fits(width, parameters);
   const int workers = resolved_worker_threads(worker_threads);
   GraphSpec spec = graph_spec(parameters);
   // The speckle filter in bands on the workers: it is the graph's last node, so the other workers
@@ -292,6 +297,14 @@ DisparityEngine::DisparityEngine(int width, int height, const DisparityParameter
   }
   graph_ = make_verified_graph(spec, width, height, memory);
   runner_ = std::make_unique<FrameRunner>(*graph_, workers, backend);
+}
+
+size_t DisparityEngine::working_set_bytes(int width, int height, const DisparityParameters& parameters, int worker_threads) {
+  check_range_fits(width, parameters);
+  const auto graph = make_verified_graph(graph_spec(parameters), width, height, MemoryBudget{});
+  const size_t speckle_marks =
+      parameters.paths != 0 && parameters.speckle_max_size_px > 0 ? static_cast<size_t>(width) * static_cast<size_t>(height) : 0;
+  return FrameRunner::planned_bytes(*graph, worker_threads) + speckle_marks;
 }
 
 DisparityEngine::~DisparityEngine() = default;

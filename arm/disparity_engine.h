@@ -143,6 +143,13 @@ class DisparityEngine {
   // The graph it runs: graph_spec of its parameters.
   const Graph& graph() const { return *graph_; }
 
+  // The working memory an engine of these arguments will take, in bytes, computed before
+  // allocating anything (the graph is built and verified, no frame buffer is made): the
+  // FrameRunner's buffers, row state and per-worker scratch (FrameRunner::planned_bytes) plus the
+  // speckle filter's per-pixel marks (W H bytes) when it is on. Throws as the constructor does for
+  // bad parameters.
+  static size_t working_set_bytes(int width, int height, const DisparityParameters& parameters, int worker_threads = 0);
+
   // The graph spec the engine runs for these parameters (also what `lpstereo graph dot` draws).
   static GraphSpec graph_spec(const DisparityParameters& parameters, EightPathLayout layout = EightPathLayout::bands);
 

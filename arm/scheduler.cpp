@@ -91,7 +91,10 @@ FrameRunner::FrameRunner(const Graph& graph, int worker_threads, KernelBackend b
   }
   arm_work_.assign(graph.nodes().size(), ArmWork{});
   node_state_.resize(graph.nodes().size());
-  for (size_t n = 0; n < graph.nodes().size(); ++n) node_state_[n].assign(row_state_bytes(graph.nodes()[n], buffers), 0);
+  for (size_t n = 0; n < graph.nodes().size(); ++n) {
+    const size_t bytes = row_state_bytes(graph.nodes()[n], buffers);
+    if (bytes > 0) node_state_[n] = NodeState{ZeroedBlock(bytes), bytes};
+  }
   worker_threads = resolved_worker_threads(worker_threads);
   pool_ = std::make_unique<Pool>();
   for (int t = 0; t < worker_threads; ++t) {
@@ -125,6 +128,26 @@ FrameRunner::FrameRunner(const Graph& graph, int worker_threads, KernelBackend b
       }
     });
   }
+}
+
+size_t FrameRunner::planned_bytes(const Graph& graph, int worker_threads) {
+  const std::vector<BufferInfo>& buffers = graph.buffers();
+  size_t total = 0;
+  for (const BufferInfo& buffer : buffers) {
+    if (buffer.is_graph_input || buffer.is_constant) continue;
+    const size_t row_bytes = static_cast<size_t>(buffer.shape.width) * static_cast<size_t>(element_bytes(buffer.format.type));
+    const size_t plane_bytes = (row_bytes + 63) / 64 * 64 * static_cast<size_t>(buffer.shape.height);  // Plane's stride
+    total += (buffer.read_delayed ? 2 : 1) * zeroed_block_footprint(plane_bytes);
+  }
+  size_t largest_scratch = 0;
+  for (const NodeInfo& node : graph.nodes()) {
+    total += zeroed_block_footprint(row_state_bytes(node, buffers));
+    if (node.is_vector() && node.kernel->scratch_bytes) {
+      largest_scratch = std::max(largest_scratch,
+                                 node.kernel->scratch_bytes(node.tile_width, node.tile_height, node.prepared.params.get()));
+    }
+  }
+  return total + static_cast<size_t>(resolved_worker_threads(worker_threads)) * zeroed_block_footprint(largest_scratch);
 }
 
 void FrameRunner::enqueue_locked(int dispatch_index) {
@@ -172,11 +195,11 @@ void FrameRunner::run_dispatch_item(int dispatch_index, size_t first_tile, size_
     VectorNodeBinding binding = vector_node_binding(node);
     for (size_t i = 0; i < node.input_buffers.size(); ++i) binding.inputs.push_back(input_plane(i).view());
     for (int output : node.output_buffers) binding.outputs.push_back(slot(output, frame_index_).view());
-    std::vector<uint8_t>& state = node_state_[dispatch.node];
-    if (!state.empty()) {
-      if (first_tile == 0) std::fill(state.begin(), state.end(), 0);  // a new frame
-      binding.state = state.data();
-      binding.state_bytes = state.size();
+    NodeState& state = node_state_[dispatch.node];
+    if (state.bytes > 0) {
+      if (first_tile == 0) std::fill(state.block.get(), state.block.get() + state.bytes, uint8_t{0});  // a new frame
+      binding.state = state.block.get();
+      binding.state_bytes = state.bytes;
     }
     const TileFunction function =
         backend_ == KernelBackend::counting ? node.kernel->counting : node.kernel->native_for(simd::active_isa());

@@ -16,6 +16,7 @@
 #include "dag/graph.h"
 #include "dag/plane.h"
 #include "dag/tile_executor.h"
+#include "dag/zeroed_block.h"
 
 namespace lpstereo::arm {
 
@@ -60,6 +61,13 @@ class FrameRunner {
   FrameRunner(const FrameRunner&) = delete;
   FrameRunner& operator=(const FrameRunner&) = delete;
 
+  // The memory a FrameRunner of `graph` with `worker_threads` (0 = one per hardware thread) will
+  // hold, computed before allocating anything: every non-input buffer (x 2 slots when read delayed),
+  // every row state, and each worker's scratch for the largest tile of any vector node, each as
+  // dag/zeroed_block.h lays it out. Not in it: the halo staging of tiles at the image's edges (a
+  // few rows), the threads' stacks, and what ARM tasks allocate themselves.
+  static size_t planned_bytes(const Graph& graph, int worker_threads);
+
   // Processes one frame. Reads every graph input from `inputs` (by input name) on every call.
   void process(const std::map<std::string, const Plane*>& inputs);
 
@@ -82,7 +90,11 @@ class FrameRunner {
   std::vector<std::vector<Plane>> slots_;  // per buffer: 1 slot, or 2 for delayed buffers
   std::vector<const Plane*> input_planes_;
   std::vector<ArmWork> arm_work_;
-  std::vector<std::vector<uint8_t>> node_state_;  // per node: row state of row-state kernels
+  struct NodeState {
+    ZeroedBlock block;  // dag/zeroed_block.h: huge-page advised when large
+    size_t bytes = 0;
+  };
+  std::vector<NodeState> node_state_;  // per node: row state of row-state kernels
   int64_t frame_index_ = 0;
   std::unique_ptr<Pool> pool_;
 };

@@ -1,9 +1,12 @@
 #include "dag/plane.h"
 
+#include "dag/zeroed_block.h"
+
 #include <cstring>
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace lpstereo {
 
@@ -20,11 +23,9 @@ Plane::Plane(int width, int height, BufferFormat format, ptrdiff_t stride_bytes)
                                 std::to_string(stride_bytes));
   }
   size_bytes_ = static_cast<size_t>(stride_bytes) * static_cast<size_t>(height);
-  const size_t allocation = (size_bytes_ + 63) / 64 * 64;
-  auto* memory = static_cast<uint8_t*>(std::aligned_alloc(64, allocation));
-  if (memory == nullptr) throw std::bad_alloc();
-  std::memset(memory, 0, allocation);
-  storage_.reset(memory, FreeDeleter{});
+  ZeroedBlock block(size_bytes_);
+  uint8_t* memory = block.get();
+  storage_ = std::move(block).share();
   view_ = PlaneView{memory, stride_bytes, width, height};
 }
 

@@ -36,10 +36,7 @@ class Plane {
   Element& at(int x, int y) const { return row<Element>(y)[x]; }
 
  private:
-  struct FreeDeleter {
-    void operator()(uint8_t* pointer) const { std::free(pointer); }
-  };
-  std::shared_ptr<uint8_t> storage_;
+  std::shared_ptr<uint8_t> storage_;  // dag/zeroed_block.h: huge-page advised from 2 MiB on
   PlaneView view_{};
   BufferFormat format_{};
   size_t size_bytes_ = 0;

@@ -129,7 +129,7 @@ void TileRunner::run(const VectorNodeBinding& binding, const TileRect& tile, Til
   args.output_count = output_index;
 
   const size_t scratch_bytes = kernel.scratch_bytes ? kernel.scratch_bytes(tile.width, tile.height, binding.params) : 0;
-  if (scratch_.size() < scratch_bytes) scratch_.resize(scratch_bytes);
+  scratch_.reserve(scratch_bytes);
   args.scratch = scratch_bytes > 0 ? scratch_.data() : nullptr;
   args.scratch_bytes = scratch_bytes;
   args.state = binding.state;

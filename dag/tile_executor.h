@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "dag/plane.h"
+#include "dag/zeroed_block.h"
 #include "kernels/kernel.h"
 #include "kernels/simd/op_class.h"
 
@@ -51,7 +52,7 @@ class TileRunner {
 
  private:
   std::vector<std::vector<uint8_t>> staging_;
-  std::vector<uint8_t> scratch_;
+  GrowingBlock scratch_;  // huge-page advised when large (sgm_8path_bands: a band of sums)
 };
 
 enum class KernelBackend { native, counting };

@@ -1,7 +1,11 @@
 #include "tools/disparity_options.h"
 
+#include <cctype>
+#include <cstdio>
+#include <fstream>
 #include <stdexcept>
 
+#include "arm/scheduler.h"
 #include "tools/command_error.h"
 
 namespace lpstereo::tools {
@@ -33,6 +37,54 @@ void add_disparity_engine_options(CLI::App& command, DisparityEngineOptions& opt
       ->capture_default_str()
       ->check(CLI::Range(0, 4095));
   add_multires_options(command, options.multires);
+}
+
+void add_max_memory_option(CLI::App& command, DisparityEngineOptions& options) {
+  command.add_option("--max-memory", options.max_memory,
+                     "working memory the disparity engine may take: bytes, or a number with K, M or G (powers of 1024); "
+                     "default: the machine's available memory. A size and range that need more fail before allocating");
+}
+
+size_t max_memory_bytes(const std::string& text) {
+  if (text.empty()) {
+    std::ifstream meminfo("/proc/meminfo");
+    std::string key;
+    size_t kilobytes = 0;
+    while (meminfo >> key >> kilobytes) {
+      if (key == "MemAvailable:") return kilobytes * 1024;
+      meminfo.ignore(256, '\n');
+    }
+    return 0;
+  }
+  size_t digits = 0;
+  while (digits < text.size() && std::isdigit(static_cast<unsigned char>(text[digits]))) ++digits;
+  const std::string suffix = text.substr(digits);
+  const int shift = suffix.empty() ? 0 : suffix == "K" || suffix == "k" ? 10 : suffix == "M" || suffix == "m" ? 20
+                    : suffix == "G" || suffix == "g" ? 30 : -1;
+  if (digits == 0 || digits > 12 || shift < 0) {
+    throw CommandError(kExitUsage, "--max-memory: expected bytes or a number with K, M or G (e.g. 600M), got '" + text + "'");
+  }
+  return static_cast<size_t>(std::stoull(text.substr(0, digits))) << shift;
+}
+
+void check_engine_memory(const DisparityEngineOptions& options, int width, int height, const arm::DisparityParameters& parameters,
+                         int worker_threads) {
+  const size_t limit = max_memory_bytes(options.max_memory);
+  if (limit == 0) return;
+  const size_t need = arm::DisparityEngine::working_set_bytes(width, height, parameters, worker_threads);
+  if (need <= limit) return;
+  auto mib = [](size_t bytes) {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%.1f MiB", static_cast<double>(bytes) / (1024.0 * 1024.0));
+    return std::string(text);
+  };
+  throw CommandError(kExitInput, "disparity engine at " + std::to_string(width) + "x" + std::to_string(height) + " (" +
+                                     arm::settings_text(parameters) + ", " +
+                                     std::to_string(arm::resolved_worker_threads(worker_threads)) +
+                                     " workers) needs " + mib(need) + " of working memory; " +
+                                     (options.max_memory.empty() ? "the machine has " + mib(limit) + " available"
+                                                                 : "--max-memory " + options.max_memory + " allows " + mib(limit)) +
+                                     " (fewer --num-disp, --paths 4, --multires on or fewer --threads need less)");
 }
 
 void add_multires_options(CLI::App& command, MultiresOptions& options) {

@@ -56,7 +56,23 @@ struct DisparityEngineOptions {
   int speckle_size_px;
   int speckle_range_px;
   MultiresOptions multires;
+  std::string max_memory;  // --max-memory (add_max_memory_option); "" = the machine's available memory
 };
+
+// --max-memory SIZE, for the commands that run the engine on whole frames (`lpstereo disparity`,
+// `lpstereo run`).
+void add_max_memory_option(CLI::App& command, DisparityEngineOptions& options);
+
+// --max-memory in bytes: a number with an optional K, M or G suffix (powers of 1024); "" = the
+// machine's available memory (MemAvailable of /proc/meminfo; 0 = no limit where it cannot be read).
+// Throws CommandError (exit 2) for text that is not a size.
+size_t max_memory_bytes(const std::string& text);
+
+// Fails before anything is allocated when the engine's working set for width x height frames
+// (arm::DisparityEngine::working_set_bytes) exceeds --max-memory: CommandError (exit 1), one line
+// naming the need, the setting and the limit.
+void check_engine_memory(const DisparityEngineOptions& options, int width, int height, const arm::DisparityParameters& parameters,
+                         int worker_threads);
 
 // Adds the options to `command`; num_disparities_help is --num-disp's help (its default differs).
 void add_disparity_engine_options(CLI::App& command, DisparityEngineOptions& options, const std::string& num_disparities_help);

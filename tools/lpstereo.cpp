@@ -349,6 +349,7 @@ int run_disparity_synthetic(const DisparityOptions& options) {
   const arm::DisparityParameters parameters =
       configured(options, tools::disparity_parameters(options, options.size.width, scene_num_disparities), options.size.width);
   const host_sim::Target target = host_sim::load_target(options.target_name.empty() ? "cv1-class" : options.target_name);
+  tools::check_engine_memory(options, options.size.width, options.size.height, parameters, options.threads);
   arm::DisparityEngine engine(options.size.width, options.size.height, parameters, MemoryBudget{}, options.threads,
                               kernel_backend(options));
   const Plane& disparity = engine.compute(scene.left, scene.right);
@@ -445,6 +446,7 @@ int run_disparity_files(const DisparityOptions& options) {
       options, tools::disparity_parameters(options, left.width(), arm::DisparityParameters{}.num_disparities), left.width());
   std::optional<host_sim::Target> target;
   if (!options.target_name.empty()) target = host_sim::load_target(options.target_name);
+  tools::check_engine_memory(options, left.width(), left.height(), parameters, options.threads);
   arm::DisparityEngine engine(left.width(), left.height(), parameters, MemoryBudget{}, options.threads, kernel_backend(options));
   const int16_t invalid_q4 = engine.invalid_disparity_q4();
   Plane disparity = engine.compute(left, right).clone();
@@ -566,6 +568,7 @@ int main(int argc, char** argv) {
   tools::add_disparity_engine_options(
       *disparity, disparity_options,
       "disparities searched: [min-disp, min-disp + num-disp) (default 64; --synthetic: the scene's range)");
+  tools::add_max_memory_option(*disparity, disparity_options);
   disparity->add_option("--calib", disparity_options.calibration_files,
                         "calibration: OpenCV YAML/XML, KITTI calib, Middlebury calib.txt (two files as A,B: OpenCV "
                         "intrinsics + extrinsics, ROS camera_info or Kalibr left + right). With --rectify both views are "

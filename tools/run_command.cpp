@@ -378,6 +378,7 @@ RunCommand::RunCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0, 256));
   add_disparity_engine_options(*command_, engine_options_, "disparities searched: [min-disp, min-disp + num-disp) (default 64)");
+  add_max_memory_option(*command_, engine_options_);
   add_obstacle_tuning_options(*command_, detector_parameters_);  // --graph obstacles: the tuning of lpstereo obstacles
 }
 
@@ -412,6 +413,7 @@ int RunCommand::run() const {
   if (obstacles) check_obstacle_geometry(calibration.maps.geometry, calibration_files_);
   const arm::DisparityParameters disparity_parameters =
       tools::disparity_parameters(engine_options_, width, arm::DisparityParameters{}.num_disparities);
+  check_engine_memory(engine_options_, width, height, disparity_parameters, threads_);
   arm::DisparityEngine engine(width, height, disparity_parameters, {}, threads_);
   std::unique_ptr<arm::ObstacleDetector> detector;
   arm::ObstacleParameters parameters;

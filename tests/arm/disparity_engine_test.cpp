@@ -426,6 +426,30 @@ TEST(DisparityEngine, HoldsNoVolumeOnAnyWorkerCountWithTheSameBits) {
   }
 }
 
+// The working set is known before anything is allocated and follows the closed form of
+// kernels/sgm_8path_bands.cpp: at 3840x1728 x 128 with two workers, 8 paths hold the checkpoints
+// (12 W D ceil(H / 64)) and a band of forward sums per worker (128 W D), within the 600 MB,
+// far below one W x H x D u16 volume; 4 paths hold neither.
+TEST(DisparityEngine, WorkingSetFollowsTheBandsClosedForm) {
+  const size_t width = 3840, height = 1728, disparities = 128, workers = 2;
+  arm::DisparityParameters parameters;
+  parameters.num_disparities = static_cast<int>(disparities);
+  const size_t eight = arm::DisparityEngine::working_set_bytes(3840, 1728, parameters, 2);
+  const size_t checkpoints = 12 * width * disparities * ((height + 63) / 64);
+  const size_t band_sums = workers * 128 * width * disparities;
+  EXPECT_GE(eight, checkpoints + band_sums);
+  // Beyond them: the census planes (2 x 4 W H), the disparity planes (3 x 2 W H: matcher, median,
+  // speckle filter), the speckle marks (W H), the row states and the rounding to huge pages.
+  EXPECT_LE(eight, checkpoints + band_sums + 15 * width * height + (size_t{40} << 20));
+  EXPECT_LT(eight, size_t{600} * 1000 * 1000);
+  EXPECT_LT(eight, 2 * width * height * disparities / 4);
+  parameters.paths = 4;
+  const size_t four = arm::DisparityEngine::working_set_bytes(3840, 1728, parameters, 2);
+  EXPECT_LT(four, checkpoints);
+  EXPECT_THROW(arm::DisparityEngine::working_set_bytes(100, 50, parameters, 2), std::invalid_argument)
+      << "128 disparities on a 100 px wide image";
+}
+
 TEST(DisparityEngine, BuildsTheGraphOfItsParameters) {
   arm::DisparityParameters parameters;
   const GraphSpec defaults = arm::DisparityEngine::graph_spec(parameters);

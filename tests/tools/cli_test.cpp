@@ -372,6 +372,26 @@ TEST_F(Cli, DisparityWritesTheSameMapInEveryFormat) {
   EXPECT_TRUE(no_temporaries());
 }
 
+// --max-memory: a size and range whose working set exceeds it fail before the engine allocates,
+// with one line naming the need and the limit, and write nothing; the same run fits a larger limit;
+// a limit that is not a size is bad usage.
+TEST_F(Cli, DisparityRefusesAWorkingSetOverMaxMemoryBeforeAllocating) {
+  ASSERT_EQ(run("disparity --synthetic --width 96 --height 64 --out-dir " + path("pair")).exit_code, 0);
+  const std::string pair = path("pair/left.png") + " " + path("pair/right.png");
+  const Result over = run("disparity " + pair + " -o " + path("d.png") + " --num-disp 32 --max-memory 64K");
+  EXPECT_EQ(over.exit_code, 1);
+  EXPECT_NE(over.err.find("needs "), std::string::npos) << over.err;
+  EXPECT_NE(over.err.find("--max-memory 64K allows 0.1 MiB"), std::string::npos) << over.err;
+  EXPECT_EQ(std::count(over.err.begin(), over.err.end(), '\n'), 1) << over.err;
+  EXPECT_FALSE(fs::exists(path("d.png")));
+  const Result fits = run("disparity " + pair + " -o " + path("d.png") + " --num-disp 32 --max-memory 1G");
+  EXPECT_EQ(fits.exit_code, 0) << fits.err;
+  EXPECT_TRUE(fs::is_regular_file(path("d.png")));
+  const Result bad = run("disparity " + pair + " -o " + path("e.png") + " --num-disp 32 --max-memory 12X");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--max-memory: expected bytes or a number with K, M or G"), std::string::npos) << bad.err;
+}
+
 TEST_F(Cli, DisparityMatcherOptionsReachTheEngine) {
   ASSERT_EQ(run("disparity --synthetic --width 96 --height 64 --out-dir " + path("pair")).exit_code, 0);
   const std::string pair = path("pair/left.png") + " " + path("pair/right.png");
