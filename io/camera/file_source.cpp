@@ -5,9 +5,8 @@
 #include <filesystem>
 #include <limits>
 
-#include <opencv2/core/utils/logger.hpp>
-#include <opencv2/videoio.hpp>
 
+#include "io/camera/video_decoder.h"
 #include "io/image_io.h"
 
 namespace lpstereo::io {
@@ -47,18 +46,6 @@ void check_requested_size(const SourceOptions& options, int width, int height, c
   }
 }
 
-// OpenCV's video back ends log each failed probe (GStreamer, the image-sequence reader, ...) on
-// stderr; the source reports failures itself, in one line. Quiet for the scope of an open or a read.
-class QuietOpenCvLog {
- public:
-  QuietOpenCvLog() : previous_(cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT)) {}
-  ~QuietOpenCvLog() { cv::utils::logging::setLogLevel(previous_); }
-  QuietOpenCvLog(const QuietOpenCvLog&) = delete;
-  QuietOpenCvLog& operator=(const QuietOpenCvLog&) = delete;
-
- private:
-  cv::utils::logging::LogLevel previous_;
-};
 
 // The pair of recorded frame `frame` as delivered: timestamps frame / rate, sequences = frame number,
 // index = pairs delivered before; counted in `statistics`.
@@ -165,25 +152,14 @@ VideoFileSource::VideoFileSource(const std::string& left_path, const std::string
     int64_t frames;
     double rate_hz;
   };
-  const auto open = [](std::unique_ptr<cv::VideoCapture>& capture, const std::string& path) {
+  const auto open = [](std::unique_ptr<VideoDecoder>& decoder, const std::string& path) {
     if (!exists(path)) throw SourceError(path + ": no such file");
-    const QuietOpenCvLog quiet;
-    // The back ends that read files, in turn: FFmpeg, OpenCV's own MJPEG reader (AVI), GStreamer.
-    // Not cv::CAP_ANY: on a file none of these opens it goes on to probe camera back ends (and
-    // libdc1394 enumerates USB devices).
-    for (const int backend : {cv::CAP_FFMPEG, cv::CAP_OPENCV_MJPEG, cv::CAP_GSTREAMER}) {
-      try {
-        capture = std::make_unique<cv::VideoCapture>(path, backend);
-      } catch (const cv::Exception&) {
-        capture.reset();  // this back end refused it: the next one may not
-      }
-      if (capture && capture->isOpened()) break;
+    try {
+      decoder = open_video_decoder(path);
+    } catch (const std::runtime_error& error) {
+      throw SourceError(error.what());
     }
-    if (!capture || !capture->isOpened()) {
-      throw SourceError(path + ": cannot open as a video (neither FFmpeg, OpenCV's MJPEG reader nor GStreamer decodes it)");
-    }
-    return Opened{static_cast<int>(capture->get(cv::CAP_PROP_FRAME_WIDTH)), static_cast<int>(capture->get(cv::CAP_PROP_FRAME_HEIGHT)),
-                  static_cast<int64_t>(capture->get(cv::CAP_PROP_FRAME_COUNT)), capture->get(cv::CAP_PROP_FPS)};
+    return Opened{decoder->width(), decoder->height(), decoder->frame_count(), decoder->rate_hz()};
   };
   const Opened left = open(left_, left_path);
   const Opened right = open(right_, right_path);
@@ -214,12 +190,11 @@ SourceResult VideoFileSource::next(std::chrono::milliseconds /*timeout*/) {
   const int64_t frame = static_cast<int64_t>(statistics_.pairs_delivered);
   cv::Mat left, right;
   bool left_read = false, right_read = false;
-  const QuietOpenCvLog quiet;
   try {
     left_read = left_->read(left);
     right_read = right_->read(right);
-  } catch (const cv::Exception& error) {
-    throw SourceError(left_path_ + " / " + right_path_ + ": frame " + std::to_string(frame) + ": cannot decode: " + error.what());
+  } catch (const std::runtime_error& error) {
+    throw SourceError(left_path_ + " / " + right_path_ + ": frame " + std::to_string(frame) + ": " + error.what());
   }
   if (!left_read && !right_read) {
     ended_ = true;

@@ -3,7 +3,8 @@
 //   - ImageSequenceSource: two printf patterns (io/frame_pattern.h), frame numbers first, first + 1,
 //     ... up to the first number where a view is missing (or frame_limit pairs). Each file is read
 //     as u8 luma (io/image_io.h: colour becomes BT.601 luma, 16-bit images value >> 8).
-//   - VideoFileSource: two video files OpenCV's VideoCapture decodes; both must report the same
+//   - VideoFileSource: two video files OpenCV's VideoCapture decodes (io/camera/video_decoder.h: a
+//     module loaded when a video is opened); both must report the same
 //     frame count and size; frames become u8 luma with cv::cvtColor (BGR to grey: BT.601 weights).
 // Timestamps: frame number / frame rate (options.frame_rate_hz; 0 = 10 Hz for image sequences, the
 // container's rate for videos, else 10 Hz), in ns, the same for both views; sequence numbers are the
@@ -21,11 +22,8 @@
 #include <string>
 
 #include "io/camera/stereo_source.h"
+#include "io/camera/video_decoder.h"
 #include "io/frame_pattern.h"
-
-namespace cv {
-class VideoCapture;
-}
 
 namespace lpstereo::io {
 
@@ -84,7 +82,7 @@ class VideoFileSource : public StereoSource {
 
  private:
   std::string left_path_, right_path_;
-  std::unique_ptr<cv::VideoCapture> left_, right_;
+  std::unique_ptr<VideoDecoder> left_, right_;  // io/camera/video_decoder.h: OpenCV videoio, loaded on first use
   int width_ = 0, height_ = 0;
   double frame_rate_hz_ = kDefaultRecordingRateHz;
   int64_t frame_count_ = 0;

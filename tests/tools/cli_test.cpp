@@ -372,6 +372,32 @@ TEST_F(Cli, DisparityWritesTheSameMapInEveryFormat) {
   EXPECT_TRUE(no_temporaries());
 }
 
+// The command does not load OpenCV's video I/O (FFmpeg, GStreamer and their libraries) at start-up:
+// its decoder is a module loaded when a video is opened (io/camera/video_decoder.h), and a module
+// that cannot be loaded is one line and exit 1.
+TEST_F(Cli, StartsWithoutTheVideoLibrariesAndLoadsTheDecoderOnlyForVideos) {
+  FILE* pipe = popen((std::string("readelf -d ") + LPSTEREO_BINARY).c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string dynamic;
+  char buffer[4096];
+  while (size_t read = std::fread(buffer, 1, sizeof buffer, pipe)) dynamic.append(buffer, read);
+  ASSERT_EQ(pclose(pipe), 0) << "readelf (binutils) is needed to read the command's dynamic section";
+  EXPECT_NE(dynamic.find("libopencv_core"), std::string::npos) << dynamic;  // the check reads what it should
+  EXPECT_EQ(dynamic.find("videoio"), std::string::npos) << dynamic;
+  std::ofstream(path("left.avi")) << "not a video";
+  std::ofstream(path("right.avi")) << "not a video";
+  std::ofstream(path("not_a_module.so")) << "not a shared object";
+  ::setenv("LPSTEREO_VIDEO_DECODER", path("not_a_module.so").c_str(), 1);
+  ASSERT_EQ(run("synth -o " + path("scene") + " --width 64 --height 48").exit_code, 0);
+  const Result result = run("run --source files:" + path("left.avi") + "," + path("right.avi") + " --calib " +
+                            path("scene/calib.yaml") + " --frames 1");
+  ::unsetenv("LPSTEREO_VIDEO_DECODER");
+  EXPECT_EQ(result.exit_code, 1) << result.err;
+  EXPECT_NE(result.err.find("the video decoder module " + path("not_a_module.so") + " cannot be loaded"), std::string::npos)
+      << result.err;
+  EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+}
+
 // --max-memory: a size and range whose working set exceeds it fail before the engine allocates,
 // with one line naming the need and the limit, and write nothing; the same run fits a larger limit;
 // a limit that is not a size is bad usage.
