@@ -52,11 +52,11 @@ timed() {
 }
 
 echo "# One-shot disparity, whole process, 2 threads, medians of $repeats ($(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores)"
-/usr/bin/time -f "%M" -o "$work/start.txt" "$lpstereo" kernels > /dev/null
-echo "start-up peak memory: lpstereo $(($(cat "$work/start.txt") / 1024)) MB; \\"
-"$opencv" > /dev/null 2>&1 || true
-/usr/bin/time -f "%M" -o "$work/start.txt" sh -c "'$opencv' 2> /dev/null; true"
-echo "  opencv_disparity_oneshot $(($(cat "$work/start.txt") / 1024)) MB (its usage error: the libraries alone)"
+/usr/bin/time -f "%M" -o "$work/start_lpstereo.txt" "$lpstereo" kernels > /dev/null
+# The OpenCV program with no arguments: its usage error, so the libraries alone (exit 2 expected).
+/usr/bin/time -f "%M" -o "$work/start_opencv.txt" "$opencv" 2> /dev/null || true
+echo "start-up peak memory: lpstereo $(($(tail -n 1 "$work/start_lpstereo.txt") / 1024)) MB," \
+  "opencv_disparity_oneshot $(($(tail -n 1 "$work/start_opencv.txt") / 1024)) MB (the libraries alone)"
 echo
 printf '%-16s %-34s %10s %10s %8s   %s\n' "case" "program" "wall s" "peak MB" "sys s" "ratio"
 for size in $sizes; do
