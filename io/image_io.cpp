@@ -1,14 +1,49 @@
 #include "io/image_io.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cstring>
 #include <filesystem>
 
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgcodecs.hpp>  // the IMREAD_* flag values only (imgcodecs is the module's)
 #include <opencv2/imgproc.hpp>
 
 #include "dag/atomic_file.h"
+#include "io/codec_module.h"
+#include "io/image_codecs_module.h"
+#include "io/png_codec.h"
 
 namespace lpstereo::io {
+namespace {
+
+void* image_codecs_symbol(const char* symbol) {
+#if defined(LPSTEREO_IMAGE_CODECS_BUILD_PATH)
+  const char* build_path = LPSTEREO_IMAGE_CODECS_BUILD_PATH;
+#else
+  const char* build_path = nullptr;
+#endif
+  const CodecModule module{"liblpstereo_image_codecs.so", "LPSTEREO_IMAGE_CODECS", build_path,
+                           "images other than PNG (OpenCV imgcodecs)"};
+  try {
+    return codec_module_symbol(module, symbol);
+  } catch (const std::runtime_error& error) {
+    throw ImageError(error.what());
+  }
+}
+
+bool is_png_name(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+  return extension == ".png";
+}
+
+// A codec's message names the temporary file it wrote; the user's is the destination.
+std::string naming_destination(std::string reason, const std::string& temporary, const std::string& path) {
+  if (reason.rfind(temporary, 0) == 0) reason = path + reason.substr(temporary.size());
+  return reason;
+}
+
+}  // namespace
 
 void require_regular_file(const std::string& path) {
   std::error_code error;
@@ -18,13 +53,11 @@ void require_regular_file(const std::string& path) {
 
 cv::Mat decode_image(const std::string& path, int flags) {
   require_regular_file(path);
+  if (has_png_signature(path)) return decode_png(path, flags);
+  const auto decode = reinterpret_cast<DecodeImageFunction>(image_codecs_symbol(kDecodeImageSymbol));
   cv::Mat image;
-  try {
-    image = cv::imread(path, flags);
-  } catch (const cv::Exception& exception) {
-    throw ImageError(path + ": cannot decode: " + exception.what());
-  }
-  if (image.empty()) throw ImageError(path + ": cannot decode (unreadable, corrupt or not an image)");
+  char error[1024] = {};
+  if (!decode(path.c_str(), flags, &image, error, sizeof error)) throw ImageError(error);
   return image;
 }
 
@@ -75,12 +108,21 @@ Plane mat_to_plane(const cv::Mat& mat, BufferFormat format) {
 void write_image(const std::string& path, const cv::Mat& image) {
   const std::string extension = std::filesystem::path(path).extension().string();
   if (extension.empty()) throw ImageError(path + ": no file extension to choose the image format");
+  if (is_png_name(path)) {
+    write_file_atomically_with(path, extension, [&](const std::string& temporary) {
+      try {
+        return encode_png(temporary, image);
+      } catch (const ImageError& error) {
+        throw ImageError(naming_destination(error.what(), temporary, path));
+      }
+    });
+    return;
+  }
+  const auto encode = reinterpret_cast<EncodeImageFunction>(image_codecs_symbol(kEncodeImageSymbol));
   write_file_atomically_with(path, extension, [&](const std::string& temporary) {
-    try {
-      return cv::imwrite(temporary, image);
-    } catch (const cv::Exception& exception) {
-      throw ImageError(path + ": cannot encode: " + exception.what());
-    }
+    char error[1024] = {};
+    if (encode(temporary.c_str(), &image, error, sizeof error)) return true;
+    throw ImageError(naming_destination(error, temporary, path));
   });
 }
 

@@ -1,5 +1,6 @@
-// Reading frames and writing images. Codecs are OpenCV's (PNG, PGM/PPM, JPEG, TIFF, ...). Colour
-// inputs become 8-bit luma with BT.601 weights (DESIGN.md §4).
+// Reading frames and writing images. PNG is read and written with libpng (io/png_codec.h); the other
+// formats (PGM/PPM, JPEG, TIFF, ...) are OpenCV's, in a module loaded when one is met
+// (io/image_codecs_module.h). Colour inputs become 8-bit luma with BT.601 weights.
 #pragma once
 
 #include <stdexcept>

@@ -18,7 +18,6 @@
 #include <thread>
 
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 namespace lpstereo::io {
 

@@ -11,7 +11,7 @@
 #include <thread>
 #include <vector>
 
-#include <opencv2/imgcodecs.hpp>
+#include "io/png_codec.h"
 
 namespace lpstereo::io::synth_detail {
 
@@ -131,13 +131,7 @@ std::string number(double x) {
 }
 
 void write_png(const std::filesystem::path& path, const cv::Mat& image) {
-  bool ok = false;
-  try {
-    ok = cv::imwrite(path.string(), image);
-  } catch (const cv::Exception&) {
-    ok = false;
-  }
-  if (!ok) throw std::runtime_error(path.string() + ": could not write the PNG");
+  if (!lpstereo::io::encode_png(path.string(), image)) throw std::runtime_error(path.string() + ": could not write the PNG");
 }
 
 void write_text(const std::filesystem::path& path, const std::string& text) {

@@ -3,8 +3,8 @@
 // GStreamer and about a hundred more shared libraries: loading them took every lpstereo process
 // 0.1 s and 20 MB at start-up, video or not. So it lives in a module of its own,
 // liblpstereo_video_decoder.so (io/camera/video_decoder_module.cpp), loaded with dlopen the first
-// time a video is opened, from (the first that exists): $LPSTEREO_VIDEO_DECODER (the file), the
-// executable's folder, <executable>/../lib/lpstereo/, and the build tree it was built in.
+// time a video is opened (io/codec_module.h: where it is looked for; $LPSTEREO_VIDEO_DECODER names
+// the file).
 #pragma once
 
 #include <cstdint>

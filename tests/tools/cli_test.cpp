@@ -16,6 +16,7 @@
 #include <string>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "io/disparity_io.h"
 #include "tests/support/cli_runner.h"
@@ -372,10 +373,10 @@ TEST_F(Cli, DisparityWritesTheSameMapInEveryFormat) {
   EXPECT_TRUE(no_temporaries());
 }
 
-// The command does not load OpenCV's video I/O (FFmpeg, GStreamer and their libraries) at start-up:
-// its decoder is a module loaded when a video is opened (io/camera/video_decoder.h), and a module
-// that cannot be loaded is one line and exit 1.
-TEST_F(Cli, StartsWithoutTheVideoLibrariesAndLoadsTheDecoderOnlyForVideos) {
+// The command does not load OpenCV's video I/O or image codecs (FFmpeg, GStreamer, GDAL, ... and
+// their libraries) at start-up: they are modules loaded when a video, or an image that is not a PNG,
+// is met (io/codec_module.h), and a module that cannot be loaded is one line and exit 1.
+TEST_F(Cli, StartsWithoutTheVideoAndImageCodecLibrariesAndLoadsThemOnlyWhenNeeded) {
   FILE* pipe = popen((std::string("readelf -d ") + LPSTEREO_BINARY).c_str(), "r");
   ASSERT_NE(pipe, nullptr);
   std::string dynamic;
@@ -384,6 +385,7 @@ TEST_F(Cli, StartsWithoutTheVideoLibrariesAndLoadsTheDecoderOnlyForVideos) {
   ASSERT_EQ(pclose(pipe), 0) << "readelf (binutils) is needed to read the command's dynamic section";
   EXPECT_NE(dynamic.find("libopencv_core"), std::string::npos) << dynamic;  // the check reads what it should
   EXPECT_EQ(dynamic.find("videoio"), std::string::npos) << dynamic;
+  EXPECT_EQ(dynamic.find("imgcodecs"), std::string::npos) << dynamic;
   std::ofstream(path("left.avi")) << "not a video";
   std::ofstream(path("right.avi")) << "not a video";
   std::ofstream(path("not_a_module.so")) << "not a shared object";
@@ -393,9 +395,23 @@ TEST_F(Cli, StartsWithoutTheVideoLibrariesAndLoadsTheDecoderOnlyForVideos) {
                             path("scene/calib.yaml") + " --frames 1");
   ::unsetenv("LPSTEREO_VIDEO_DECODER");
   EXPECT_EQ(result.exit_code, 1) << result.err;
-  EXPECT_NE(result.err.find("the video decoder module " + path("not_a_module.so") + " cannot be loaded"), std::string::npos)
-      << result.err;
+  EXPECT_NE(result.err.find("the module " + path("not_a_module.so") + " cannot be loaded"), std::string::npos) << result.err;
   EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+
+  // A pair of PGM files needs the image codecs module; PNG files do not.
+  ASSERT_TRUE(cv::imwrite(path("left.pgm"), cv::imread(path("scene/left.png"), cv::IMREAD_GRAYSCALE)));
+  ASSERT_TRUE(cv::imwrite(path("right.pgm"), cv::imread(path("scene/right.png"), cv::IMREAD_GRAYSCALE)));
+  ASSERT_EQ(run("disparity " + path("left.pgm") + " " + path("right.pgm") + " -o " + path("pgm.png") + " --num-disp 16").exit_code, 0);
+  ::setenv("LPSTEREO_IMAGE_CODECS", path("not_a_module.so").c_str(), 1);
+  const Result png = run("disparity " + path("scene/left.png") + " " + path("scene/right.png") + " -o " + path("png.png") + " --num-disp 16");
+  const Result pgm = run("disparity " + path("left.pgm") + " " + path("right.pgm") + " -o " + path("pgm2.png") + " --num-disp 16");
+  ::unsetenv("LPSTEREO_IMAGE_CODECS");
+  EXPECT_EQ(png.exit_code, 0) << png.err;
+  EXPECT_EQ(cv::imread(path("png.png"), cv::IMREAD_UNCHANGED).size(), cv::Size(64, 48));
+  EXPECT_EQ(pgm.exit_code, 1) << pgm.err;
+  EXPECT_NE(pgm.err.find("the module " + path("not_a_module.so") + " cannot be loaded"), std::string::npos) << pgm.err;
+  EXPECT_EQ(std::count(pgm.err.begin(), pgm.err.end(), '\n'), 1) << pgm.err;
+  EXPECT_FALSE(fs::exists(path("pgm2.png")));
 }
 
 // --max-memory: a size and range whose working set exceeds it fail before the engine allocates,
