@@ -12,14 +12,15 @@
 // Algorithm, formats, overflow bound: kernels/sgm_core.h; definitions: kernels/sgm_reference.h.
 //
 // THE SCHEDULE'S WORKING SET (closed forms, bytes; Dp32 = ceil(D / 32) * 32, W x H image,
-// b = ceil(H / 64) bands, w_c = census bytes, n = worker threads):
-//   checkpoints (DRAM, both passes)  12 W D b
+// b = ceil(H / 64) bands, w_c = census bytes, n = worker threads, v = 1 byte a checkpoint value
+// when 8 w_c + P2 <= 255 (the defaults), else 2: kernels/sgm_core.h, sgm_checkpoint_value_bytes):
+//   checkpoints (DRAM, both passes)  6 v W D b
 //   per worker (this kernel's scratch) 12 (W (Dp32 + 1) + 1) (two row states) + 128 W D (one band
 //                                    of forward sums) + the passes' scratch (as sgm_8path_backward)
 //   the checkpoint passes' state     6 (W (Dp32 + 1) + 1) each
 //   plus the census planes 2 w_c W H and the s16 output 2 W H.
-// Total O(W D (H / 64 + 64 n)): at 3840 x 1728 x 128 the checkpoints take 159 MB and each worker
-// 69 MB, against 1.70 GB for one W x H x D u16 volume. Work: the three checkpointed paths of each
+// Total O(W D (H / 64 + 64 n)): at 3840 x 1728 x 128 the checkpoints take 80 MB (v = 1; 159 MB
+// at v = 2) and each worker 69 MB, against 1.70 GB for one W x H x D u16 volume. Work: the three checkpointed paths of each
 // direction run twice (once for the checkpoints, once in the band), 1.75 times the path steps of
 // the two-pass schedule, with no volume written to and read back from DRAM.
 #include "kernels/sgm_core.h"

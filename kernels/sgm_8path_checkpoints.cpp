@@ -6,14 +6,16 @@
 // along the row starts afresh on every row, so it needs no checkpoint and neither pass runs it; they
 // sum nothing and select nothing. They read only the census planes, so they run side by side (two
 // workers on the host). _census64 variants take census9x7.
-// Output: u16, one row per band of 3 W D elements (layout: kernels/sgm_core.h, "THE BANDED 8-PATH
-// SCHEDULE"); the first band a pass enters gets zeros. Parameters: min_disparity, num_disparities,
+// Output: bytes, one row per band of 3 W D values, u8 when 8 w_c + P2 <= 255 (exact: the path costs
+// bound) else u16 (layout and bound: kernels/sgm_core.h, "THE BANDED 8-PATH SCHEDULE" and
+// sgm_checkpoint_value_bytes); the first band a pass enters gets zeros. Parameters: min_disparity, num_disparities,
 // p1, p2, as sgm_8path_forward. Algorithm, formats, overflow bound: kernels/sgm_core.h.
 //
 // Working set (bytes; Dp32 = ceil(D / 32) * 32, W x H image, w_c = census bytes):
 //   state  : 6 (W (Dp32 + 1) + 1) (three paths' previous row, as sgm_4path)
 //   scratch: as sgm_8path_forward (the staged right row included)
-//   DRAM   : out 6 W D ceil(H / 64) per pass (3840 x 1728 x 128: 79.6 MB), census rows in.
+//   DRAM   : out 3 v W D ceil(H / 64) per pass, v = 1 or 2 bytes a value (3840 x 1728 x 128:
+//            39.8 MB at v = 1), census rows in.
 #include "kernels/sgm_core.h"
 #include "kernels/simd/native.h"
 

@@ -136,9 +136,16 @@ inline constexpr bool sgm_reads_forward_sums(SgmPass pass) { return pass == SgmP
 inline constexpr int kSgmBandRows = 64;
 inline constexpr int sgm_band_count(int height) { return (height + kSgmBandRows - 1) / kSgmBandRows; }
 // A checkpoint row: the three paths from the previous row (down diagonal, straight, up diagonal), each
-// W positions x D u16 (see kernels/sgm_8path_bands.cpp for the layout).
-inline constexpr int64_t sgm_checkpoint_row_elements(int width, int disparities) {
-  return int64_t{3} * width * disparities;
+// W positions x D path costs (see "THE BANDED 8-PATH SCHEDULE" below for the layout), as bytes.
+// Path costs are L_r <= Cmax + P2 (above) and Cmax <= the census word's bits (32 or 64): when that
+// bound fits in a byte (P2 <= 223 on census32, <= 191 on census64; the defaults are 45 and 50) a
+// checkpoint keeps each as one u8, exactly, else as a u16 (two bytes, the host's order): the
+// checkpoints of a frame are half the size at every setting users run.
+inline constexpr int sgm_checkpoint_value_bytes(const SgmParams& params, int word_bytes) {
+  return 8 * word_bytes + params.p2 <= 255 ? 1 : 2;
+}
+inline constexpr int64_t sgm_checkpoint_row_bytes(int width, int disparities, int value_bytes) {
+  return int64_t{3} * width * disparities * value_bytes;
 }
 
 inline constexpr int sgm_padded(int disparities, int lanes) { return (disparities + lanes - 1) / lanes * lanes; }
@@ -639,8 +646,9 @@ void sgm_tile(const TileArgs& args) {
 // THE BANDED 8-PATH SCHEDULE (kernels/sgm_8path_bands.cpp has its working set in closed form).
 // A checkpoint row holds the row state a pass has before it enters a band: the previous row's path
 // costs of the three paths that come from it (region 0 the down diagonal, 1 straight, 2 the up
-// diagonal; for the backward pass bottom-right, bottom, bottom-left), each as W positions p of D u16:
-// element (r W + p) D + j = L_r(pixel p of the previous row, d = min_disparity + D - 1 - j), the
+// diagonal; for the backward pass bottom-right, bottom, bottom-left), each as W positions p of D
+// values (u8 or u16, sgm_checkpoint_value_bytes):
+// value (r W + p) D + j = L_r(pixel p of the previous row, d = min_disparity + D - 1 - j), the
 // lanes' reversed order. Positions are in the pass's own order: p = x forward, p = W - 1 - x backward
 // (rows and columns mirrored, as the pass walks them). The row state itself is a back end's layout
 // (slots of its Dp + 1 u16, diagonals rotated by the row); a checkpoint is the same for every back
@@ -658,38 +666,51 @@ inline int checkpoint_slot(int region, int position, int previous_row, int width
   return position;
 }
 
-// The row state (this back end's: `padded` lanes per slot) into a checkpoint row.
-inline void save_checkpoint(const uint16_t* state, int width, int padded, int count, int previous_row, uint16_t* checkpoint) {
+// Calls visit(slot, values) for every slot of the row state (this back end's: `padded` lanes per
+// slot) and the checkpoint's D values it is kept as (Value: u8 or u16, sgm_checkpoint_value_bytes).
+template <class Value, class Visit>
+inline void for_each_checkpoint_slot(uint16_t* state, Value* checkpoint, int width, int padded, int count, int previous_row,
+                                     Visit&& visit) {
   const ptrdiff_t slot_stride = padded + 1;
   const ptrdiff_t region_size = static_cast<ptrdiff_t>(width) * slot_stride + 1;
   for (int region = 0; region < 3; ++region) {
     for (int position = 0; position < width; ++position) {
-      const uint16_t* slot = state + region * region_size +
-                             static_cast<ptrdiff_t>(checkpoint_slot(region, position, previous_row, width)) * slot_stride + 1;
-      std::copy(slot, slot + count, checkpoint + (static_cast<ptrdiff_t>(region) * width + position) * count);
+      visit(state + region * region_size + static_cast<ptrdiff_t>(checkpoint_slot(region, position, previous_row, width)) * slot_stride + 1,
+            checkpoint + (static_cast<ptrdiff_t>(region) * width + position) * count);
     }
   }
+}
+
+// The row state into a checkpoint row. A u8 checkpoint is taken only where every value fits (the
+// bound above), so the narrowing is exact.
+template <class Value>
+inline void save_checkpoint(const uint16_t* state, int width, int padded, int count, int previous_row, Value* checkpoint) {
+  for_each_checkpoint_slot(const_cast<uint16_t*>(state), checkpoint, width, padded, count, previous_row,
+                           [count](const uint16_t* slot, Value* values) {
+                             for (int lane = 0; lane < count; ++lane) values[lane] = static_cast<Value>(slot[lane]);
+                           });
 }
 
 // A checkpoint row back into this back end's row state: sentinels and padding lanes 0xFFFF, as the
 // pass leaves them after any row. checkpoint == nullptr: the frame start, all zero (the pass sets
 // the sentinels on its first row, as for a whole frame).
-inline void restore_checkpoint(const uint16_t* checkpoint, int width, int padded, int count, int previous_row, uint16_t* state) {
-  const ptrdiff_t slot_stride = padded + 1;
-  const ptrdiff_t region_size = static_cast<ptrdiff_t>(width) * slot_stride + 1;
+template <class Value>
+inline void restore_checkpoint(const Value* checkpoint, int width, int padded, int count, int previous_row, uint16_t* state) {
+  const ptrdiff_t region_size = static_cast<ptrdiff_t>(width) * (padded + 1) + 1;
   if (checkpoint == nullptr) {
     std::fill(state, state + 3 * region_size, uint16_t{0});
     return;
   }
   std::fill(state, state + 3 * region_size, uint16_t{0xFFFF});
-  for (int region = 0; region < 3; ++region) {
-    for (int position = 0; position < width; ++position) {
-      const uint16_t* values = checkpoint + (static_cast<ptrdiff_t>(region) * width + position) * count;
-      std::copy(values, values + count,
-                state + region * region_size +
-                    static_cast<ptrdiff_t>(checkpoint_slot(region, position, previous_row, width)) * slot_stride + 1);
-    }
-  }
+  for_each_checkpoint_slot(state, checkpoint, width, padded, count, previous_row, [count](uint16_t* slot, const Value* values) {
+    for (int lane = 0; lane < count; ++lane) slot[lane] = values[lane];
+  });
+}
+
+// A checkpoint row of a plane of bytes as its values (u8 or u16).
+template <class Value>
+inline Value* checkpoint_values(const PlaneView& checkpoints, int row) {
+  return reinterpret_cast<Value*>(plane_row<uint8_t>(checkpoints, row));
 }
 
 }  // namespace sgm_detail
@@ -710,8 +731,8 @@ SgmBandedFrame sgm_banded_frame(const TileArgs& args) {
 // The checkpoint passes' tile: output rows are bands (`args.outputs[0]` row i = band tile_y + i).
 // For each band in the pass's order: the state before it goes to its checkpoint row, then the pass
 // runs the band's rows (all but the last band: nothing after it reads that state).
-template <class B, class Word, SgmPass kPass>
-void sgm_checkpoints_tile(const TileArgs& args) {
+template <class B, class Word, SgmPass kPass, class Value>
+void sgm_checkpoints_tile_as(const TileArgs& args) {
   static_assert(sgm_writes_checkpoints(kPass));
   constexpr bool kBackward = sgm_rows_bottom_up(kPass);
   const SgmBandedFrame frame = sgm_banded_frame<B>(args);
@@ -722,10 +743,10 @@ void sgm_checkpoints_tile(const TileArgs& args) {
     const int band = args.tile_y + band_in_tile;
     const int y0 = band * kSgmBandRows;
     const int y1 = std::min(y0 + kSgmBandRows, height);
-    uint16_t* checkpoint = plane_row<uint16_t>(args.outputs[0], band_in_tile);
+    Value* checkpoint = sgm_detail::checkpoint_values<Value>(args.outputs[0], band_in_tile);
     const bool first_band = kBackward ? band == bands - 1 : band == 0;
     if (first_band) {
-      std::fill(checkpoint, checkpoint + sgm_checkpoint_row_elements(width, count), uint16_t{0});
+      std::fill(checkpoint, checkpoint + int64_t{3} * width * count, Value{0});
     } else {
       sgm_detail::save_checkpoint(reinterpret_cast<const uint16_t*>(args.state), width, padded, count,
                                   kBackward ? height - y1 - 1 : y0 - 1, checkpoint);
@@ -736,6 +757,15 @@ void sgm_checkpoints_tile(const TileArgs& args) {
     band_args.tile_y = y0;
     band_args.image_height = height;
     sgm_tile<B, Word, kPass>(band_args);
+  }
+}
+template <class B, class Word, SgmPass kPass>
+void sgm_checkpoints_tile(const TileArgs& args) {
+  const auto& params = *static_cast<const SgmParams*>(args.params);
+  if (sgm_checkpoint_value_bytes(params, static_cast<int>(sizeof(Word))) == 1) {
+    sgm_checkpoints_tile_as<B, Word, kPass, uint8_t>(args);
+  } else {
+    sgm_checkpoints_tile_as<B, Word, kPass, uint16_t>(args);
   }
 }
 
@@ -772,6 +802,7 @@ void sgm_bands_tile(const TileArgs& args) {
   uint16_t* const backward_state = reinterpret_cast<uint16_t*>(args.scratch + layout.state_bytes);
   uint8_t* const sums = args.scratch + layout.sums_offset;
   const ptrdiff_t sums_stride = static_cast<ptrdiff_t>(width) * count * 2;
+  const bool narrow = sgm_checkpoint_value_bytes(params, static_cast<int>(sizeof(Word))) == 1;
   for (int y0 = args.tile_y; y0 < args.tile_y + args.outputs[0].height; y0 += kSgmBandRows) {
     const int band = y0 / kSgmBandRows;
     const int y1 = std::min(y0 + kSgmBandRows, height);
@@ -786,8 +817,13 @@ void sgm_bands_tile(const TileArgs& args) {
     forward.state_bytes = layout.state_bytes;
     forward.scratch = args.scratch + layout.pass_offset;
     forward.scratch_bytes = layout.total - layout.pass_offset;
-    sgm_detail::restore_checkpoint(band == 0 ? nullptr : plane_row<const uint16_t>(args.inputs[2], band), width, padded, count,
-                                   y0 - 1, forward_state);
+    if (narrow) {
+      sgm_detail::restore_checkpoint(band == 0 ? nullptr : sgm_detail::checkpoint_values<const uint8_t>(args.inputs[2], band), width,
+                                     padded, count, y0 - 1, forward_state);
+    } else {
+      sgm_detail::restore_checkpoint(band == 0 ? nullptr : sgm_detail::checkpoint_values<const uint16_t>(args.inputs[2], band), width,
+                                     padded, count, y0 - 1, forward_state);
+    }
     sgm_tile<B, Word, SgmPass::forward_band>(forward);
 
     TileArgs backward = forward;
@@ -796,8 +832,14 @@ void sgm_bands_tile(const TileArgs& args) {
     backward.outputs[0] = PlaneView{args.outputs[0].origin + static_cast<ptrdiff_t>(y0 - args.tile_y) * args.outputs[0].stride_bytes,
                                     args.outputs[0].stride_bytes, width, y1 - y0};
     backward.state = reinterpret_cast<uint8_t*>(backward_state);
-    sgm_detail::restore_checkpoint(band == bands - 1 ? nullptr : plane_row<const uint16_t>(args.inputs[3], band), width, padded,
-                                   count, height - y1 - 1, backward_state);
+    const bool last_band = band == bands - 1;
+    if (narrow) {
+      sgm_detail::restore_checkpoint(last_band ? nullptr : sgm_detail::checkpoint_values<const uint8_t>(args.inputs[3], band), width,
+                                     padded, count, height - y1 - 1, backward_state);
+    } else {
+      sgm_detail::restore_checkpoint(last_band ? nullptr : sgm_detail::checkpoint_values<const uint16_t>(args.inputs[3], band), width,
+                                     padded, count, height - y1 - 1, backward_state);
+    }
     sgm_tile<B, Word, SgmPass::backward_band>(backward);
   }
 }

@@ -5,6 +5,8 @@
 #include "kernels/census_cost.h"
 
 #include <algorithm>
+#include <cstring>
+#include <stdexcept>
 #include <cstdlib>
 #include <limits>
 #include <memory>
@@ -141,8 +143,9 @@ void sgm_reference_checkpoints(SgmPass pass, int word_bytes, const std::vector<P
   for (int path = 1; path < 4; ++path) {
     paths.push_back(sgm_reference_path(cost, params.p1, params.p2, backward ? kSgmBackwardPaths[path] : kSgmForwardPaths[path]));
   }
+  const bool narrow = sgm_checkpoint_value_bytes(params, word_bytes) == 1;
   for (int band = 0; band < sgm_band_count(height); ++band) {
-    uint16_t* out = plane_row<uint16_t>(outputs[0], band);
+    uint8_t* out = plane_row<uint8_t>(outputs[0], band);
     const int y0 = band * kSgmBandRows;
     const int y1 = std::min(y0 + kSgmBandRows, height);
     const bool first_band = backward ? y1 == height : band == 0;
@@ -152,7 +155,14 @@ void sgm_reference_checkpoints(SgmPass pass, int word_bytes, const std::vector<P
         const int x = backward ? width - 1 - position : position;
         for (int lane = 0; lane < count; ++lane) {
           const int32_t value = first_band ? 0 : paths[static_cast<size_t>(region)].at(x, previous_y, count - 1 - lane);
-          out[(static_cast<size_t>(region) * width + position) * count + lane] = static_cast<uint16_t>(value);
+          const size_t index = (static_cast<size_t>(region) * width + position) * count + lane;
+          if (narrow) {
+            if (value > 255) throw std::logic_error("sgm_reference_checkpoints: a path cost above the u8 bound");
+            out[index] = static_cast<uint8_t>(value);
+          } else {
+            const uint16_t wide = static_cast<uint16_t>(value);
+            std::memcpy(out + 2 * index, &wide, 2);
+          }
         }
       }
     }
@@ -211,12 +221,14 @@ namespace {
 
 std::string shape_text(const PlaneShape& shape) { return std::to_string(shape.width) + "x" + std::to_string(shape.height); }
 
-// The checkpoint passes' output: one row of 3 W D u16 per band.
-PlaneShape sgm_checkpoints_shape(const PlaneShape& image, int disparities) {
-  return PlaneShape{static_cast<int>(sgm_checkpoint_row_elements(image.width, disparities)), sgm_band_count(image.height)};
+// The checkpoint passes' output: one row of 3 W D values (u8 or u16, as bytes) per band.
+PlaneShape sgm_checkpoints_shape(const PlaneShape& image, const SgmParams& params, int word_bytes) {
+  return PlaneShape{static_cast<int>(sgm_checkpoint_row_bytes(image.width, params.num_disparities,
+                                                              sgm_checkpoint_value_bytes(params, word_bytes))),
+                    sgm_band_count(image.height)};
 }
 
-PreparedKernel sgm_prepare(SgmPass pass, const nlohmann::json& json, const std::vector<PlaneShape>& input_shapes) {
+PreparedKernel sgm_prepare(SgmPass pass, int word_bytes, const nlohmann::json& json, const std::vector<PlaneShape>& input_shapes) {
   check_param_names(json, {"min_disparity", "num_disparities", "p1", "p2", "uniqueness_percent", "subpixel", "lr_max_diff"});
   auto params = std::make_shared<SgmParams>();
   params->min_disparity = param_int(json, "min_disparity", 0, -2047, 2046);
@@ -250,7 +262,7 @@ PreparedKernel sgm_prepare(SgmPass pass, const nlohmann::json& json, const std::
     throw KernelError("port 'right': expected the left view's size " + shape_text(left) + ", got " + shape_text(input_shapes[1]));
   }
   if (sgm_writes_checkpoints(pass)) {
-    return PreparedKernel{params, {sgm_checkpoints_shape(left, params->num_disparities)}, {}, {}};
+    return PreparedKernel{params, {sgm_checkpoints_shape(left, *params, word_bytes)}, {}, {}};
   }
   const PlaneShape sums{left.width * params->num_disparities, left.height};
   if (pass == SgmPass::backward && !(input_shapes.at(2) == sums)) {
@@ -318,12 +330,12 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
     case SgmPass::forward_checkpoints:
       descriptor.summary = "8-path SGM by bands: the forward paths from the previous row (top-left, top, top-right) on " +
                            census_name + " Hamming costs: their state at the top of each band of " +
-                           std::to_string(kSgmBandRows) + " rows (one u16 row of 3 W D per band)";
+                           std::to_string(kSgmBandRows) + " rows (one row of 3 W D per band, u8 or u16 values as bytes)";
       break;
     case SgmPass::backward_checkpoints:
       descriptor.summary = "8-path SGM by bands: the backward paths from the next row (bottom-right, bottom, bottom-left; "
                            "rows bottom up) on " + census_name + " Hamming costs: their state below each band of " +
-                           std::to_string(kSgmBandRows) + " rows (one u16 row of 3 W D per band)";
+                           std::to_string(kSgmBandRows) + " rows (one row of 3 W D per band, u8 or u16 values as bytes)";
       descriptor.rows_bottom_up = true;
       break;
     case SgmPass::forward_band:
@@ -331,19 +343,21 @@ KernelDescriptor sgm_descriptor(SgmPass pass, int word_bytes, const char* name, 
       throw std::logic_error("sgm_descriptor: the band passes run inside sgm_8path_bands, they are no kernel of their own");
   }
   if (sgm_writes_checkpoints(pass)) {
-    descriptor.ports.push_back({"checkpoints", PortDirection::output, {ElementType::u16, 0}, PortAccess::window});
+    descriptor.ports.push_back({"checkpoints", PortDirection::output, {ElementType::u8, 0}, PortAccess::window});
   } else if (sgm_writes_sums(pass)) {
     descriptor.ports.push_back({"sums", PortDirection::output, {ElementType::u16, 0}, PortAccess::window});
   } else {
     descriptor.ports.push_back({"disparity", PortDirection::output, {ElementType::s16, 4}, PortAccess::window});
   }
   descriptor.border_modes = {BorderMode::replicate};
-  descriptor.prepare = [pass](const nlohmann::json& json, const std::vector<PlaneShape>& shapes) {
-    return sgm_prepare(pass, json, shapes);
+  descriptor.prepare = [pass, word_bytes](const nlohmann::json& json, const std::vector<PlaneShape>& shapes) {
+    return sgm_prepare(pass, word_bytes, json, shapes);
   };
   // The forward pass's output is W*D wide: the image width is that over D.
-  auto image_width = [pass](int output_width, const SgmParams& params) {
-    if (sgm_writes_checkpoints(pass)) return output_width / (3 * params.num_disparities);
+  auto image_width = [pass, word_bytes](int output_width, const SgmParams& params) {
+    if (sgm_writes_checkpoints(pass)) {
+      return output_width / (3 * params.num_disparities * sgm_checkpoint_value_bytes(params, word_bytes));
+    }
     return sgm_writes_sums(pass) ? output_width / params.num_disparities : output_width;
   };
   if (sgm_runs_paths(pass)) {
@@ -384,16 +398,16 @@ KernelDescriptor sgm_bands_descriptor(int word_bytes, const char* name, TileFunc
                        "bands run in parallel)";
   descriptor.ports = {{"left", PortDirection::input, census, PortAccess::whole},
                       {"right", PortDirection::input, census, PortAccess::whole},
-                      {"forward_checkpoints", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole},
-                      {"backward_checkpoints", PortDirection::input, {ElementType::u16, 0}, PortAccess::whole},
+                      {"forward_checkpoints", PortDirection::input, {ElementType::u8, 0}, PortAccess::whole},
+                      {"backward_checkpoints", PortDirection::input, {ElementType::u8, 0}, PortAccess::whole},
                       {"disparity", PortDirection::output, {ElementType::s16, 4}, PortAccess::window}};
   descriptor.border_modes = {BorderMode::replicate};
   descriptor.full_width_tiles = true;
   descriptor.block_height = kSgmBandRows;  // a tile is whole bands
-  descriptor.prepare = [](const nlohmann::json& json, const std::vector<PlaneShape>& shapes) {
-    PreparedKernel prepared = sgm_prepare(SgmPass::single, json, {shapes.at(0), shapes.at(1)});
+  descriptor.prepare = [word_bytes](const nlohmann::json& json, const std::vector<PlaneShape>& shapes) {
+    PreparedKernel prepared = sgm_prepare(SgmPass::single, word_bytes, json, {shapes.at(0), shapes.at(1)});
     const auto& params = *static_cast<const SgmParams*>(prepared.params.get());
-    const PlaneShape expected = sgm_checkpoints_shape(shapes[0], params.num_disparities);
+    const PlaneShape expected = sgm_checkpoints_shape(shapes[0], params, word_bytes);
     const char* names[2] = {"forward_checkpoints", "backward_checkpoints"};
     for (int i = 0; i < 2; ++i) {
       if (!(shapes.at(2 + i) == expected)) {

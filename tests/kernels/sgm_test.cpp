@@ -124,7 +124,8 @@ Plane reference_sums(const std::string& kernel_name, const Plane& left, const Pl
   const KernelDescriptor& kernel = testing::kernel_named(kernel_name);
   const PreparedKernel prepared = kernel.prepare(params, {{left.width(), left.height()}, {right.width(), right.height()}});
   const PlaneShape shape = prepared.output_shapes.at(0);
-  Plane sums(shape.width, shape.height, {ElementType::u16, 0}, shape.width * 2 + 6);
+  const BufferFormat format = kernel.ports.at(2).format;  // the output port (sums u16, checkpoints bytes)
+  Plane sums(shape.width, shape.height, format, shape.width * element_bytes(format.type) + 6);
   kernel.reference({left.view(), right.view()}, {sums.view()}, prepared.params.get(), BorderMode::replicate, 0);
   return sums;
 }
@@ -255,6 +256,49 @@ TEST(Sgm8PathBands, CheckpointsAndBandsMatchReferenceAndTheTwoPassPair) {
         for (int x = 0; x < width; ++x) ASSERT_EQ(by_bands.at<int16_t>(x, y), two_pass.at<int16_t>(x, y)) << x << "," << y;
       }
     }
+  }
+}
+
+// Checkpoint values are u8 while the path costs' bound Cmax + P2 (Cmax <= the census word's bits)
+// fits a byte, u16 above: at the largest P2 kept in bytes (223 on census32, 191 on census64) and at
+// the next P2 up, the checkpoints match the reference on every back end (the reference refuses a
+// value above 255 in a byte) and the bands' map equals the two-pass pair's (no value was cut).
+TEST(Sgm8PathBands, CheckpointValuesAreBytesExactlyWhileTheBoundFits) {
+  struct Case {
+    ElementType census;
+    int word_bytes, p2, value_bytes;
+    const char* suffix;
+  };
+  for (const Case& c : {Case{ElementType::census32, 4, 223, 1, ""}, Case{ElementType::census32, 4, 224, 2, ""},
+                        Case{ElementType::census64, 8, 191, 1, "_census64"}, Case{ElementType::census64, 8, 192, 2, "_census64"},
+                        Case{ElementType::census32, 4, 4000, 2, ""}}) {
+    SCOPED_TRACE(std::string(c.suffix) + " P2 " + std::to_string(c.p2));
+    const nlohmann::json params = sgm_params(-2, 21, 7, c.p2, 10, 1, 1);
+    kernels::SgmParams typed;
+    typed.p2 = c.p2;
+    ASSERT_EQ(kernels::sgm_checkpoint_value_bytes(typed, c.word_bytes), c.value_bytes);
+    CensusPair pair = shifted_census(23, 131, c.census, 30 * c.word_bytes, 0, 18, 57);
+    const std::string forward_name = std::string("sgm_8path_forward_checkpoints") + c.suffix;
+    const std::string backward_name = std::string("sgm_8path_backward_checkpoints") + c.suffix;
+    const int checkpoint_width = 3 * 23 * 21 * c.value_bytes;
+    for (const std::string& name : {forward_name, backward_name}) {
+      KernelCase checkpoints{name, forward_params(params), {pair.left, pair.right}, 5};
+      expect_all_back_ends_match_reference(checkpoints, {{checkpoint_width, 3}, {checkpoint_width, 1}});
+    }
+    const Plane forward = reference_sums(forward_name, pair.left, pair.right, forward_params(params));
+    const Plane backward = reference_sums(backward_name, pair.left, pair.right, forward_params(params));
+    ASSERT_EQ(forward.width(), checkpoint_width);
+    const Plane forward_sums = reference_forward_sums(pair.left, pair.right, forward_params(params), c.word_bytes);
+    const Plane two_pass = reference_disparity(std::string("sgm_8path_backward") + c.suffix, {&pair.left, &pair.right, &forward_sums},
+                                               params, 23, 131);
+    const Plane by_bands = reference_disparity(std::string("sgm_8path_bands") + c.suffix, {&pair.left, &pair.right, &forward, &backward},
+                                               params, 23, 131);
+    for (int y = 0; y < 131; ++y) {
+      for (int x = 0; x < 23; ++x) ASSERT_EQ(by_bands.at<int16_t>(x, y), two_pass.at<int16_t>(x, y)) << x << "," << y;
+    }
+    // The bands kernel itself (native and counting, every ISA) from those checkpoints.
+    KernelCase banded{std::string("sgm_8path_bands") + c.suffix, params, {pair.left, pair.right, forward, backward}, 4};
+    expect_all_back_ends_match_reference(banded, {{23, 131}, {23, kernels::kSgmBandRows}});
   }
 }
 
