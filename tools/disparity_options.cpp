@@ -68,10 +68,10 @@ size_t max_memory_bytes(const std::string& text) {
 }
 
 void check_engine_memory(const DisparityEngineOptions& options, int width, int height, const arm::DisparityParameters& parameters,
-                         int worker_threads) {
+                         int worker_threads, int engines) {
   const size_t limit = max_memory_bytes(options.max_memory);
   if (limit == 0) return;
-  const size_t need = arm::DisparityEngine::working_set_bytes(width, height, parameters, worker_threads);
+  const size_t need = static_cast<size_t>(engines) * arm::DisparityEngine::working_set_bytes(width, height, parameters, worker_threads);
   if (need <= limit) return;
   auto mib = [](size_t bytes) {
     char text[32];
@@ -80,11 +80,12 @@ void check_engine_memory(const DisparityEngineOptions& options, int width, int h
   };
   throw CommandError(kExitInput, "disparity engine at " + std::to_string(width) + "x" + std::to_string(height) + " (" +
                                      arm::settings_text(parameters) + ", " +
-                                     std::to_string(arm::resolved_worker_threads(worker_threads)) +
-                                     " workers) needs " + mib(need) + " of working memory; " +
+                                     std::to_string(arm::resolved_worker_threads(worker_threads)) + " workers" +
+                                     (engines > 1 ? ", " + std::to_string(engines) + " pairs in flight" : "") + ") needs " +
+                                     mib(need) + " of working memory; " +
                                      (options.max_memory.empty() ? "the machine has " + mib(limit) + " available"
                                                                  : "--max-memory " + options.max_memory + " allows " + mib(limit)) +
-                                     " (fewer --num-disp, --paths 4, --multires on or fewer --threads need less)");
+                                     " (fewer --num-disp, --paths 4, --multires on, fewer --threads or --in-flight need less)");
 }
 
 void add_multires_options(CLI::App& command, MultiresOptions& options) {

@@ -70,9 +70,9 @@ size_t max_memory_bytes(const std::string& text);
 
 // Fails before anything is allocated when the engine's working set for width x height frames
 // (arm::DisparityEngine::working_set_bytes) exceeds --max-memory: CommandError (exit 1), one line
-// naming the need, the setting and the limit.
+// naming the need, the setting and the limit. `engines`: that many engines at once (frames in flight).
 void check_engine_memory(const DisparityEngineOptions& options, int width, int height, const arm::DisparityParameters& parameters,
-                         int worker_threads);
+                         int worker_threads, int engines = 1);
 
 // Adds the options to `command`; num_disparities_help is --num-disp's help (its default differs).
 void add_disparity_engine_options(CLI::App& command, DisparityEngineOptions& options, const std::string& num_disparities_help);

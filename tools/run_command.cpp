@@ -23,6 +23,7 @@
 
 #include "arm/disparity_engine.h"
 #include "arm/obstacle_detector.h"
+#include "arm/scheduler.h"
 #include "host_sim/simulator.h"
 #include "host_sim/target.h"
 #include "io/camera/stereo_source.h"
@@ -30,6 +31,7 @@
 #include "io/image_io.h"
 #include "io/rectification.h"
 #include "tools/command_error.h"
+#include "tools/disparity_lanes.h"
 #include "tools/geometry_commands.h"
 #include "tools/obstacles_command.h"
 #include "tools/target_profile.h"
@@ -377,6 +379,12 @@ RunCommand::RunCommand(CLI::App& app) {
   command_->add_option("--threads", threads_, "worker threads (0 = one per hardware thread)")
       ->capture_default_str()
       ->check(CLI::Range(0, 256));
+  command_->add_option("--in-flight", in_flight_,
+                       "pairs processed at once, each by its own disparity engine on its share of the threads (0 = 2 for a "
+                       "recording with 2 threads or more, else 1; a live camera keeps 1 for its latency); the maps are the "
+                       "same bits, the outputs come in order")
+      ->check(CLI::Range(0, 16))
+      ->capture_default_str();
   add_disparity_engine_options(*command_, engine_options_, "disparities searched: [min-disp, min-disp + num-disp) (default 64)");
   add_max_memory_option(*command_, engine_options_);
   add_obstacle_tuning_options(*command_, detector_parameters_);  // --graph obstacles: the tuning of lpstereo obstacles
@@ -413,8 +421,11 @@ int RunCommand::run() const {
   if (obstacles) check_obstacle_geometry(calibration.maps.geometry, calibration_files_);
   const arm::DisparityParameters disparity_parameters =
       tools::disparity_parameters(engine_options_, width, arm::DisparityParameters{}.num_disparities);
-  check_engine_memory(engine_options_, width, height, disparity_parameters, threads_);
-  arm::DisparityEngine engine(width, height, disparity_parameters, {}, threads_);
+  // Frames in flight (tools/disparity_lanes.h): the worker threads are shared out among the lanes.
+  const int lane_count = resolved_lanes(in_flight_, live, threads_);
+  const int workers_per_lane = std::max(1, arm::resolved_worker_threads(threads_) / lane_count);
+  check_engine_memory(engine_options_, width, height, disparity_parameters, lane_count > 1 ? workers_per_lane : threads_, lane_count);
+  DisparityLanes lanes(width, height, disparity_parameters, lane_count, lane_count > 1 ? workers_per_lane : threads_);
   std::unique_ptr<arm::ObstacleDetector> detector;
   arm::ObstacleParameters parameters;
   if (obstacles) {
@@ -496,37 +507,13 @@ int RunCommand::run() const {
     return std::string(line);
   };
 
-  while (stop_signal == 0 && (frame_limit_ == 0 || processed < static_cast<uint64_t>(frame_limit_))) {
-    const std::optional<Arrival> arrival = next_arrival();
-    if (!arrival) continue;  // the capture thread had nothing within 100 ms: look at the signal flag again
-    if (!arrival->failure.empty()) {
-      failure = arrival->failure;
-      break;
-    }
-    const io::SourceResult& result = arrival->result;
-    if (result.status == io::SourceStatus::end_of_stream) {
-      end_reason = "end of stream";
-      break;
-    }
-    if (result.status == io::SourceStatus::disconnected) {
-      failure = "source disconnected: " + result.message;
-      break;
-    }
-    if (result.status == io::SourceStatus::timeout) {
-      failure = "source stalled: no pair within " + std::to_string(timeout_ms_) + " ms (--timeout-ms)" +
-                (result.message.empty() ? "" : ": " + result.message);
-      break;
-    }
-    const io::StereoFrame& pair = result.frame;
-    const Clock::time_point pair_started = Clock::now();
-    const Plane* left = &pair.left;
-    const Plane* right = &pair.right;
-    if (rectifier) {
-      const auto [left_rectified, right_rectified] = rectifier->rectify(pair.left, pair.right);
-      left = &left_rectified;
-      right = &right_rectified;
-    }
-    const Plane& disparity = engine.compute(*left, *right);
+  // What is done with each pair once its map is ready, in the order the pairs came.
+  const auto complete = [&](const InFlightPair& done) {
+    const io::StereoFrame& pair = done.pair;
+    const Clock::time_point pair_started = done.started;
+    const Plane* left = &done.left();
+    const Plane* right = &done.right();
+    const Plane& disparity = *done.disparity;
     std::optional<arm::ObstacleFrame> detections;
     if (detector) detections = detector->run(disparity, *left);
     if (!out_directory_.empty()) {
@@ -582,7 +569,43 @@ int RunCommand::run() const {
     } else if (processed % static_cast<uint64_t>(status_every_) == 0) {
       std::fprintf(stderr, "%s\n", status_line().c_str());
     }
+  };
+
+  uint64_t submitted = 0;
+  while (stop_signal == 0 && (frame_limit_ == 0 || submitted < static_cast<uint64_t>(frame_limit_))) {
+    std::optional<Arrival> arrival = next_arrival();
+    if (!arrival) continue;  // the capture thread had nothing within 100 ms: look at the signal flag again
+    if (!arrival->failure.empty()) {
+      failure = arrival->failure;
+      break;
+    }
+    const io::SourceResult& result = arrival->result;
+    if (result.status == io::SourceStatus::end_of_stream) {
+      end_reason = "end of stream";
+      break;
+    }
+    if (result.status == io::SourceStatus::disconnected) {
+      failure = "source disconnected: " + result.message;
+      break;
+    }
+    if (result.status == io::SourceStatus::timeout) {
+      failure = "source stalled: no pair within " + std::to_string(timeout_ms_) + " ms (--timeout-ms)" +
+                (result.message.empty() ? "" : ": " + result.message);
+      break;
+    }
+    InFlightPair next;
+    next.pair = std::move(arrival->result.frame);
+    next.started = Clock::now();
+    if (rectifier) {
+      const auto [left_rectified, right_rectified] = rectifier->rectify(next.pair.left, next.pair.right);
+      next.rectified_left = left_rectified.clone();  // the rectifier's planes are its own, reused for the next pair
+      next.rectified_right = right_rectified.clone();
+    }
+    ++submitted;
+    if (const std::optional<InFlightPair> done = lanes.submit(std::move(next))) complete(*done);
   }
+  // The pairs still in flight when the source ended, failed or a signal came: read, so processed.
+  while (const std::optional<InFlightPair> done = lanes.drain()) complete(*done);
   if (capture) capture->stop();
   if (budget_profile.valid()) budget = budget_profile.get();
   if (end_reason.empty() && failure.empty()) {
@@ -599,14 +622,15 @@ int RunCommand::run() const {
   char latency[64] = "";
   if (live) std::snprintf(latency, sizeof latency, ", %.1f ms latency", latency_ms_total / static_cast<double>(mean_divisor));
   std::printf("run: %llu pairs processed (%s); after the first, %.1f fps out over %.2f s; dropped %llu (driver %llu, unpaired "
-              "%llu, skipped while processing %llu); %.1f ms processing%s per pair (mean, host, %d threads); %s\n",
+              "%llu, skipped while processing %llu); %.1f ms processing%s per pair (mean, host, %d threads%s); %s\n",
               static_cast<unsigned long long>(processed), failure.empty() ? end_reason.c_str() : "failed",
               processed > 1 && seconds > 0 ? static_cast<double>(processed - 1) / seconds : 0.0, seconds,
               static_cast<unsigned long long>(dropped()),
               static_cast<unsigned long long>(counts.left_driver_drops + counts.right_driver_drops),
               static_cast<unsigned long long>(counts.left_unpaired + counts.right_unpaired), static_cast<unsigned long long>(skipped),
               processing_ms_total / static_cast<double>(mean_divisor), latency,
-              threads_ > 0 ? threads_ : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), budget.c_str());
+              threads_ > 0 ? threads_ : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
+              lanes.lanes() > 1 ? (", " + std::to_string(lanes.lanes()) + " pairs in flight").c_str() : "", budget.c_str());
   if (recorder) {
     std::printf("recorded %llu pairs -> %s (replay: --source files:%s,%s)\n", static_cast<unsigned long long>(recorder->pairs()),
                 recorder->directory().string().c_str(), (recorder->directory() / "left" / "%06d.png").string().c_str(),

@@ -69,6 +69,7 @@ class RunCommand {
   bool realtime_ = false;
   int status_every_ = 10;
   int threads_ = 0;
+  int in_flight_ = 0;  // tools/disparity_lanes.h (0: resolved_lanes)
   DisparityEngineOptions engine_options_{arm::obstacle_disparity_defaults()};
   arm::ObstacleParameters detector_parameters_;
 };

@@ -10,6 +10,7 @@
 //   - two video files run every frame at the container's rate;
 //   - --realtime replays through the capture thread; SIGTERM stops it after the current pair with
 //     exit 0 and a complete recording;
+//   - pairs in flight (the default on a recording, 1 and 3) give the same outputs in the same order;
 //   - bad input (no first frame, views of different sizes, a view missing mid-sequence, an unknown
 //     kind, a live kind this build lacks, a missing or wrong-size calibration, a used --record
 //     folder): one line on stderr, a non-zero exit.
@@ -162,6 +163,43 @@ TEST_F(RunCli, ObstaclesGraphWritesTrackedJsonLines) {
   }
 }
 
+// Pairs in flight (tools/disparity_lanes.h): the default on a recording with 2 threads is 2 engines
+// on one worker each; 1 (one engine on both workers) and 3 (more engines than workers) give the same
+// maps, colour views and tracked obstacle lines in the same order, and the summary says how many.
+TEST_F(RunCli, PairsInFlightGiveTheSameOutputsInOrder) {
+  std::vector<std::string> lines;
+  for (const int in_flight : {0, 1, 3}) {
+    SCOPED_TRACE(in_flight);
+    const std::string out = path("out" + std::to_string(in_flight));
+    const Result result = run("run --source " + source() + calib() + " --graph obstacles --min-features 1 --target none --out " + out +
+                              " --in-flight " + std::to_string(in_flight) + kEngine);
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    const std::string summary = last_line(result.out.substr(0, result.out.rfind("outputs ->")));
+    if (in_flight == 1) {
+      EXPECT_EQ(summary.find("in flight"), std::string::npos) << summary;
+    } else {
+      EXPECT_NE(summary.find(", " + std::to_string(in_flight == 0 ? 2 : 3) + " pairs in flight)"), std::string::npos) << summary;
+    }
+    std::ifstream jsonl(out + "/obstacles.jsonl");
+    lines.push_back(std::string(std::istreambuf_iterator<char>(jsonl), std::istreambuf_iterator<char>()));
+    const std::vector<nlohmann::json> records = read_json_lines(out + "/obstacles.jsonl");
+    ASSERT_EQ(records.size(), static_cast<size_t>(kFrames));
+    for (int frame = 0; frame < kFrames; ++frame) EXPECT_EQ(records[static_cast<size_t>(frame)].at("frame"), frame);
+    if (in_flight == 0) continue;
+    for (int frame = 0; frame < kFrames; ++frame) {
+      for (const char* folder : {"disparity", "disparity_color"}) {
+        const cv::Mat expected = cv::imread(numbered(path("out0"), folder, frame), cv::IMREAD_UNCHANGED);
+        const cv::Mat actual = cv::imread(numbered(out, folder, frame), cv::IMREAD_UNCHANGED);
+        ASSERT_FALSE(expected.empty());
+        ASSERT_EQ(actual.size(), expected.size());
+        EXPECT_EQ(cv::norm(actual, expected, cv::NORM_INF), 0.0) << folder << " " << frame;
+      }
+    }
+  }
+  EXPECT_EQ(lines[1], lines[0]);
+  EXPECT_EQ(lines[2], lines[0]);
+}
+
 TEST_F(RunCli, RecordThenReplayGivesTheSameDisparity) {
   const std::string recording = path("recording"), first = path("first"), replay = path("replay");
   Result result = run("run --source " + source() + calib() + " --frames 2 --record " + recording + " --out " + first + kEngine);
@@ -293,6 +331,8 @@ TEST_F(RunCli, BadInputGivesOneLineAndANonZeroExit) {
   expect_refused(run("run --source " + source() + calib() + " --record " + used), 1, "expected a new or empty folder");
   expect_refused(run("run --source " + source() + calib() + " --graph stixels"), 2, "--graph");
   expect_refused(run("run --source v4l2:/dev/video0" + calib() + " --realtime"), 2, "--realtime");
+  expect_refused(run("run --source " + source() + calib() + " --in-flight 17"), 2, "--in-flight");
+  expect_refused(run("run --source " + source() + calib() + " --in-flight 2 --max-memory 1M" + kEngine), 1, "2 pairs in flight");
 
   // A view missing mid-sequence: frame 0 is processed (and summarised on stdout), then one line and exit 1.
   const Result gap_result = run("run --source " + files(gap) + calib() + kEngine);

@@ -1,0 +1,57 @@
+// Frames in flight for `lpstereo run`: N disparity engines ("lanes"), each on its own pair, so that a
+// recording streams on every core. One engine's single-pass 4-path SGM carries row state down the
+// frame and runs on one worker (arm/scheduler.h), and reading a pair (PNG decoding) runs before it:
+// with one pair at a time a second core idles for most of a frame. Pairs go to the lanes in turn and
+// come back in the order they went in; each lane's engine is the one engine's code on fewer workers,
+// so the maps are the same bits whatever the number of lanes.
+#pragma once
+
+#include <chrono>
+#include <deque>
+#include <future>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "arm/disparity_engine.h"
+#include "dag/plane.h"
+#include "io/camera/stereo_source.h"
+
+namespace lpstereo::tools {
+
+struct InFlightPair {
+  io::StereoFrame pair;                               // as read
+  std::optional<Plane> rectified_left, rectified_right;  // when the views were rectified
+  std::chrono::steady_clock::time_point started;        // when the pair was read
+  const Plane* disparity = nullptr;  // the lane's map: valid until the next submit() or drain()
+  const Plane& left() const { return rectified_left ? *rectified_left : pair.left; }
+  const Plane& right() const { return rectified_right ? *rectified_right : pair.right; }
+};
+
+class DisparityLanes {
+ public:
+  // `lanes` engines of `workers_per_lane` worker threads each (0 = one per hardware thread).
+  DisparityLanes(int width, int height, const arm::DisparityParameters& parameters, int lanes, int workers_per_lane);
+  int lanes() const { return static_cast<int>(engines_.size()); }
+
+  // Hands the pair to the next lane. Returns the oldest pair in flight with its map once `lanes`
+  // pairs are (so at most that many are at once); with one lane, this pair, computed here.
+  // Rethrows what the engine threw.
+  std::optional<InFlightPair> submit(InFlightPair pair);
+  // The oldest pair still in flight with its map (waiting for it), or nothing when none is.
+  std::optional<InFlightPair> drain();
+
+ private:
+  InFlightPair compute(int lane, InFlightPair pair);
+
+  std::vector<std::unique_ptr<arm::DisparityEngine>> engines_;
+  std::deque<std::future<InFlightPair>> in_flight_;  // oldest first
+  int next_lane_ = 0;
+};
+
+// The lanes `lpstereo run --in-flight` asks for: `requested` when positive; 0 (automatic): 2 for a
+// recording with at least 2 worker threads, else 1 (a live camera keeps one pair at a time, for
+// its latency).
+int resolved_lanes(int requested, bool live, int worker_threads);
+
+}  // namespace lpstereo::tools
