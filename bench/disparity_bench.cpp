@@ -14,6 +14,7 @@
 // speckles off): BM_speckle_filter/threads:1 and :2 (the bands on the engine's workers) against
 // BM_opencv_filterSpeckles (one thread: OpenCV's is not parallel); each iteration copies the map
 // and filters the copy, as the engine's task does.
+// BM_lpstereo_two_in_flight: two frames at once on two one-worker engines (streaming throughput).
 // Usage: disparity_bench [--benchmark_filter=opencv] (Google Benchmark flags).
 #include <benchmark/benchmark.h>
 
@@ -23,6 +24,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <future>
 #include <map>
 #include <string>
 
@@ -95,12 +97,14 @@ const Pair& pair_of_size(int width, int height) {
 
 // Per frame: ms (wall clock measured around the timed loop, a plain number so it prints without a
 // unit suffix), fps and MDE/s (rates over the benchmark's own time).
-void set_counters(benchmark::State& state, int width, int height, std::chrono::steady_clock::duration loop_time) {
+// `frames` per iteration: the pairs-in-flight rows run two frames an iteration.
+void set_counters(benchmark::State& state, int width, int height, std::chrono::steady_clock::duration loop_time, int frames = 1) {
   using benchmark::Counter;
   const double loop_ms = std::chrono::duration<double, std::milli>(loop_time).count();
-  state.counters["ms"] = Counter(state.iterations() > 0 ? loop_ms / static_cast<double>(state.iterations()) : 0.0);
-  state.counters["fps"] = Counter(1.0, Counter::kIsIterationInvariantRate);
-  state.counters["MDE/s"] = Counter(static_cast<double>(width) * height * kDisparities * 1e-6, Counter::kIsIterationInvariantRate);
+  const double iterations = static_cast<double>(state.iterations());
+  state.counters["ms"] = Counter(state.iterations() > 0 ? loop_ms / (iterations * frames) : 0.0);
+  state.counters["fps"] = Counter(frames, Counter::kIsIterationInvariantRate);
+  state.counters["MDE/s"] = Counter(frames * static_cast<double>(width) * height * kDisparities * 1e-6, Counter::kIsIterationInvariantRate);
 }
 
 // Times the engine with `parameters` (0 to 128 disparities set here) on `worker_threads` threads.
@@ -140,6 +144,31 @@ void BM_lpstereo_one_worker(benchmark::State& state) {
   arm::DisparityParameters parameters;
   parameters.paths = static_cast<int>(state.range(2));
   time_engine(state, parameters, 1);
+}
+
+// Two pairs in flight (what `lpstereo run` does on a recording with 2 threads, tools/disparity_lanes.h):
+// two engines of one worker each, each on its own frame at once; ms and fps per frame of the
+// throughput (an iteration is two frames), the latency of a frame being the one-worker row's.
+void BM_lpstereo_two_in_flight(benchmark::State& state) {
+  const int width = static_cast<int>(state.range(0));
+  const int height = static_cast<int>(state.range(1));
+  const Pair& pair = pair_of_size(width, height);
+  arm::DisparityParameters parameters;
+  parameters.paths = static_cast<int>(state.range(2));
+  parameters.min_disparity = 0;
+  parameters.num_disparities = kDisparities;
+  arm::DisparityEngine first(width, height, parameters, {}, 1), second(width, height, parameters, {}, 1);
+  first.compute(pair.left, pair.right);  // first frames untimed, as time_engine's
+  second.compute(pair.left, pair.right);
+  const auto start = std::chrono::steady_clock::now();
+  for (auto _ : state) {
+    std::future<const Plane*> other = std::async(std::launch::async, [&] { return &second.compute(pair.left, pair.right); });
+    const Plane& disparity = first.compute(pair.left, pair.right);
+    benchmark::DoNotOptimize(disparity.row<int16_t>(0));
+    benchmark::DoNotOptimize(other.get()->row<int16_t>(0));
+    benchmark::ClobberMemory();
+  }
+  set_counters(state, width, height, std::chrono::steady_clock::now() - start, 2);
 }
 
 void run_opencv(benchmark::State& state, io::SgbmMode mode) {
@@ -240,6 +269,15 @@ BENCHMARK(BM_lpstereo_one_worker)
     ->ArgNames({"width", "height", "paths"})
     ->ArgsProduct({{640}, {480}, {8, 4}})
     ->Args({1242, 375, 8})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinWarmUpTime(kWarmUpSeconds)
+    ->Repetitions(kRepetitions)
+    ->ReportAggregatesOnly(true);
+BENCHMARK(BM_lpstereo_two_in_flight)
+    ->ArgNames({"width", "height", "paths"})
+    ->ArgsProduct({{640}, {480}, {4, 8}})
+    ->Args({1242, 375, 4})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->MinWarmUpTime(kWarmUpSeconds)
