@@ -67,3 +67,37 @@ function(lpstereo_build_gtest_for_target)
     endif()
   endforeach()
 endfunction()
+
+# OpenCV for the target, from the sysroot (scripts/make-arm64-sysroot.sh). Debian's OpenCVConfig.cmake
+# (libopencv-dev) refuses to load unless the library of every one of its ~50 modules is installed,
+# and their closure (Qt, VTK, FFmpeg, GStreamer and their -dev packages) is most of a gigabyte; the
+# sysroot holds only the modules lpstereo links, imported here under the names OpenCV's config gives
+# (opencv_core, ...). Sets OpenCV_INCLUDE_DIRS and OpenCV_LIBS as find_package(OpenCV) does.
+#   lpstereo_find_target_opencv(REQUIRED <module>... [OPTIONAL <module>...])
+# An OPTIONAL module missing from the sysroot has no target (if(TARGET opencv_<module>) tells).
+function(lpstereo_find_target_opencv)
+  cmake_parse_arguments(PARSE_ARGV 0 arg "" "" "REQUIRED;OPTIONAL")
+  find_path(LPSTEREO_TARGET_OPENCV_INCLUDE_DIR opencv2/core.hpp PATH_SUFFIXES opencv4)
+  if(NOT LPSTEREO_TARGET_OPENCV_INCLUDE_DIR)
+    message(FATAL_ERROR "OpenCV headers (opencv4/opencv2/core.hpp) not found in the sysroot ${CMAKE_SYSROOT}: scripts/make-arm64-sysroot.sh unpacks libopencv-core-dev there")
+  endif()
+  set(libraries "")
+  foreach(module IN LISTS arg_REQUIRED arg_OPTIONAL)
+    find_library(LPSTEREO_TARGET_OPENCV_${module}_LIBRARY opencv_${module})
+    if(NOT LPSTEREO_TARGET_OPENCV_${module}_LIBRARY)
+      if(module IN_LIST arg_REQUIRED)
+        message(FATAL_ERROR "libopencv_${module}.so not found in the sysroot ${CMAKE_SYSROOT}: add libopencv-${module}-dev and libopencv-${module}406 to scripts/make-arm64-sysroot.sh")
+      endif()
+      message(STATUS "lpstereo: OpenCV ${module} is not in the sysroot; what needs it is not built")
+      continue()
+    endif()
+    add_library(opencv_${module} SHARED IMPORTED GLOBAL)
+    set_target_properties(opencv_${module} PROPERTIES
+      IMPORTED_LOCATION ${LPSTEREO_TARGET_OPENCV_${module}_LIBRARY}
+      INTERFACE_INCLUDE_DIRECTORIES ${LPSTEREO_TARGET_OPENCV_INCLUDE_DIR})
+    list(APPEND libraries opencv_${module})
+  endforeach()
+  message(STATUS "lpstereo: OpenCV for the target from ${LPSTEREO_TARGET_OPENCV_INCLUDE_DIR}: ${libraries}")
+  set(OpenCV_INCLUDE_DIRS ${LPSTEREO_TARGET_OPENCV_INCLUDE_DIR} PARENT_SCOPE)
+  set(OpenCV_LIBS ${libraries} PARENT_SCOPE)
+endfunction()
