@@ -8,7 +8,11 @@
 #      the cold 2-core machine: build 52 min, 1.6 GB; ctest 690 s, the slowest test 110 s;
 #   3. the release tests that exercise every kernel, run on an emulated CPU without AVX-512
 #      (qemu-x86_64 -cpu Haswell): the binary built here must run there, dispatching to AVX2;
-#   4. aarch64 cross-build (NEON), every test through qemu-aarch64;
+#   4. aarch64 cross-build (NEON) against an arm64 sysroot of Debian's packages (build/arm64-sysroot,
+#      assembled by scripts/make-arm64-sysroot.sh at configure time: ~105 MB downloaded, 260 MB
+#      unpacked), the lpstereo command included; every test through qemu-aarch64, then the aarch64
+#      lpstereo under qemu on a rendered pair and sequence, its outputs compared byte for byte with
+#      the release build's (scripts/compare-aarch64-lpstereo.sh);
 #   5. the 4K budget: every graph under graphs/ profiled at 3840x1728 on cv1-class with --enforce,
 #      its Markdown summary printed (graphs marked "budget": {"enforce": false} are reported only).
 # Stops at the first failure. For a quick local run, LPSTEREO_CHECK_SKIP_ASAN=1 and
@@ -47,6 +51,9 @@ if [ "${LPSTEREO_CHECK_SKIP_AARCH64:-0}" != "1" ]; then
   cmake --build --preset aarch64 -j "$jobs"
   stage "aarch64: ctest"
   ctest --preset aarch64
+  stage "aarch64: lpstereo under qemu equals the release build's, byte for byte"
+  ./scripts/compare-aarch64-lpstereo.sh build/release/tools/lpstereo build/aarch64/tools/lpstereo \
+    "${LPSTEREO_AARCH64_SYSROOT:-build/arm64-sysroot}"
 fi
 
 stage "4K budget on cv1-class: every graph at 3840x1728, --enforce"
