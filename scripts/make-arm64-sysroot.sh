@@ -81,7 +81,7 @@ fail() {
   exit 1
 }
 echo "make-arm64-sysroot: downloading Debian's arm64 packages into $sysroot"
-apt-get "${apt_options[@]}" update >"$log" 2>&1 || fail "apt-get update of the arm64 package lists" $?
+apt-get "${apt_options[@]}" update --error-on=any >"$log" 2>&1 || fail "apt-get update of the arm64 package lists" $?
 apt-get "${apt_options[@]}" install --download-only -y "${runtime[@]}" >>"$log" 2>&1 ||
   fail "downloading the runtime libraries (${runtime[*]}) with their dependencies" $?
 (cd "$work/cache/archives" && apt-get "${apt_options[@]}" download "${headers[@]}" >>"$log" 2>&1) ||
