@@ -22,8 +22,19 @@ qemu=(qemu-aarch64 -L "$sysroot")
 
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-"$x86" synth -o "$work/pair" --width 320 --height 240 --noise 2 >/dev/null
-"$x86" synth -o "$work/sequence" --width 320 --height 240 --noise 2 --sequence urban --frames 2 >/dev/null
+# quiet NAME COMMAND...: runs the command with its output kept aside, printed only when it fails.
+quiet() {
+  local name=$1 code=0
+  shift
+  "$@" >"$work/output.txt" 2>&1 || code=$?
+  if [ "$code" -ne 0 ]; then
+    echo "compare-aarch64-lpstereo: $name exited $code, expected 0; its output:"
+    cat "$work/output.txt"
+    exit 1
+  fi
+}
+quiet "x86 lpstereo synth" "$x86" synth -o "$work/pair" --width 320 --height 240 --noise 2
+quiet "x86 lpstereo synth --sequence" "$x86" synth -o "$work/sequence" --width 320 --height 240 --noise 2 --sequence urban --frames 2
 
 status=0
 # compare NAME X86_OUTPUT AARCH64_OUTPUT: files, or folders compared file by file.
@@ -38,17 +49,17 @@ compare() {
 }
 
 disparity=(disparity "$work/pair/left.png" "$work/pair/right.png" --num-disp 64)
-"$x86" "${disparity[@]}" -o "$work/x86.png" >/dev/null
+quiet "x86 lpstereo disparity" "$x86" "${disparity[@]}" -o "$work/x86.png"
 start=$SECONDS
-"${qemu[@]}" "$arm" "${disparity[@]}" -o "$work/aarch64.png" >/dev/null
+quiet "aarch64 lpstereo disparity under qemu" "${qemu[@]}" "$arm" "${disparity[@]}" -o "$work/aarch64.png"
 echo "compare-aarch64-lpstereo: lpstereo disparity under qemu: $((SECONDS - start)) s"
 compare "lpstereo disparity (KITTI PNG)" "$work/x86.png" "$work/aarch64.png"
 
 run=(run --source "files:$work/sequence/left/%06d.png,$work/sequence/right/%06d.png" --calib "$work/sequence/calib.yaml"
      --graph obstacles --num-disp 64 --target none)
-"$x86" "${run[@]}" --out "$work/x86-run" >/dev/null 2>&1
+quiet "x86 lpstereo run" "$x86" "${run[@]}" --out "$work/x86-run"
 start=$SECONDS
-"${qemu[@]}" "$arm" "${run[@]}" --out "$work/aarch64-run" >/dev/null 2>&1
+quiet "aarch64 lpstereo run under qemu" "${qemu[@]}" "$arm" "${run[@]}" --out "$work/aarch64-run"
 echo "compare-aarch64-lpstereo: lpstereo run under qemu: $((SECONDS - start)) s"
 compare "lpstereo run --graph obstacles (disparity PNGs, colour PNGs, obstacles.jsonl)" "$work/x86-run" "$work/aarch64-run"
 exit $status
