@@ -105,23 +105,32 @@ for size in $sizes; do
   done
 done
 
-# Streaming at 4K: the pair rendered above, replayed --stream-pairs times through `lpstereo run`.
+# Streaming at 4K: the pair rendered above, replayed --stream-pairs times through `lpstereo run`
+# (each run's default pairs in flight: 2 for 4 paths, 1 for 8, tools/disparity_lanes.h); then the
+# same pair as PGM, whose decoding is a copy: the rate with PNG decoding excluded.
 if [ "$stream_pairs" -gt 0 ] && [ -d "$work/pair_3840x1728x128" ]; then
   pair=$work/pair_3840x1728x128
-  mkdir -p "$work/stream/left" "$work/stream/right"
-  i=0
-  while [ $i -lt "$stream_pairs" ]; do
-    name=$(printf '%06d.png' $i)
-    ln -s "$pair/left.png" "$work/stream/left/$name"; ln -s "$pair/right.png" "$work/stream/right/$name"
-    i=$((i + 1))
+  for view in left right; do "$opencv" --convert "$pair/$view.png" "$pair/$view.pgm"; done
+  for extension in png pgm; do
+    mkdir -p "$work/stream_$extension/left" "$work/stream_$extension/right"
+    i=0
+    while [ $i -lt "$stream_pairs" ]; do
+      name=$(printf '%06d' $i)
+      for view in left right; do ln -s "$pair/$view.$extension" "$work/stream_$extension/$view/$name.$extension"; done
+      i=$((i + 1))
+    done
   done
-  echo
-  echo "# Streaming 3840x1728 x 128, lpstereo run over $stream_pairs pairs, 2 threads, PNG decoding included"
-  for paths in 4 8; do
-    /usr/bin/time -f "%e %M" -o "$work/time.txt" "$lpstereo" run --source "files:$work/stream/left/%06d.png,$work/stream/right/%06d.png" \
-      --calib "$pair/calib_cam_to_cam.txt" --target none --num-disp 128 --paths "$paths" --threads 2 --status-every 1000000 > "$work/out.txt" 2>&1 || {
+  stream() {  # extension paths
+    /usr/bin/time -f "%e %M" -o "$work/time.txt" "$lpstereo" run \
+      --source "files:$work/stream_$1/left/%06d.$1,$work/stream_$1/right/%06d.$1" \
+      --calib "$pair/calib_cam_to_cam.txt" --target none --num-disp 128 --paths "$2" --threads 2 --status-every 1000000 > "$work/out.txt" 2>&1 || {
       echo "oneshot-disparity.sh: lpstereo run failed:" >&2; cat "$work/out.txt" >&2; exit 1; }
     tail -n 1 "$work/out.txt"
-    echo "  $paths paths: $(awk '{ printf "%.2f s wall for the process, peak %d MB", $1, $2 / 1024 }' "$work/time.txt")"
-  done
+    echo "  $2 paths, $1 frames: $(awk '{ printf "%.2f s wall for the process, peak %d MB", $1, $2 / 1024 }' "$work/time.txt")"
+  }
+  echo
+  echo "# Streaming 3840x1728 x 128, lpstereo run over $stream_pairs pairs, 2 threads, PNG decoding included (line: >= 4 pairs/s, 4 paths)"
+  for paths in 4 8; do stream png "$paths"; done
+  echo "# The same, PGM frames (PNG decoding excluded)"
+  stream pgm 4
 fi

@@ -4,6 +4,8 @@
 // else of lpstereo's, so its start-up and peak memory are an OpenCV program's.
 // Usage: opencv_disparity_oneshot LEFT RIGHT OUT.png --num-disp N [--min-disp M] [--mode sgbm|3way|hh]
 //        [--threads T]
+//        opencv_disparity_oneshot --convert IN OUT (an image rewritten in OUT's format: the streaming
+//        benchmark's PGM frames, whose decoding is a copy)
 // Output: KITTI 16-bit PNG (disparity x 256, 0 = invalid), as `lpstereo disparity -o OUT.png`.
 // Bad input: one line on stderr, exit 2.
 #include <opencv2/core.hpp>
@@ -31,6 +33,12 @@ int integer_argument(const std::string& name, const char* text) {
 
 int main(int argc, char** argv) {
   try {
+    if (argc == 4 && std::string(argv[1]) == "--convert") {
+      const cv::Mat image = cv::imread(argv[2], cv::IMREAD_UNCHANGED);
+      if (image.empty()) throw std::invalid_argument(std::string("cannot read '") + argv[2] + "'");
+      if (!cv::imwrite(argv[3], image)) throw std::invalid_argument(std::string("cannot write '") + argv[3] + "'");
+      return 0;
+    }
     std::string paths[3];
     int path_count = 0, num_disparities = 0, min_disparity = 0, threads = 2;
     lpstereo::io::SgbmMode mode = lpstereo::io::SgbmMode::sgbm;

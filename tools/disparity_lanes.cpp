@@ -37,9 +37,9 @@ std::optional<InFlightPair> DisparityLanes::drain() {
   return oldest.get();
 }
 
-int resolved_lanes(int requested, bool live, int worker_threads) {
+int resolved_lanes(int requested, bool live, int worker_threads, const arm::DisparityParameters& parameters) {
   if (requested > 0) return requested;
-  return !live && arm::resolved_worker_threads(worker_threads) >= 2 ? 2 : 1;
+  return !live && parameters.paths != 8 && arm::resolved_worker_threads(worker_threads) >= 2 ? 2 : 1;
 }
 
 }  // namespace lpstereo::tools

@@ -381,8 +381,8 @@ RunCommand::RunCommand(CLI::App& app) {
       ->check(CLI::Range(0, 256));
   command_->add_option("--in-flight", in_flight_,
                        "pairs processed at once, each by its own disparity engine on its share of the threads (0 = 2 for a "
-                       "recording with 2 threads or more, else 1; a live camera keeps 1 for its latency); the maps are the "
-                       "same bits, the outputs come in order")
+                       "recording with 2 threads or more and --paths 4 or 0, else 1; a live camera keeps 1 for its latency); "
+                       "the maps are the same bits, the outputs come in order")
       ->check(CLI::Range(0, 16))
       ->capture_default_str();
   add_disparity_engine_options(*command_, engine_options_, "disparities searched: [min-disp, min-disp + num-disp) (default 64)");
@@ -422,7 +422,7 @@ int RunCommand::run() const {
   const arm::DisparityParameters disparity_parameters =
       tools::disparity_parameters(engine_options_, width, arm::DisparityParameters{}.num_disparities);
   // Frames in flight (tools/disparity_lanes.h): the worker threads are shared out among the lanes.
-  const int lane_count = resolved_lanes(in_flight_, live, threads_);
+  const int lane_count = resolved_lanes(in_flight_, live, threads_, disparity_parameters);
   const int workers_per_lane = std::max(1, arm::resolved_worker_threads(threads_) / lane_count);
   check_engine_memory(engine_options_, width, height, disparity_parameters, lane_count > 1 ? workers_per_lane : threads_, lane_count);
   DisparityLanes lanes(width, height, disparity_parameters, lane_count, lane_count > 1 ? workers_per_lane : threads_);

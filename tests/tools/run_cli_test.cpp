@@ -163,16 +163,20 @@ TEST_F(RunCli, ObstaclesGraphWritesTrackedJsonLines) {
   }
 }
 
-// Pairs in flight (tools/disparity_lanes.h): the default on a recording with 2 threads is 2 engines
-// on one worker each; 1 (one engine on both workers) and 3 (more engines than workers) give the same
-// maps, colour views and tracked obstacle lines in the same order, and the summary says how many.
+// Pairs in flight (tools/disparity_lanes.h): the default on a recording with 2 threads and 4 paths
+// is 2 engines on one worker each; 1 (one engine on both workers) and 3 (more engines than workers)
+// give the same maps, colour views and tracked obstacle lines in the same order, and the summary
+// says how many. 8 paths (which keep both workers busy themselves) default to 1.
 TEST_F(RunCli, PairsInFlightGiveTheSameOutputsInOrder) {
+  const Result eight_paths = run("run --source " + source() + calib() + " --target none --frames 1" + kEngine);
+  ASSERT_EQ(eight_paths.exit_code, 0) << eight_paths.err;
+  EXPECT_EQ(eight_paths.out.find("in flight"), std::string::npos) << eight_paths.out;
   std::vector<std::string> lines;
   for (const int in_flight : {0, 1, 3}) {
     SCOPED_TRACE(in_flight);
     const std::string out = path("out" + std::to_string(in_flight));
     const Result result = run("run --source " + source() + calib() + " --graph obstacles --min-features 1 --target none --out " + out +
-                              " --in-flight " + std::to_string(in_flight) + kEngine);
+                              " --paths 4 --in-flight " + std::to_string(in_flight) + kEngine);
     ASSERT_EQ(result.exit_code, 0) << result.err;
     const std::string summary = last_line(result.out.substr(0, result.out.rfind("outputs ->")));
     if (in_flight == 1) {
