@@ -51,53 +51,53 @@ int channels_of(int colour_type) {
 }
 
 // Writes a kWidth x kHeight PNG of random samples with libpng (no transformations: the bytes are
-// the file's). Returns false when libpng refuses the kind.
+// the file's). Returns false when libpng refuses the kind. Everything is prepared before the setjmp,
+// so nothing it guards is modified after it (a longjmp would leave such a variable indeterminate).
 bool write_test_png(const std::string& path, const PngKind& kind, uint32_t seed) {
-  FILE* file = std::fopen(path.c_str(), "wb");
-  if (file == nullptr) return false;
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-  png_infop info = png_create_info_struct(png);
   const int channels = channels_of(kind.colour_type);
   const size_t row_bytes = (static_cast<size_t>(kWidth) * channels * kind.bit_depth + 7) / 8;
   std::vector<png_byte> pixels(row_bytes * kHeight);
   std::mt19937 random(seed);
-  const int palette_entries = 1 << std::min(kind.bit_depth, 8);
   for (png_byte& byte : pixels) byte = static_cast<png_byte>(random());
+  const int palette_entries = kind.bit_depth == 8 ? 200 : 1 << std::min(kind.bit_depth, 8);
   if (kind.colour_type == PNG_COLOR_TYPE_PALETTE && kind.bit_depth == 8) {
-    for (png_byte& byte : pixels) byte = static_cast<png_byte>(byte % 200);  // 200 palette entries
+    for (png_byte& byte : pixels) byte = static_cast<png_byte>(byte % palette_entries);
   }
   std::vector<png_bytep> rows(kHeight);
   for (int y = 0; y < kHeight; ++y) rows[static_cast<size_t>(y)] = pixels.data() + row_bytes * y;
   std::vector<png_color> palette;
   std::vector<png_byte> alphas;
-  bool ok = false;
-  if (setjmp(png_jmpbuf(png)) == 0) {
-    png_init_io(png, file);
-    png_set_IHDR(png, info, kWidth, kHeight, kind.bit_depth, kind.colour_type,
-                 kind.interlaced ? PNG_INTERLACE_ADAM7 : PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-    if (kind.colour_type == PNG_COLOR_TYPE_PALETTE) {
-      const int entries = kind.bit_depth == 8 ? 200 : palette_entries;
-      for (int i = 0; i < entries; ++i) {
-        palette.push_back({static_cast<png_byte>(random()), static_cast<png_byte>(random()), static_cast<png_byte>(random())});
-        alphas.push_back(static_cast<png_byte>(random()));
-      }
-      png_set_PLTE(png, info, palette.data(), entries);
-      if (kind.transparency) png_set_tRNS(png, info, alphas.data(), entries, nullptr);
-    } else if (kind.transparency) {
-      png_color_16 transparent{};
-      const int maximum = (1 << kind.bit_depth) - 1;
-      transparent.gray = static_cast<png_uint_16>(pixels[0] & maximum);
-      transparent.red = transparent.green = transparent.blue = static_cast<png_uint_16>(pixels[0] & maximum);
-      png_set_tRNS(png, info, nullptr, 0, &transparent);
-    }
-    png_write_info(png, info);
-    png_write_image(png, rows.data());
-    png_write_end(png, nullptr);
-    ok = true;
+  for (int i = 0; i < palette_entries; ++i) {
+    palette.push_back({static_cast<png_byte>(random()), static_cast<png_byte>(random()), static_cast<png_byte>(random())});
+    alphas.push_back(static_cast<png_byte>(random()));
   }
+  png_color_16 transparent{};
+  const int maximum = (1 << std::min(kind.bit_depth, 16)) - 1;
+  transparent.gray = transparent.red = transparent.green = transparent.blue = static_cast<png_uint_16>(pixels[0] & maximum);
+
+  FILE* file = std::fopen(path.c_str(), "wb");
+  if (file == nullptr) return false;
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png_create_info_struct(png);
+  if (setjmp(png_jmpbuf(png)) != 0) {
+    png_destroy_write_struct(&png, &info);
+    std::fclose(file);
+    return false;
+  }
+  png_init_io(png, file);
+  png_set_IHDR(png, info, kWidth, kHeight, kind.bit_depth, kind.colour_type, kind.interlaced ? PNG_INTERLACE_ADAM7 : PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  if (kind.colour_type == PNG_COLOR_TYPE_PALETTE) {
+    png_set_PLTE(png, info, palette.data(), palette_entries);
+    if (kind.transparency) png_set_tRNS(png, info, alphas.data(), palette_entries, nullptr);
+  } else if (kind.transparency) {
+    png_set_tRNS(png, info, nullptr, 0, &transparent);
+  }
+  png_write_info(png, info);
+  png_write_image(png, rows.data());
+  png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
-  std::fclose(file);
-  return ok;
+  return std::fclose(file) == 0;
 }
 
 class PngCodec : public ::testing::Test {
