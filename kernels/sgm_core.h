@@ -52,6 +52,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <type_traits>
 
 #include "kernels/census_cost.h"
@@ -682,12 +683,16 @@ inline void for_each_checkpoint_slot(uint16_t* state, Value* checkpoint, int wid
 }
 
 // The row state into a checkpoint row. A u8 checkpoint is taken only where every value fits (the
-// bound above), so the narrowing is exact.
+// bound above), so the narrowing is exact. The rows of a plane of bytes are only byte-aligned, so
+// u16 values are copied bytewise (memcpy), never stored through a u16 pointer.
 template <class Value>
 inline void save_checkpoint(const uint16_t* state, int width, int padded, int count, int previous_row, Value* checkpoint) {
   for_each_checkpoint_slot(const_cast<uint16_t*>(state), checkpoint, width, padded, count, previous_row,
                            [count](const uint16_t* slot, Value* values) {
-                             for (int lane = 0; lane < count; ++lane) values[lane] = static_cast<Value>(slot[lane]);
+                             for (int lane = 0; lane < count; ++lane) {
+                               const Value value = static_cast<Value>(slot[lane]);
+                               std::memcpy(values + lane, &value, sizeof value);
+                             }
                            });
 }
 
@@ -703,7 +708,11 @@ inline void restore_checkpoint(const Value* checkpoint, int width, int padded, i
   }
   std::fill(state, state + 3 * region_size, uint16_t{0xFFFF});
   for_each_checkpoint_slot(state, checkpoint, width, padded, count, previous_row, [count](uint16_t* slot, const Value* values) {
-    for (int lane = 0; lane < count; ++lane) slot[lane] = values[lane];
+    for (int lane = 0; lane < count; ++lane) {
+      Value value;
+      std::memcpy(&value, values + lane, sizeof value);
+      slot[lane] = value;
+    }
   });
 }
 
@@ -746,7 +755,7 @@ void sgm_checkpoints_tile_as(const TileArgs& args) {
     Value* checkpoint = sgm_detail::checkpoint_values<Value>(args.outputs[0], band_in_tile);
     const bool first_band = kBackward ? band == bands - 1 : band == 0;
     if (first_band) {
-      std::fill(checkpoint, checkpoint + int64_t{3} * width * count, Value{0});
+      std::memset(checkpoint, 0, sizeof(Value) * 3 * static_cast<size_t>(width) * static_cast<size_t>(count));
     } else {
       sgm_detail::save_checkpoint(reinterpret_cast<const uint16_t*>(args.state), width, padded, count,
                                   kBackward ? height - y1 - 1 : y0 - 1, checkpoint);
