@@ -21,11 +21,15 @@ namespace lpstereo::tools {
 
 struct InFlightPair {
   io::StereoFrame pair;                               // as read
-  std::optional<Plane> rectified_left, rectified_right;  // when the views were rectified
+  std::optional<Plane> rectified_left, rectified_right;  // rectified views owned (more than one lane)
+  // Or the rectifier's own planes, valid until it rectifies the next pair: one lane completes each
+  // pair before the next is read, so nothing is copied.
+  const Plane* borrowed_left = nullptr;
+  const Plane* borrowed_right = nullptr;
   std::chrono::steady_clock::time_point started;        // when the pair was read
   const Plane* disparity = nullptr;  // the lane's map: valid until the next submit() or drain()
-  const Plane& left() const { return rectified_left ? *rectified_left : pair.left; }
-  const Plane& right() const { return rectified_right ? *rectified_right : pair.right; }
+  const Plane& left() const { return borrowed_left ? *borrowed_left : rectified_left ? *rectified_left : pair.left; }
+  const Plane& right() const { return borrowed_right ? *borrowed_right : rectified_right ? *rectified_right : pair.right; }
 };
 
 class DisparityLanes {

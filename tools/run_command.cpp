@@ -598,8 +598,13 @@ int RunCommand::run() const {
     next.started = Clock::now();
     if (rectifier) {
       const auto [left_rectified, right_rectified] = rectifier->rectify(next.pair.left, next.pair.right);
-      next.rectified_left = left_rectified.clone();  // the rectifier's planes are its own, reused for the next pair
-      next.rectified_right = right_rectified.clone();
+      if (lanes.lanes() == 1) {
+        next.borrowed_left = &left_rectified;
+        next.borrowed_right = &right_rectified;
+      } else {
+        next.rectified_left = left_rectified.clone();  // the rectifier's planes are reused for the next pair
+        next.rectified_right = right_rectified.clone();
+      }
     }
     ++submitted;
     if (const std::optional<InFlightPair> done = lanes.submit(std::move(next))) complete(*done);
