@@ -456,10 +456,13 @@ void sgm_tile_for(const TileArgs& args) {
       left_row = plane_row<const Word>(args.inputs[0], row);
       right_row = plane_row<const Word>(args.inputs[1], row);
     }
-    if (lr_check) {
-      const int keys = width + padded + L16;
-      for (int i = 0; i < keys; i += L32) B::store(right_keys + i, ones32);
-    }
+    // The right view's running minimum of keys (LR check): element e = right_keys[e] collects lane
+    // j of every left pixel x with x + j = e. It slides along the row in registers, one lane per
+    // pixel: right_window lane i of vector m is element x + m L32 + i at pixel x. (Loading and
+    // storing right_keys at x + m L32 for every pixel stalls the host: each load straddles the
+    // previous pixel's stores, one element off, which the store buffer cannot forward.)
+    [[maybe_unused]] VU32 right_window[2 * kMaxVectors];
+    for (int m = 0; m < 2 * vectors; ++m) right_window[m] = ones32;
     [[maybe_unused]] int diagonal_down = ((0 - mirrored_y) % width + width) % width;   // slot of (x - y) mod W at x = 0
     [[maybe_unused]] int diagonal_up = (mirrored_y % width);                            // slot of (x + y) mod W at x = 0
     for (int mirrored_x = 0; mirrored_x < width; ++mirrored_x) {
@@ -566,14 +569,32 @@ void sgm_tile_for(const TileArgs& args) {
         }
         if (lr_check) {
           // Right view: key of right pixel x - d kept at right_keys[x - d + d0 + D - 1] = right_keys[x + j].
-          for (int m = 0; m < 2 * vectors; ++m) {
-            uint32_t* slot = right_keys + x + m * L32;
-            B::store(slot, B::min(B::load(slot), keys[m]));
+          for (int m = 0; m < 2 * vectors; ++m) right_window[m] = B::min(right_window[m], keys[m]);
+          // The window's element that no later pixel reaches is final now: x going right, element x
+          // (lane 0), stored with its vector, whose other lanes later pixels store again; going left,
+          // element x + Dp - 1 (the last lane). Then the window slides one lane (not after the row's
+          // last pixel: the whole window is stored below, every element final).
+          if constexpr (!kBackward) {
+            B::store(right_keys + x, right_window[0]);
+            if (mirrored_x + 1 < width) {
+              for (int m = 0; m + 1 < 2 * vectors; ++m) right_window[m] = B::next_lanes(right_window[m], right_window[m + 1]);
+              right_window[2 * vectors - 1] = B::next_lanes(right_window[2 * vectors - 1], ones32);
+            }
+          } else {
+            B::store(right_keys + x + (2 * vectors - 1) * L32, right_window[2 * vectors - 1]);
+            if (mirrored_x + 1 < width) {
+              for (int m = 2 * vectors - 1; m > 0; --m) right_window[m] = B::previous_lanes(right_window[m - 1], right_window[m]);
+              right_window[0] = B::previous_lanes(ones32, right_window[0]);
+            }
           }
         }
       }
     }
     if constexpr (kSelect) {
+      if (lr_check) {
+        const int last_x = kBackward ? 0 : width - 1;  // the window's position after the row's last pixel
+        for (int m = 0; m < 2 * vectors; ++m) B::store(right_keys + last_x + m * L32, right_window[m]);
+      }
       // Finish the row, L32 pixels per vector: integer disparity, sub-pixel step, uniqueness,
       // left-right check, narrow to s16.
       int16_t* out = plane_row<int16_t>(args.outputs[0], row);

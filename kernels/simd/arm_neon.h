@@ -193,6 +193,8 @@ struct Neon {
   }  // vext on the concatenation.
   static VU16 previous_lanes(const VU16& before, const VU16& v) { return {vextq_u16(before.v, v.v, 7)}; }
   static VU16 next_lanes(const VU16& v, const VU16& after) { return {vextq_u16(v.v, after.v, 1)}; }
+  static VU32 previous_lanes(const VU32& before, const VU32& v) { return {vextq_u32(before.v, v.v, 3)}; }
+  static VU32 next_lanes(const VU32& v, const VU32& after) { return {vextq_u32(v.v, after.v, 1)}; }
 
 
   template <class Lane>

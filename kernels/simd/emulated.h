@@ -201,21 +201,27 @@ struct Emulated {
     Vec<Lane> result;
     for (int i = 0; i < Vec<Lane>::kLanes; ++i) result.lane[i] = minimum;
     return result;
-  }  // Lane shifts across a pair of vectors (u16 lanes), for per-lane neighbours of a value kept in
-  // registers: previous_lanes(before, v) lane i = v lane i - 1, lane 0 = before's last lane;
+  }  // Lane shifts across a pair of vectors (u16 and u32 lanes), for per-lane neighbours of a value
+  // kept in registers (u16: the row path's d +- 1) and for a window that slides along the row one
+  // lane per pixel (u32: the right view's running minimum of the SGM keys):
+  // previous_lanes(before, v) lane i = v lane i - 1, lane 0 = before's last lane;
   // next_lanes(v, after) lane i = v lane i + 1, the last lane = after's lane 0. Counted as one permute.
-  static VU16 previous_lanes(const VU16& before, const VU16& v) {
+  template <class Lane>
+  static Vec<Lane> previous_lanes(const Vec<Lane>& before, const Vec<Lane>& v) {
+    static_assert(std::is_same_v<Lane, uint16_t> || std::is_same_v<Lane, uint32_t>, "lane shifts exist for u16 and u32 lanes");
     count(OpClass::permute);
-    VU16 result;
-    result.lane[0] = before.lane[VU16::kLanes - 1];
-    for (int i = 1; i < VU16::kLanes; ++i) result.lane[i] = v.lane[i - 1];
+    Vec<Lane> result;
+    result.lane[0] = before.lane[Vec<Lane>::kLanes - 1];
+    for (int i = 1; i < Vec<Lane>::kLanes; ++i) result.lane[i] = v.lane[i - 1];
     return result;
   }
-  static VU16 next_lanes(const VU16& v, const VU16& after) {
+  template <class Lane>
+  static Vec<Lane> next_lanes(const Vec<Lane>& v, const Vec<Lane>& after) {
+    static_assert(std::is_same_v<Lane, uint16_t> || std::is_same_v<Lane, uint32_t>, "lane shifts exist for u16 and u32 lanes");
     count(OpClass::permute);
-    VU16 result;
-    for (int i = 0; i + 1 < VU16::kLanes; ++i) result.lane[i] = v.lane[i + 1];
-    result.lane[VU16::kLanes - 1] = after.lane[0];
+    Vec<Lane> result;
+    for (int i = 0; i + 1 < Vec<Lane>::kLanes; ++i) result.lane[i] = v.lane[i + 1];
+    result.lane[Vec<Lane>::kLanes - 1] = after.lane[0];
     return result;
   }
 

@@ -183,6 +183,12 @@ struct Avx2 {
   static VU16 next_lanes(const VU16& v, const VU16& after) {
     return {_mm256_alignr_epi8(_mm256_permute2x128_si256(v.v, after.v, 0x21), v.v, 2)};
   }
+  static VU32 previous_lanes(const VU32& before, const VU32& v) {
+    return {_mm256_alignr_epi8(v.v, _mm256_permute2x128_si256(before.v, v.v, 0x21), 12)};
+  }
+  static VU32 next_lanes(const VU32& v, const VU32& after) {
+    return {_mm256_alignr_epi8(_mm256_permute2x128_si256(v.v, after.v, 0x21), v.v, 4)};
+  }
 
 
   // Emulated: (a -sat b) | (b -sat a); one of the two is 0.

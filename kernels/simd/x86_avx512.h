@@ -206,6 +206,9 @@ struct LPSTEREO_AVX512_STRUCT {
                                            11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1);
     return {_mm512_permutex2var_epi16(v.v, index, after.v)};
   }
+  // valignd on the concatenation.
+  static VU32 previous_lanes(const VU32& before, const VU32& v) { return {_mm512_alignr_epi32(v.v, before.v, 15)}; }
+  static VU32 next_lanes(const VU32& v, const VU32& after) { return {_mm512_alignr_epi32(after.v, v.v, 1)}; }
 
 
   // Emulated: (a -sat b) | (b -sat a); one of the two is 0.

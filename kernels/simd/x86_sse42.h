@@ -171,6 +171,8 @@ struct Sse42 {
   }  // palignr on the concatenation.
   static VU16 previous_lanes(const VU16& before, const VU16& v) { return {_mm_alignr_epi8(v.v, before.v, 14)}; }
   static VU16 next_lanes(const VU16& v, const VU16& after) { return {_mm_alignr_epi8(after.v, v.v, 2)}; }
+  static VU32 previous_lanes(const VU32& before, const VU32& v) { return {_mm_alignr_epi8(v.v, before.v, 12)}; }
+  static VU32 next_lanes(const VU32& v, const VU32& after) { return {_mm_alignr_epi8(after.v, v.v, 4)}; }
 
 
   // Emulated: (a -sat b) | (b -sat a); one of the two is 0.

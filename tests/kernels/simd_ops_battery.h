@@ -107,7 +107,7 @@ constexpr bool op_supports(OpKind kind, LaneKind lane) {
     case OpKind::gather_u16: return lane == LaneKind::s32;
     case OpKind::min_across: return lane == LaneKind::u16 || lane == LaneKind::u32;
     case OpKind::previous_lanes:
-    case OpKind::next_lanes: return lane == LaneKind::u16;
+    case OpKind::next_lanes: return lane == LaneKind::u16 || lane == LaneKind::u32;
     default: return true;
   }
 }
@@ -243,10 +243,10 @@ void probe_lane(const ProbeOp& op, const ProbeArgs& args) {
       if constexpr (lane_has<Lane>(OpKind::min_across)) probe_store<B>(args.out, B::min_across(a));
       break;
     case OpKind::previous_lanes:
-      if constexpr (std::is_same_v<Lane, uint16_t>) probe_store<B>(args.out, B::previous_lanes(a, b));
+      if constexpr (std::is_same_v<Lane, uint16_t> || std::is_same_v<Lane, uint32_t>) probe_store<B>(args.out, B::previous_lanes(a, b));
       break;
     case OpKind::next_lanes:
-      if constexpr (std::is_same_v<Lane, uint16_t>) probe_store<B>(args.out, B::next_lanes(a, b));
+      if constexpr (std::is_same_v<Lane, uint16_t> || std::is_same_v<Lane, uint32_t>) probe_store<B>(args.out, B::next_lanes(a, b));
       break;
     case OpKind::store_stream: {
       alignas(64) Lane lanes[Vector::kLanes];
