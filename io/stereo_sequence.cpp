@@ -207,6 +207,8 @@ void write_stereo_sequence(const std::string& directory, const StereoSequenceOpt
     json["ground"] = {{"hills_amplitude_m", b.ground.hills_amplitude_m}, {"ditch_depth_m", b.ground.ditch_depth_m},
                       {"berm_height_m", b.ground.berm_height_m}, {"rough_amplitude_m", b.ground.rough_amplitude_m}};
     synth_detail::add_sensor_settings(json, b.samples_per_axis, b.noise_sigma, b.right_gain, b.right_offset, b.seed);
+    synth_detail::add_surface_and_lens_settings(json, synth_road_surface_name(b.road_surface), b.vignetting,
+                                                b.vignetting * kRightVignettingRatio, b.blur_sigma_px);
     json["camera_frame"] = "left camera: x right, y down, z forward, metres; poses.txt maps it into the first frame's";
     json["truth"] = "truth.jsonl: per frame, position_m = base centre in that frame's left camera frame, velocity_mps = world "
                     "velocity in that frame's camera axes, min/max_height_m above the ground under the base centre";

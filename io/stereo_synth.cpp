@@ -37,7 +37,8 @@ using synth_detail::write_png;
 using synth_detail::write_text;
 using synth_detail::number;
 
-constexpr Texture kAsphalt{{0.03, 0.09, 0.27, 0.8}, {0.3, 0.25, 0.2, 0.15}, 4};
+constexpr Texture kAsphalt{{0.03, 0.09, 0.27, 0.8}, {0.3, 0.25, 0.2, 0.15}, 4};  // SynthRoadSurface::textured
+constexpr Texture kRealAsphalt{{0.004, 0.012, 0.05, 2.5}, {0.15, 0.08, 0.02, 0.04}, 4};  // SynthRoadSurface::asphalt
 constexpr Texture kVerge{{0.05, 0.15, 0.45, 1.5}, {0.3, 0.25, 0.25, 0.2}, 4};
 constexpr Texture kObject{{0.012, 0.035, 0.1, 0.3}, {0.25, 0.2, 0.15, 0.1}, 4};
 constexpr Texture kWall{{0.4, 1.2, 3.6, 11}, {0.3, 0.3, 0.25, 0.2}, 4};
@@ -586,7 +587,8 @@ class Renderer {
     // (3 m dashes every 9 m); the left camera is centred in the middle lane.
     const bool edge = std::abs(ax - 5.25) < 0.075;
     const bool lane = std::abs(ax - 1.75) < 0.075 && std::fmod(std::max(z, 0.0), 9.0) < 3.0;
-    const double grain = 1.0 + texture(kAsphalt, x, z, options_.seed + 404, footprint, cache.asphalt);
+    const Texture& surface = options_.road_surface == SynthRoadSurface::asphalt ? kRealAsphalt : kAsphalt;
+    const double grain = 1.0 + texture(surface, x, z, options_.seed + 404, footprint, cache.asphalt);
     return (edge || lane) ? Rgb{225, 225, 220} * (0.85 + 0.15 * grain) : Rgb{100, 100, 104} * grain;
   }
 
@@ -795,6 +797,16 @@ double SynthGroundTruth::height_m(double x_m, double z_m) const {
   return rise + elevation_m(x_m, z_m);
 }
 
+const char* synth_road_surface_name(SynthRoadSurface surface) {
+  return surface == SynthRoadSurface::asphalt ? "asphalt" : "textured";
+}
+
+SynthRoadSurface parse_synth_road_surface(const std::string& name) {
+  if (name == "textured") return SynthRoadSurface::textured;
+  if (name == "asphalt") return SynthRoadSurface::asphalt;
+  throw std::invalid_argument("surface: expected textured or asphalt, got '" + name + "'");
+}
+
 const char* synth_class_name(SynthClass object_class) {
   switch (object_class) {
     case SynthClass::cone: return "cone";
@@ -877,6 +889,8 @@ void validate_synth_options(const StereoSynthOptions& o) {
   require(o.camera_z_m >= -1000 && o.camera_z_m < o.background_distance_m - 10, "camera-z-m",
           "[-1000, background distance - 10) metres", o.camera_z_m);
   require(std::abs(o.camera_yaw_rad) <= kPi, "camera-yaw", "|yaw| <= pi rad", o.camera_yaw_rad);
+  require(o.vignetting >= 0 && o.vignetting <= 0.6, "vignetting", "a share of light lost at the corners in [0, 0.6]", o.vignetting);
+  require(o.blur_sigma_px >= 0 && o.blur_sigma_px <= 3, "blur-px", "a Gaussian sigma in [0, 3] px", o.blur_sigma_px);
   for (const SynthObject& object : o.objects) {
     const std::string name = std::string("object ") + synth_class_name(object.object_class);
     if (object.object_class == SynthClass::board_on_poles) {
@@ -942,8 +956,25 @@ StereoSynthScene render_stereo_synth(const StereoSynthOptions& options, const st
   scene.object_ids.create(height, width, CV_16UC1);
   const double fb = scene.focal_px * options.baseline_m;
 
-  const synth_detail::SensorModel sensors[2] = {{options.noise_sigma, 1.0, 0.0},
-                                                {options.noise_sigma, options.right_gain, options.right_offset}};
+  synth_detail::SensorModel sensors[2] = {{options.noise_sigma, 1.0, 0.0},
+                                          {options.noise_sigma, options.right_gain, options.right_offset}};
+  for (int view = 0; view < 2; ++view) {
+    sensors[view].vignetting = options.vignetting * (view == 0 ? 1.0 : kRightVignettingRatio);
+    sensors[view].centre_u = (width - 1) / 2.0;
+    sensors[view].centre_v = (height - 1) / 2.0;
+    sensors[view].corner_radius_px = std::hypot(sensors[view].centre_u, sensors[view].centre_v);
+  }
+  // With blur, the radiance of both views is kept whole until the optics have spread it; without,
+  // each row goes to the sensor as it is rendered.
+  const bool blur = options.blur_sigma_px > 0;
+  std::vector<synth_detail::Rgb> radiance[2];
+  if (blur) {
+    for (auto& view_radiance : radiance) view_radiance.resize(static_cast<size_t>(width) * static_cast<size_t>(height));
+  }
+  auto expose = [&](int view, int v, const synth_detail::Rgb* row) {
+    synth_detail::expose_row(row, width, sensors[view], options.seed, view, v, views[view].ptr<uint8_t>(v),
+                             options.colour ? colours[view].ptr<cv::Vec3b>(v) : nullptr);
+  };
   // Per row and view: every ray's direction (samples^2 per pixel, then for the left view the pixel
   // centre's ray of the ground truth) and its ground hit, then each pixel's samples in the order of
   // their sum. The centre's ray needs no colour (trace without shading), and the right view's samples
@@ -982,11 +1013,20 @@ StereoSynthScene render_stereo_synth(const StereoSynthOptions& options, const st
           scene.object_ids.at<uint16_t>(v, u) = static_cast<uint16_t>(centre.id);
         }
       }
-      synth_detail::expose_row(row.data(), width, sensors[view], options.seed, view, v, views[view].ptr<uint8_t>(v),
-                               options.colour ? colours[view].ptr<cv::Vec3b>(v) : nullptr);
+      if (blur) {
+        std::copy(row.begin(), row.end(), radiance[view].begin() + static_cast<ptrdiff_t>(v) * width);
+      } else {
+        expose(view, v, row.data());
+      }
     }
   };
   synth_detail::render_rows(height, options.threads, render_row, progress);
+  if (blur) {
+    for (int view = 0; view < 2; ++view) {
+      synth_detail::blur_radiance(radiance[view], width, height, options.blur_sigma_px, options.threads);
+      synth_detail::render_rows(height, options.threads, [&](int v) { expose(view, v, radiance[view].data() + static_cast<ptrdiff_t>(v) * width); }, {});
+    }
+  }
 
   scene.left = views[0];
   scene.right = views[1];
@@ -1086,6 +1126,8 @@ void write_stereo_synth(const std::string& directory, const StereoSynthScene& sc
     json["background_distance_m"] = options.background_distance_m;
     synth_detail::add_sensor_settings(json, options.samples_per_axis, options.noise_sigma, options.right_gain, options.right_offset,
                                       options.seed);
+    synth_detail::add_surface_and_lens_settings(json, synth_road_surface_name(options.road_surface), options.vignetting,
+                                                options.vignetting * kRightVignettingRatio, options.blur_sigma_px);
     json["frame"] = "left camera: x right, y down, z forward, metres";
     json["objects"] = nlohmann::json::array();
     for (const SynthObjectTruth& t : scene.objects) {

@@ -104,6 +104,17 @@ struct SynthGround {
 // ..., got '<spec>'" otherwise.
 SynthGround parse_synth_ground(const std::string& spec);
 
+// The road's surface. textured: asphalt of strong grain at every scale (contrast about 30 % at 3 cm
+// and still 15 % at 0.8 m), the generator's road since it exists: it gives a matcher texture at every
+// distance. asphalt: the texture statistics of real asphalt, its aggregate a fine grain (4 and 12 mm
+// cells, 15 % and 8 %) that blurs out within a few metres, little at 5 cm (2 %), and 4 % patches of
+// 2.5 m (wear, repairs, stains): smooth, low-contrast ground beyond a few metres, as real roads are
+// under blur and sensor noise (docs/synth.md). The lane markings and verges are the same on both.
+enum class SynthRoadSurface { textured, asphalt };
+const char* synth_road_surface_name(SynthRoadSurface surface);
+// "textured" or "asphalt"; throws std::invalid_argument "surface: expected textured or asphalt, got '...'".
+SynthRoadSurface parse_synth_road_surface(const std::string& name);
+
 struct StereoSynthOptions {
   int width = 1280;
   int height = 576;
@@ -119,6 +130,13 @@ struct StereoSynthOptions {
   double noise_sigma = 0;        // Gaussian sensor noise, grey levels (each view independently)
   double right_gain = 1;         // the right camera's response: gain * value + offset, before noise
   double right_offset = 0;       // grey levels
+  SynthRoadSurface road_surface = SynthRoadSurface::textured;
+  // The lenses (0 = off, the scene renders bit for bit as without them): vignetting, the share of
+  // light the left camera loses at the image corners, [0, 0.6] (the right camera loses
+  // kRightVignettingRatio times as much: two lenses never match); blur_sigma_px, the optics' Gaussian
+  // point spread in pixels, [0, 3], applied to the radiance before the sensor's gain and noise.
+  double vignetting = 0;
+  double blur_sigma_px = 0;
   bool colour = false;           // also render BGR views (left_colour, right_colour)
   // The camera's pose on the road (sequences move it through the fixed world): the left camera
   // centre at road (camera_x_m, camera_z_m), camera_height_m above the ground under it, heading
@@ -132,6 +150,8 @@ struct StereoSynthOptions {
   SynthGround ground;            // height field on the road (default: none)
   std::vector<SynthObject> objects;
 };
+
+inline constexpr double kRightVignettingRatio = 1.2;
 
 // Throws std::invalid_argument "<option>: expected ..., got ..." for a value out of range.
 void validate_synth_options(const StereoSynthOptions& options);

@@ -37,8 +37,13 @@ void validate_camera_and_sensor(int width, int height, double hfov_deg, int samp
 void expose_row(const Rgb* colours, int width, const SensorModel& sensor, uint64_t seed, int view, int row, uint8_t* grey,
                 cv::Vec3b* bgr) {
   SplitMix noise{mix64((seed << 32) ^ (static_cast<uint64_t>(view) << 31) ^ static_cast<uint64_t>(row))};
+  const double dv = row - sensor.centre_v;
+  const double falloff = sensor.vignetting / (sensor.corner_radius_px * sensor.corner_radius_px);
   for (int u = 0; u < width; ++u) {
-    const Rgb& c = colours[u];
+    const double du = u - sensor.centre_u;
+    // Exactly 1 without vignetting: the scene renders bit for bit as before the option existed.
+    const double light = sensor.vignetting > 0 ? 1.0 - falloff * (du * du + dv * dv) : 1.0;
+    const Rgb c = colours[u] * light;
     const double n = sensor.noise_sigma > 0 ? sensor.noise_sigma * noise.gaussian() : 0.0;
     grey[u] = to_u8(sensor.gain * (0.299 * c.r + 0.587 * c.g + 0.114 * c.b) + sensor.offset + n);
     if (bgr != nullptr) {
@@ -46,6 +51,33 @@ void expose_row(const Rgb* colours, int width, const SensorModel& sensor, uint64
                 to_u8(sensor.gain * c.r + sensor.offset + n)};
     }
   }
+}
+
+void blur_radiance(std::vector<Rgb>& image, int width, int height, double sigma_px, int threads) {
+  // Taps to 3 sigma (99.7 % of the weight), normalised to sum 1.
+  const int radius = std::max(1, static_cast<int>(std::ceil(3 * sigma_px)));
+  std::vector<double> weights(static_cast<size_t>(2 * radius + 1));
+  double total = 0;
+  for (int k = -radius; k <= radius; ++k) total += weights[static_cast<size_t>(k + radius)] = std::exp(-0.5 * k * k / (sigma_px * sigma_px));
+  for (double& weight : weights) weight /= total;
+  std::vector<Rgb> across(image.size());
+  const auto at = [](const std::vector<Rgb>& plane, int width_px, int u, int v) -> const Rgb& {
+    return plane[static_cast<size_t>(v) * static_cast<size_t>(width_px) + static_cast<size_t>(u)];
+  };
+  render_rows(height, threads, [&](int v) {
+    for (int u = 0; u < width; ++u) {
+      Rgb sum;
+      for (int k = -radius; k <= radius; ++k) sum = sum + at(image, width, std::clamp(u + k, 0, width - 1), v) * weights[static_cast<size_t>(k + radius)];
+      across[static_cast<size_t>(v) * static_cast<size_t>(width) + static_cast<size_t>(u)] = sum;
+    }
+  }, {});
+  render_rows(height, threads, [&](int v) {
+    for (int u = 0; u < width; ++u) {
+      Rgb sum;
+      for (int k = -radius; k <= radius; ++k) sum = sum + at(across, width, u, std::clamp(v + k, 0, height - 1)) * weights[static_cast<size_t>(k + radius)];
+      image[static_cast<size_t>(v) * static_cast<size_t>(width) + static_cast<size_t>(u)] = sum;
+    }
+  }, {});
 }
 
 void render_rows(int height, int threads, const std::function<void(int)>& render_row,
@@ -122,6 +154,14 @@ void add_sensor_settings(nlohmann::json& json, int samples_per_axis, double nois
   json["right_gain"] = right_gain;
   json["right_offset"] = right_offset;
   json["seed"] = seed;
+}
+
+void add_surface_and_lens_settings(nlohmann::json& json, const char* road_surface, double vignetting, double right_vignetting,
+                                   double blur_sigma_px) {
+  json["road_surface"] = road_surface;
+  json["vignetting"] = vignetting;
+  json["right_vignetting"] = right_vignetting;
+  json["blur_sigma_px"] = blur_sigma_px;
 }
 
 std::string number(double x) {

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -132,17 +133,29 @@ void require(bool ok, const std::string& option, const std::string& expected, do
 void validate_camera_and_sensor(int width, int height, double hfov_deg, int samples_per_axis, double noise_sigma, double right_gain,
                                 double right_offset, int threads);
 
-// The sensor of one rendered row of one view: BT.601 luma of the colours, the camera's gain and
-// offset, Gaussian noise of noise_sigma grey levels from a generator seeded by (seed, view, row) (so
-// the result does not depend on which thread rendered the row), rounded and clamped to 0..255.
-// `bgr` (may be null) receives the colour row with the same response and noise.
+// The sensor of one rendered row of one view: BT.601 luma of the colours, the lens's vignetting, the
+// camera's gain and offset, Gaussian noise of noise_sigma grey levels from a generator seeded by
+// (seed, view, row) (so the result does not depend on which thread rendered the row), rounded and
+// clamped to 0..255. `bgr` (may be null) receives the colour row with the same response and noise.
+// Vignetting: the light reaching pixel (u, v) is scaled by 1 - vignetting r^2 / R^2, r its distance
+// from the image centre (centre_u, centre_v) and R the corner's: `vignetting` is the share of light
+// lost at the corners (a quadratic falloff, the leading term of a lens's cos^4 law); 0 = none, the
+// factor exactly 1.
 struct SensorModel {
   double noise_sigma = 0;
   double gain = 1;
   double offset = 0;
+  double vignetting = 0;
+  double centre_u = 0, centre_v = 0;
+  double corner_radius_px = 1;
 };
 void expose_row(const Rgb* colours, int width, const SensorModel& sensor, uint64_t seed, int view, int row, uint8_t* grey,
                 cv::Vec3b* bgr);
+
+// The optics' blur: a Gaussian point spread of sigma_px (> 0) over the rendered radiance of one view
+// (`image`, width x height colours row after row), separable, borders replicated, rows shared between
+// `threads` threads (the same bits for any count: each output value is one fixed sum).
+void blur_radiance(std::vector<Rgb>& image, int width, int height, double sigma_px, int threads);
 
 // Calls render_row(v) for v = 0 .. height - 1 on `threads` threads, rows handed out one at a time
 // (cheap and dear rows balance); `progress` (if set) gets the fraction done at each whole percent,
@@ -165,6 +178,11 @@ cv::Mat kitti_disparity_truth(const cv::Mat& disparity_px);
 // right_gain, right_offset, seed.
 void add_sensor_settings(nlohmann::json& json, int samples_per_axis, double noise_sigma, double right_gain, double right_offset,
                          uint32_t seed);
+
+// The road scene's surface and lenses in its JSON (road scene and sequence): road_surface, vignetting
+// (left lens), right_vignetting, blur_sigma_px.
+void add_surface_and_lens_settings(nlohmann::json& json, const char* road_surface, double vignetting, double right_vignetting,
+                                   double blur_sigma_px);
 
 // "%.12e": numbers in calibration files, full precision.
 std::string number(double x);

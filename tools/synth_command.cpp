@@ -52,6 +52,16 @@ SynthCommand::SynthCommand(CLI::App& app) {
   command_->add_option("--noise-sigma,--noise", options_.noise_sigma, "Gaussian sensor noise, grey levels")->capture_default_str();
   command_->add_option("--gain", options_.right_gain, "right camera gain")->capture_default_str();
   command_->add_option("--offset", options_.right_offset, "right camera offset, grey levels")->capture_default_str();
+  road_only_.push_back(command_->add_option("--surface", surface_,
+                                            "road surface: textured (strong grain at every scale) or asphalt (real asphalt's "
+                                            "statistics: fine grain that blurs out within metres, low contrast beyond; docs/synth.md)")
+                           ->capture_default_str());
+  road_only_.push_back(command_->add_option("--vignetting", options_.vignetting,
+                                            "share of light the left lens loses at the image corners, 0..0.6 (the right lens loses "
+                                            "1.2 times as much)")
+                           ->capture_default_str());
+  road_only_.push_back(
+      command_->add_option("--blur-px", options_.blur_sigma_px, "optics blur: Gaussian point spread sigma, px, 0..3")->capture_default_str());
   command_->add_option("--seed", options_.seed, "scene, texture and noise seed")->capture_default_str();
   command_->add_option("--samples", options_.samples_per_axis, "anti-aliasing: N x N rays per pixel")->capture_default_str();
   command_->add_option("--threads", options_.threads, "rendering threads")->capture_default_str();
@@ -259,6 +269,9 @@ int SynthCommand::run_sequence() {
   b.noise_sigma = options_.noise_sigma;
   b.right_gain = options_.right_gain;
   b.right_offset = options_.right_offset;
+  b.road_surface = road_surface();
+  b.vignetting = options_.vignetting;
+  b.blur_sigma_px = options_.blur_sigma_px;
   b.samples_per_axis = options_.samples_per_axis;
   b.threads = options_.threads;
   b.colour = options_.colour;
@@ -290,6 +303,14 @@ int SynthCommand::run_sequence() {
   return 0;
 }
 
+io::SynthRoadSurface SynthCommand::road_surface() const {
+  try {
+    return io::parse_synth_road_surface(surface_);
+  } catch (const std::invalid_argument& error) {
+    throw CommandError(kExitUsage, std::string("--") + error.what());
+  }
+}
+
 int SynthCommand::run() {
   if (command_->get_option("--sequence")->count() > 0) return run_sequence();
   if (flight_) return run_flight();
@@ -300,6 +321,7 @@ int SynthCommand::run() {
     if (option->count() > 0) throw CommandError(kExitUsage, option->get_name() + ": a --flight option, not for the road scene");
   }
   apply_mount_and_ground(options_, true);
+  options_.road_surface = road_surface();
   if (lineup_option_->count() > 0) {
     if (!(lineup_m_ > 0 && lineup_m_ < options_.background_distance_m)) {
       throw CommandError(kExitUsage, "--lineup: expected a distance in (0, " + std::to_string(options_.background_distance_m) +
@@ -327,10 +349,12 @@ int SynthCommand::run() {
   int visible = 0;
   for (const io::SynthObjectTruth& object : scene.objects) visible += object.visible_pixels > 0 ? 1 : 0;
   std::printf("%dx%d, hfov %.1f deg (focal %.2f px), baseline %.3f m, camera height %.2f m, pitch %.2f deg, roll %.2f deg, "
-              "slope %.1f deg, ground %s, %zu objects (%d visible), %d samples/pixel, noise %.1f: rendered in %.2f s on %d threads -> %s\n",
+              "slope %.1f deg, ground %s, surface %s, %zu objects (%d visible), %d samples/pixel, noise %.1f, vignetting %.2f, blur %.2f px: "
+              "rendered in %.2f s on %d threads -> %s\n",
               options_.width, options_.height, options_.hfov_deg, scene.focal_px, options_.baseline_m, options_.camera_height_m,
-              pitch_deg_, roll_deg_, options_.slope_deg, ground_spec_.c_str(), scene.objects.size(), visible, options_.samples_per_axis * options_.samples_per_axis,
-              options_.noise_sigma, render_s, options_.threads, output_.c_str());
+              pitch_deg_, roll_deg_, options_.slope_deg, ground_spec_.c_str(), surface_.c_str(), scene.objects.size(), visible,
+              options_.samples_per_axis * options_.samples_per_axis, options_.noise_sigma, options_.vignetting, options_.blur_sigma_px,
+              render_s, options_.threads, output_.c_str());
   return 0;
 }
 

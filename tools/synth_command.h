@@ -51,6 +51,8 @@ class SynthCommand {
   double pitch_deg_ = 0;
   double roll_deg_ = 0;
   std::string ground_spec_ = "flat";
+  std::string surface_ = "textured";  // --surface, io::parse_synth_road_surface
+  io::SynthRoadSurface road_surface() const;
   // --hills-amplitude-m ...: each option writes into its field of ground_sizes_given_ and, when
   // given, replaces that field of the --ground kind's defaults.
   std::vector<std::pair<CLI::Option*, double io::SynthGround::*>> ground_sizes_;

@@ -352,6 +352,113 @@ TEST(StereoSynth, FilesReadBack) {
   EXPECT_EQ(entries, 1);
 }
 
+// The coefficient of variation (standard deviation / mean) of the left view's grey over the asphalt
+// of the middle lane (object id 0, finite truth, |X| < 1.5 m: clear of the lane lines at 1.75 m)
+// where the true depth lies in [near_m, far_m).
+double lane_contrast(const io::StereoSynthScene& scene, double baseline_m, double near_m, double far_m) {
+  const double centre_u = (scene.left.cols - 1) / 2.0;
+  double sum = 0, squares = 0;
+  int count = 0;
+  for (int v = 0; v < scene.left.rows; ++v) {
+    for (int u = 0; u < scene.left.cols; ++u) {
+      const float truth = scene.disparity_px.at<float>(v, u);
+      if (!std::isfinite(truth) || truth <= 0 || scene.object_ids.at<uint16_t>(v, u) != 0) continue;
+      const double depth_m = scene.focal_px * baseline_m / truth;
+      if (depth_m < near_m || depth_m >= far_m || std::abs(u - centre_u) * baseline_m / truth >= 1.5) continue;
+      const double grey = scene.left.at<uint8_t>(v, u);
+      sum += grey;
+      squares += grey * grey;
+      ++count;
+    }
+  }
+  EXPECT_GT(count, 500) << "lane pixels in [" << near_m << ", " << far_m << ") m";
+  const double mean = sum / count;
+  return std::sqrt(std::max(0.0, squares / count - mean * mean)) / mean;
+}
+
+// Real asphalt: little contrast beyond a few metres, where the textured road keeps several times
+// more; its grain shows where the pixels are small on the road (a long lens looking down) and blurs
+// out farther away.
+TEST(StereoSynthSurface, AsphaltIsLowContrastAtDistanceAndGrainyUpClose) {
+  StereoSynthOptions options = small_options();
+  options.width = 640;
+  options.height = 480;
+  options.road_surface = io::SynthRoadSurface::asphalt;
+  const io::StereoSynthScene asphalt = io::render_stereo_synth(options);
+  options.road_surface = io::SynthRoadSurface::textured;
+  const io::StereoSynthScene textured = io::render_stereo_synth(options);
+  const double asphalt_far = lane_contrast(asphalt, options.baseline_m, 12, 30);
+  const double textured_far = lane_contrast(textured, options.baseline_m, 12, 30);
+  EXPECT_LT(asphalt_far, 0.5 * textured_far) << "asphalt " << asphalt_far << ", textured " << textured_far;
+  EXPECT_LT(asphalt_far, 0.05) << asphalt_far;
+  // hfov 20 degrees (f 1815 px), pitched down 0.3 rad: the road from 3.3 to 8.8 m.
+  options.hfov_deg = 20;
+  options.pitch_rad = 0.3;
+  options.road_surface = io::SynthRoadSurface::asphalt;
+  const io::StereoSynthScene close_up = io::render_stereo_synth(options);
+  const double near = lane_contrast(close_up, options.baseline_m, 3, 4.5);
+  const double farther = lane_contrast(close_up, options.baseline_m, 7, 9);
+  EXPECT_GT(near, 1.5 * farther) << "near " << near << ", farther " << farther;
+  EXPECT_EQ(io::parse_synth_road_surface(io::synth_road_surface_name(io::SynthRoadSurface::asphalt)), io::SynthRoadSurface::asphalt);
+  EXPECT_EQ(io::parse_synth_road_surface(io::synth_road_surface_name(io::SynthRoadSurface::textured)), io::SynthRoadSurface::textured);
+}
+
+// Vignetting scales the light by 1 - v r^2 / R^2: the corners lose the share v (the right camera
+// kRightVignettingRatio v), the centre nothing.
+TEST(StereoSynthSurface, VignettingDarkensTheCornersByItsShare) {
+  StereoSynthOptions options = small_options();
+  const io::StereoSynthScene plain = io::render_stereo_synth(options);
+  options.vignetting = 0.3;
+  const io::StereoSynthScene vignetted = io::render_stereo_synth(options);
+  const int right = options.width - 1, bottom = options.height - 1;
+  const int corners[4][2] = {{0, 0}, {right, 0}, {0, bottom}, {right, bottom}};
+  for (const auto& corner : corners) {
+    const double left_plain = plain.left.at<uint8_t>(corner[1], corner[0]);
+    const double right_plain = plain.right.at<uint8_t>(corner[1], corner[0]);
+    ASSERT_GT(left_plain, 40) << "a corner too dark to measure";
+    EXPECT_NEAR(vignetted.left.at<uint8_t>(corner[1], corner[0]), 0.7 * left_plain, 1.0) << corner[0] << "," << corner[1];
+    EXPECT_NEAR(vignetted.right.at<uint8_t>(corner[1], corner[0]), (1 - 0.3 * io::kRightVignettingRatio) * right_plain, 1.0)
+        << corner[0] << "," << corner[1];
+  }
+  // The pixels beside the centre lose under 0.1 % of their light: at most the rounding.
+  for (int v = options.height / 2 - 1; v <= options.height / 2; ++v) {
+    for (int u = options.width / 2 - 1; u <= options.width / 2; ++u) {
+      EXPECT_LE(std::abs(vignetted.left.at<uint8_t>(v, u) - plain.left.at<uint8_t>(v, u)), 1) << u << "," << v;
+    }
+  }
+  EXPECT_EQ(cv::norm(plain.disparity_px, vignetted.disparity_px, cv::NORM_INF), 0) << "the truth does not depend on the lens";
+}
+
+// Blur spreads the radiance (less energy in neighbour differences, a nearly equal mean), renders the
+// same bits for any thread count, and leaves the truth alone.
+TEST(StereoSynthSurface, BlurSpreadsTheImageTheSameForAnyThreadCount) {
+  StereoSynthOptions options = small_options();
+  options.objects = io::random_synth_objects(3);
+  options.road_surface = io::SynthRoadSurface::asphalt;
+  const io::StereoSynthScene sharp = io::render_stereo_synth(options);
+  options.blur_sigma_px = 1.0;
+  options.vignetting = 0.2;
+  options.noise_sigma = 2;
+  options.colour = true;
+  const io::StereoSynthScene blurred = render_expecting_the_same_bits_for_any_thread_count(options);
+  options.noise_sigma = 0;
+  options.colour = false;
+  options.vignetting = 0;
+  const io::StereoSynthScene blurred_clean = io::render_stereo_synth(options);
+  auto difference_energy = [](const cv::Mat& grey) {
+    double energy = 0;
+    for (int v = 0; v < grey.rows; ++v) {
+      for (int u = 1; u < grey.cols; ++u) energy += std::pow(grey.at<uint8_t>(v, u) - grey.at<uint8_t>(v, u - 1), 2);
+    }
+    return energy;
+  };
+  EXPECT_LT(difference_energy(blurred_clean.left), 0.7 * difference_energy(sharp.left));
+  EXPECT_LT(difference_energy(blurred_clean.right), 0.7 * difference_energy(sharp.right));
+  EXPECT_NEAR(cv::mean(blurred_clean.left)[0], cv::mean(sharp.left)[0], 1.0);
+  EXPECT_EQ(cv::norm(sharp.disparity_px, blurred.disparity_px, cv::NORM_INF), 0);
+  EXPECT_FALSE(blurred.left_colour.empty());
+}
+
 TEST(StereoSynth, BadOptionsAreRefusedByName) {
   StereoSynthOptions options = small_options();
   options.hfov_deg = 180;
@@ -368,6 +475,29 @@ TEST(StereoSynth, BadOptionsAreRefusedByName) {
   options = small_options();
   options.objects = {io::synth_object(io::SynthClass::cone, 0, -3)};
   EXPECT_THROW(io::render_stereo_synth(options), std::invalid_argument);
+  const auto expect_refused = [](const StereoSynthOptions& bad, const std::string& name, const std::string& value) {
+    try {
+      io::render_stereo_synth(bad);
+      ADD_FAILURE() << "expected std::invalid_argument naming " << name;
+    } catch (const std::invalid_argument& error) {
+      EXPECT_EQ(std::string(error.what()).rfind(name + ": expected", 0), 0u) << error.what();
+      EXPECT_NE(std::string(error.what()).find(value), std::string::npos) << error.what();
+    }
+  };
+  options = small_options();
+  options.vignetting = 0.7;
+  expect_refused(options, "vignetting", "0.7");
+  options.vignetting = -0.1;
+  expect_refused(options, "vignetting", "-0.1");
+  options = small_options();
+  options.blur_sigma_px = 3.5;
+  expect_refused(options, "blur-px", "3.5");
+  try {
+    io::parse_synth_road_surface("gravel");
+    ADD_FAILURE() << "expected std::invalid_argument for surface 'gravel'";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_EQ(std::string(error.what()), "surface: expected textured or asphalt, got 'gravel'");
+  }
 }
 
 TEST(StereoSynth, UnwritableFolderLeavesNothing) {

@@ -15,6 +15,7 @@
 #include "io/calibration.h"
 #include "io/disparity_io.h"
 #include "io/kitti_poses.h"
+#include "io/stereo_synth.h"
 #include "tests/support/cli_runner.h"
 #include "tests/support/scratch_directory.h"
 
@@ -28,6 +29,11 @@ using lpstereo::testing::run;
 class SynthCli : public ::testing::Test {
  protected:
   std::string path(const std::string& name) const { return scratch_.path(name); }
+  // The JSON file at `name` under the scratch folder.
+  nlohmann::json json_file(const std::string& name) const {
+    std::ifstream file(path(name));
+    return nlohmann::json::parse(file);
+  }
   int entries() const {
     int count = 0;
     for (const auto& entry : fs::directory_iterator(scratch_.root())) {
@@ -61,8 +67,7 @@ TEST_F(SynthCli, LineupFolderReadsBack) {
                            "objects.json", "ground.json", "calib.yaml", "calib_cam_to_cam.txt"}) {
     EXPECT_TRUE(fs::is_regular_file(path("scene") + "/" + name)) << name;
   }
-  std::ifstream file(path("scene") + "/objects.json");
-  const nlohmann::json json = nlohmann::json::parse(file);
+  const nlohmann::json json = json_file("scene/objects.json");
   ASSERT_EQ(json["objects"].size(), 6u);
   EXPECT_EQ(json["objects"][3]["class"], "tape_roll");
   EXPECT_NEAR(json["objects"][3]["size_m"]["h"].get<double>(), 0.07, 1e-12);
@@ -79,11 +84,36 @@ TEST_F(SynthCli, LineupFolderReadsBack) {
   EXPECT_EQ(entries(), 1);
 }
 
+// The surface and the lenses reach the scene and its record; the sequence takes them too.
+TEST_F(SynthCli, SurfaceAndLensesReachTheSceneAndItsRecord) {
+  const Result result = run("synth -o " + path("asphalt") + " --width 96 --height 64 --samples 1 --surface asphalt --vignetting 0.25 "
+                            "--blur-px 0.5");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("surface asphalt"), std::string::npos) << result.out;
+  const nlohmann::json json = json_file("asphalt/objects.json");
+  EXPECT_EQ(json["road_surface"], "asphalt");
+  EXPECT_DOUBLE_EQ(json["vignetting"].get<double>(), 0.25);
+  EXPECT_DOUBLE_EQ(json["right_vignetting"].get<double>(), 0.25 * lpstereo::io::kRightVignettingRatio);
+  EXPECT_DOUBLE_EQ(json["blur_sigma_px"].get<double>(), 0.5);
+  const Result sequence = run("synth --sequence urban --frames 2 --width 96 --height 64 --samples 1 --surface asphalt --blur-px 0.5 -o " +
+                              path("sequence"));
+  ASSERT_EQ(sequence.exit_code, 0) << sequence.err;
+  const nlohmann::json sequence_json = json_file("sequence/sequence.json");
+  EXPECT_EQ(sequence_json["road_surface"], "asphalt");
+  EXPECT_DOUBLE_EQ(sequence_json["blur_sigma_px"].get<double>(), 0.5);
+  const std::pair<std::string, std::string> cases[] = {
+      {"--surface gravel", "--surface: expected textured or asphalt, got 'gravel'"},
+      {"--vignetting 0.9", "--vignetting: expected"},
+      {"--blur-px -1", "--blur-px: expected"},
+      {"--flight --surface asphalt", "--surface"},
+  };
+  expect_usage_errors(cases);
+}
+
 TEST_F(SynthCli, EmptySceneHasNoObjects) {
   const Result result = run("synth -o " + path("empty") + " --width 64 --height 32 --empty --slope-deg 2");
   ASSERT_EQ(result.exit_code, 0) << result.err;
-  std::ifstream file(path("empty") + "/objects.json");
-  EXPECT_EQ(nlohmann::json::parse(file)["objects"].size(), 0u);
+  EXPECT_EQ(json_file("empty/objects.json")["objects"].size(), 0u);
   const cv::Mat ids = cv::imread(path("empty") + "/object_ids.png", cv::IMREAD_UNCHANGED);
   EXPECT_EQ(cv::countNonZero(ids), 0);
 }
@@ -107,8 +137,7 @@ TEST_F(SynthCli, HeightFieldGroundWithRollWritesItsTruth) {
                             "--hills-amplitude-m 0.3 --roll-deg 2");
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.out.find("ditch-u+berm"), std::string::npos) << result.out;
-  std::ifstream file(path("field") + "/ground.json");
-  const nlohmann::json ground = nlohmann::json::parse(file);
+  const nlohmann::json ground = json_file("field/ground.json");
   EXPECT_EQ(ground["ditch"]["shape"], "U");
   EXPECT_NEAR(ground["ditch"]["depth_m"].get<double>(), 0.6, 1e-12);       // the kind's default,
   EXPECT_NEAR(ground["berm"]["height_m"].get<double>(), 1.1, 1e-12);       // replaced by its option,
