@@ -9,10 +9,10 @@
 //                      both cameras alike;
 //   textured, camera   the same road through a real camera pair (the "camera" settings below);
 //   asphalt, camera    real asphalt through the same camera pair: the realistic scene.
-// The camera pair: sensor noise 2 grey levels, the right camera's gain 1.08 and offset -5 grey
-// levels (auto-exposure per camera), vignetting 0.3 (the left lens loses 30 % of the light at the
-// corners, the right 36 %), optics blur sigma 0.7 px. `lpstereo synth` renders the same with
-// --noise 2 --gain 1.08 --offset -5 --vignetting 0.3 --blur-px 0.7 [--surface asphalt].
+// The camera pair: io::use_real_camera_pair, sensor noise 2 grey levels, the right camera's gain 1.08
+// and offset -5 grey levels (auto-exposure per camera), vignetting 0.3 (the left lens loses 30 % of
+// the light at the corners, the right 36 %), optics blur sigma 0.7 px. `lpstereo synth` renders the
+// same with --real-camera [--surface asphalt].
 //
 // Matchers, each over [0, 128): lpstereo's arm::DisparityEngine with its defaults (8 paths) and with 4
 // paths, OpenCV StereoSGBM MODE_SGBM_3WAY and MODE_HH (io/opencv_sgbm.h settings), 2 threads.
@@ -169,12 +169,7 @@ int main(int argc, char** argv) {
         options.objects = io::random_synth_objects(options.seed);
         options.noise_sigma = 2;
         options.road_surface = condition.surface;
-        if (condition.real_camera) {
-          options.right_gain = 1.08;
-          options.right_offset = -5;
-          options.vignetting = 0.3;
-          options.blur_sigma_px = 0.7;
-        }
+        if (condition.real_camera) io::use_real_camera_pair(options);
         const io::StereoSynthScene scene = io::render_stereo_synth(options);
         const Plane left = io::mat_to_plane(scene.left, {ElementType::u8, 0});
         const Plane right = io::mat_to_plane(scene.right, {ElementType::u8, 0});

@@ -49,7 +49,11 @@
 // strip, the ditch's and elsewhere; --error-map the error per cell as a text map; --exact-points runs
 // the whole evaluation on the exact points.
 //
+// Scenes: real asphalt through a real camera pair by default (io::SynthRoadSurface::asphalt,
+// io::use_real_camera_pair; issue 46); --surface textured --camera clean gives the generator's
+// former scenes (noise --noise-sigma, 1 by default).
 // Usage: terrain_synth_eval [--seeds N] [--first-seed S] [--scene SPEC] [--width W --height H] [--census 5|9] [--bands]
+//        [--surface asphalt|textured] [--camera real|clean]
 //        [--lr-max-diff PX] [--uniqueness-percent P] [--regularisation R] [--hole-membrane H]
 //        [--control N] [--initial-control N] [--tolerance-m T] [--equalisation-threshold-factor F] [--alpha-initial A]
 //        [--threshold-factor F] [--alpha-step A] [--maximum-weight W] [--iterations N] [--cell-m C] [--noise-sigma S] [--thesis-cell-rule]
@@ -107,7 +111,12 @@ struct Settings {
   bool error_map = false;     // --error-map: the surface's error per cell as a text map (see evaluate)
   bool bands = false;         // --bands: the surface's RMS error per 5 m band forward x road / beside it
   bool exact_points = false;  // --exact-points: the exact points of every pixel instead of the stereo ones
-  double noise_sigma = 1.0;
+  double noise_sigma = 1.0;  // --noise-sigma, with --camera clean (the real camera pair sets its own)
+  // The scenes (issue 46): --surface asphalt|textured (io::SynthRoadSurface) and --camera real|clean
+  // (real: io::use_real_camera_pair, the two cameras' exposures and lenses differ; clean: alike,
+  // noise_sigma). Real asphalt through a real pair is the default, as hard as the world.
+  io::SynthRoadSurface surface = io::SynthRoadSurface::asphalt;
+  bool real_camera = true;
   int census_width = 5;  // the disparity engine's census window (5 or 9)
   // --lr-max-diff, --uniqueness-percent: the disparity engine's left-right tolerance (px, -1 off) and
   // uniqueness ratio (%, 0 off); the engine's defaults unless given.
@@ -592,7 +601,16 @@ int main(int argc, char** argv) {
     else if (a == "--fp-bands") settings.false_positive_bands = true;
     else if (a == "--error-map") settings.error_map = true;
     else if (a == "--noise-sigma") settings.noise_sigma = number_argument(i, argc, argv);
-    else {
+    else if (a == "--surface" && i + 1 < argc) {
+      try {
+        settings.surface = io::parse_synth_road_surface(argv[++i]);
+      } catch (const std::invalid_argument& error) {
+        std::fprintf(stderr, "terrain_synth_eval: --%s\n", error.what());
+        return 2;
+      }
+    } else if (a == "--camera" && i + 1 < argc && (std::string(argv[i + 1]) == "real" || std::string(argv[i + 1]) == "clean")) {
+      settings.real_camera = std::string(argv[++i]) == "real";
+    } else {
       std::fprintf(stderr, "%s: unknown option (see the header of bench/terrain_synth_eval.cpp)\n", argv[i]);
       return 2;
     }
@@ -608,6 +626,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   const terrain::TerrainFitParameters& f = settings.fit;
+  std::printf("terrain_synth_eval: road surface %s, %s\n", io::synth_road_surface_name(settings.surface),
+              settings.real_camera ? "real camera pair (io::use_real_camera_pair: noise 2, right gain 1.08 and offset -5, vignetting 0.3, "
+                                     "blur 0.7 px; the noise below is not used)"
+                                   : "clean camera pair (cameras alike)");
   std::printf("terrain_synth_eval: %dx%d, hfov 60 deg, baseline 0.30 m, camera 1.5 m, pitch 0.06 rad, noise %.1f, 4 rays/px; "
               "area %.0fx%.0f m, cell %.2f m; fit: degree %dx%d, control %dx%d (from %dx%d), %d iterations, threshold factor %.2f, "
               "alpha %.2f + %.2f/iteration, maximum weight %g, regularisation %.1e, hole membrane %.2f, equalisation tolerance %.3f m and %.1f th, step rule %.2f m within %d cells, patch limit %d cells, obstacle refit %.2f m; obstacle threshold 0.20 m, "
@@ -638,6 +660,8 @@ int main(int argc, char** argv) {
       options.roll_rad = kind.roll_deg * 3.14159265358979323846 / 180;
       options.ground = io::parse_synth_ground(kind.ground);
       options.noise_sigma = settings.noise_sigma;
+      if (settings.real_camera) io::use_real_camera_pair(options);
+      options.road_surface = settings.surface;
       options.seed = static_cast<uint32_t>(seed);
       options.objects = near_obstacles(static_cast<uint32_t>(seed), io::random_synth_objects(static_cast<uint32_t>(seed)));
       const SceneResult r = evaluate(options, settings);

@@ -797,6 +797,14 @@ double SynthGroundTruth::height_m(double x_m, double z_m) const {
   return rise + elevation_m(x_m, z_m);
 }
 
+void use_real_camera_pair(StereoSynthOptions& options) {
+  options.noise_sigma = 2;
+  options.right_gain = 1.08;
+  options.right_offset = -5;
+  options.vignetting = 0.3;
+  options.blur_sigma_px = 0.7;
+}
+
 const char* synth_road_surface_name(SynthRoadSurface surface) {
   return surface == SynthRoadSurface::asphalt ? "asphalt" : "textured";
 }

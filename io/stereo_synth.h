@@ -153,6 +153,11 @@ struct StereoSynthOptions {
 
 inline constexpr double kRightVignettingRatio = 1.2;
 
+// A camera pair as hard as a real one (docs/synth.md; `lpstereo synth --real-camera`): sensor noise 2
+// grey levels, the right camera's gain 1.08 and offset -5 grey levels (auto-exposure per camera),
+// vignetting 0.3, optics blur sigma 0.7 px. Sets those fields of `options` and nothing else.
+void use_real_camera_pair(StereoSynthOptions& options);
+
 // Throws std::invalid_argument "<option>: expected ..., got ..." for a value out of range.
 void validate_synth_options(const StereoSynthOptions& options);
 

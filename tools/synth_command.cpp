@@ -62,6 +62,9 @@ SynthCommand::SynthCommand(CLI::App& app) {
                            ->capture_default_str());
   road_only_.push_back(
       command_->add_option("--blur-px", options_.blur_sigma_px, "optics blur: Gaussian point spread sigma, px, 0..3")->capture_default_str());
+  road_only_.push_back(command_->add_flag("--real-camera", real_camera_,
+                                          "a camera pair as hard as a real one: --noise 2 --gain 1.08 --offset -5 --vignetting 0.3 "
+                                          "--blur-px 0.7 (those options, when also given, override it)"));
   command_->add_option("--seed", options_.seed, "scene, texture and noise seed")->capture_default_str();
   command_->add_option("--samples", options_.samples_per_axis, "anti-aliasing: N x N rays per pixel")->capture_default_str();
   command_->add_option("--threads", options_.threads, "rendering threads")->capture_default_str();
@@ -311,7 +314,21 @@ io::SynthRoadSurface SynthCommand::road_surface() const {
   }
 }
 
+void SynthCommand::apply_real_camera() {
+  if (!real_camera_) return;
+  const io::StereoSynthOptions given = options_;
+  io::use_real_camera_pair(options_);
+  const std::pair<const char*, double io::StereoSynthOptions::*> fields[] = {
+      {"--noise-sigma", &io::StereoSynthOptions::noise_sigma}, {"--gain", &io::StereoSynthOptions::right_gain},
+      {"--offset", &io::StereoSynthOptions::right_offset},     {"--vignetting", &io::StereoSynthOptions::vignetting},
+      {"--blur-px", &io::StereoSynthOptions::blur_sigma_px}};
+  for (const auto& [name, field] : fields) {
+    if (command_->get_option(name)->count() > 0) options_.*field = given.*field;
+  }
+}
+
 int SynthCommand::run() {
+  apply_real_camera();
   if (command_->get_option("--sequence")->count() > 0) return run_sequence();
   if (flight_) return run_flight();
   for (CLI::Option* option : sequence_only_) {

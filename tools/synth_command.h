@@ -52,7 +52,10 @@ class SynthCommand {
   double roll_deg_ = 0;
   std::string ground_spec_ = "flat";
   std::string surface_ = "textured";  // --surface, io::parse_synth_road_surface
+  bool real_camera_ = false;          // --real-camera: io::use_real_camera_pair under the options given
   io::SynthRoadSurface road_surface() const;
+  // --real-camera: io::use_real_camera_pair, then the sensor and lens options the user gave on top.
+  void apply_real_camera();
   // --hills-amplitude-m ...: each option writes into its field of ground_sizes_given_ and, when
   // given, replaces that field of the --ground kind's defaults.
   std::vector<std::pair<CLI::Option*, double io::SynthGround::*>> ground_sizes_;

@@ -101,11 +101,21 @@ TEST_F(SynthCli, SurfaceAndLensesReachTheSceneAndItsRecord) {
   const nlohmann::json sequence_json = json_file("sequence/sequence.json");
   EXPECT_EQ(sequence_json["road_surface"], "asphalt");
   EXPECT_DOUBLE_EQ(sequence_json["blur_sigma_px"].get<double>(), 0.5);
+  // --real-camera: io::use_real_camera_pair, an option given beside it wins.
+  ASSERT_EQ(run("synth -o " + path("real") + " --width 96 --height 64 --samples 1 --real-camera --blur-px 0.2").exit_code, 0);
+  const nlohmann::json real = json_file("real/objects.json");
+  EXPECT_DOUBLE_EQ(real["noise_sigma"].get<double>(), 2);
+  EXPECT_DOUBLE_EQ(real["right_gain"].get<double>(), 1.08);
+  EXPECT_DOUBLE_EQ(real["right_offset"].get<double>(), -5);
+  EXPECT_DOUBLE_EQ(real["vignetting"].get<double>(), 0.3);
+  EXPECT_DOUBLE_EQ(real["blur_sigma_px"].get<double>(), 0.2);
+  EXPECT_EQ(real["road_surface"], "textured");
   const std::pair<std::string, std::string> cases[] = {
       {"--surface gravel", "--surface: expected textured or asphalt, got 'gravel'"},
       {"--vignetting 0.9", "--vignetting: expected"},
       {"--blur-px -1", "--blur-px: expected"},
       {"--flight --surface asphalt", "--surface"},
+      {"--flight --real-camera", "--real-camera"},
   };
   expect_usage_errors(cases);
 }
