@@ -38,7 +38,7 @@ using synth_detail::write_text;
 using synth_detail::number;
 
 constexpr Texture kAsphalt{{0.03, 0.09, 0.27, 0.8}, {0.3, 0.25, 0.2, 0.15}, 4};  // SynthRoadSurface::textured
-constexpr Texture kRealAsphalt{{0.004, 0.012, 0.05, 2.5}, {0.15, 0.08, 0.02, 0.04}, 4};  // SynthRoadSurface::asphalt
+constexpr Texture kRealAsphalt{{0.004, 0.012, 0.05, 2.5}, {0.15, 0.10, 0.05, 0.04}, 4};  // SynthRoadSurface::asphalt
 constexpr Texture kVerge{{0.05, 0.15, 0.45, 1.5}, {0.3, 0.25, 0.25, 0.2}, 4};
 constexpr Texture kObject{{0.012, 0.035, 0.1, 0.3}, {0.25, 0.2, 0.15, 0.1}, 4};
 constexpr Texture kWall{{0.4, 1.2, 3.6, 11}, {0.3, 0.3, 0.25, 0.2}, 4};

@@ -107,9 +107,10 @@ SynthGround parse_synth_ground(const std::string& spec);
 // The road's surface. textured: asphalt of strong grain at every scale (contrast about 30 % at 3 cm
 // and still 15 % at 0.8 m), the generator's road since it exists: it gives a matcher texture at every
 // distance. asphalt: the texture statistics of real asphalt, its aggregate a fine grain (4 and 12 mm
-// cells, 15 % and 8 %) that blurs out within a few metres, little at 5 cm (2 %), and 4 % patches of
-// 2.5 m (wear, repairs, stains): smooth, low-contrast ground beyond a few metres, as real roads are
-// under blur and sensor noise (docs/synth.md). The lane markings and verges are the same on both.
+// cells, 15 % and 10 %) that blurs out within a few metres, 5 % at 5 cm, and 4 % patches of 2.5 m
+// (wear, repairs, stains): smooth, low-contrast ground beyond a few metres, as real roads are under
+// blur and sensor noise (docs/synth.md has how the amplitudes were chosen). The lane markings and
+// verges are the same on both.
 enum class SynthRoadSurface { textured, asphalt };
 const char* synth_road_surface_name(SynthRoadSurface surface);
 // "textured" or "asphalt"; throws std::invalid_argument "surface: expected textured or asphalt, got '...'".
