@@ -74,6 +74,8 @@ io::StereoSynthOptions scene_options(const RangeTestSetup& setup, uint32_t seed)
   options.baseline_m = setup.baseline_m;
   options.camera_height_m = setup.camera_height_m;
   options.noise_sigma = setup.noise_sigma;
+  if (setup.real_camera) io::use_real_camera_pair(options);
+  options.road_surface = setup.surface;
   options.samples_per_axis = setup.samples_per_axis;
   options.threads = setup.threads;
   options.seed = seed;

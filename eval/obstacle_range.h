@@ -24,8 +24,12 @@ struct RangeTestSetup {
   double hfov_deg = 60;
   double baseline_m = 0.30;
   double camera_height_m = 1.5;
-  double noise_sigma = 2.0;     // grey levels, each view independently
+  double noise_sigma = 2.0;     // grey levels, each view independently (with real_camera: the pair's)
   int samples_per_axis = 2;     // anti-aliasing of the renderer
+  // The road and the camera pair (issue 46): the generator's textured road through cameras alike (the
+  // scenes issue 6's lines are met on), or real asphalt and io::use_real_camera_pair.
+  io::SynthRoadSurface surface = io::SynthRoadSurface::textured;
+  bool real_camera = false;
   // The DisparityEngine's settings: the detector's (arm::obstacle_disparity_defaults) but for the
   // range, [0, 128) (20 m is 50 px at 4K; the road nearer than ~7.8 m is left invalid).
   arm::DisparityParameters disparity = [] {
