@@ -60,8 +60,8 @@ struct Figures {
 };
 
 // The ground figures of one s16 Q4 map against the scene's truth.
-Figures ground_figures(const Plane& disparity_q4, const io::StereoSynthScene& scene, double focal_baseline) {
-  const int16_t invalid_q4 = -16;  // min_disparity 0 for every matcher here
+// invalid_q4: the maps' invalid value (the engine's and OpenCV's are the same for one range).
+Figures ground_figures(const Plane& disparity_q4, int16_t invalid_q4, const io::StereoSynthScene& scene, double focal_baseline) {
   size_t near_ground = 0, near_valid = 0;
   std::vector<double> errors;
   for (int v = 0; v < scene.disparity_px.rows; ++v) {
@@ -178,7 +178,7 @@ int main(int argc, char** argv) {
                                io::run_opencv_sgbm(left, right, 0, kDisparities, io::SgbmMode::sgbm_3way),
                                io::run_opencv_sgbm(left, right, 0, kDisparities, io::SgbmMode::hh)};
         for (int m = 0; m < 4; ++m) {
-          const Figures figures = ground_figures(maps[m], scene, focal_baseline);
+          const Figures figures = ground_figures(maps[m], engine8.invalid_disparity_q4(), scene, focal_baseline);
           std::printf("%4dx%-5d %-17s %-22s %7.1f%% %+9.3f %6.1f%%   seed %d\n", size.width, size.height, condition.name,
                       matcher_names[m], 100 * figures.density, figures.median_error_px, 100 * figures.bad1, seed);
           sums[m].density += figures.density;

@@ -60,24 +60,23 @@ void blur_radiance(std::vector<Rgb>& image, int width, int height, double sigma_
   double total = 0;
   for (int k = -radius; k <= radius; ++k) total += weights[static_cast<size_t>(k + radius)] = std::exp(-0.5 * k * k / (sigma_px * sigma_px));
   for (double& weight : weights) weight /= total;
-  std::vector<Rgb> across(image.size());
-  const auto at = [](const std::vector<Rgb>& plane, int width_px, int u, int v) -> const Rgb& {
-    return plane[static_cast<size_t>(v) * static_cast<size_t>(width_px) + static_cast<size_t>(u)];
+  const auto index = [width](int u, int v) { return static_cast<size_t>(v) * static_cast<size_t>(width) + static_cast<size_t>(u); };
+  // One separable pass from `source` into `destination`, along the rows (horizontal) or the columns.
+  const auto pass = [&](const std::vector<Rgb>& source, std::vector<Rgb>& destination, bool horizontal) {
+    render_rows(height, threads, [&](int v) {
+      for (int u = 0; u < width; ++u) {
+        Rgb sum;
+        for (int k = -radius; k <= radius; ++k) {
+          const size_t tap = horizontal ? index(std::clamp(u + k, 0, width - 1), v) : index(u, std::clamp(v + k, 0, height - 1));
+          sum = sum + source[tap] * weights[static_cast<size_t>(k + radius)];
+        }
+        destination[index(u, v)] = sum;
+      }
+    }, {});
   };
-  render_rows(height, threads, [&](int v) {
-    for (int u = 0; u < width; ++u) {
-      Rgb sum;
-      for (int k = -radius; k <= radius; ++k) sum = sum + at(image, width, std::clamp(u + k, 0, width - 1), v) * weights[static_cast<size_t>(k + radius)];
-      across[static_cast<size_t>(v) * static_cast<size_t>(width) + static_cast<size_t>(u)] = sum;
-    }
-  }, {});
-  render_rows(height, threads, [&](int v) {
-    for (int u = 0; u < width; ++u) {
-      Rgb sum;
-      for (int k = -radius; k <= radius; ++k) sum = sum + at(across, width, u, std::clamp(v + k, 0, height - 1)) * weights[static_cast<size_t>(k + radius)];
-      image[static_cast<size_t>(v) * static_cast<size_t>(width) + static_cast<size_t>(u)] = sum;
-    }
-  }, {});
+  std::vector<Rgb> across(image.size());
+  pass(image, across, true);
+  pass(across, image, false);
 }
 
 void render_rows(int height, int threads, const std::function<void(int)>& render_row,
